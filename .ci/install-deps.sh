@@ -1,0 +1,30 @@
+#!/usr/bin/env bash
+# Installs the Debian packages the toolkit needs, if any is missing. As root it runs apt-get itself;
+# otherwise it prints the apt-get line to run and fails. Sourced by experiments/main-job.sh and
+# tests/run-tests.sh.
+set -euo pipefail
+
+SMSEG_PACKAGES=(
+  build-essential cmake pkg-config
+  libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
+  nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
+)
+
+missing=()
+for p in "${SMSEG_PACKAGES[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if ((${#missing[@]})); then
+  if [[ $(id -u) -ne 0 ]]; then
+    echo "missing Debian packages; run as root:" >&2
+    echo "  apt-get update && apt-get install -y --no-install-recommends ${missing[*]}" >&2
+    exit 1
+  fi
+  echo "installing: ${missing[*]}" >&2
+  export DEBIAN_FRONTEND=noninteractive
+  apt-get update -q >&2
+  apt-get install -y -q --no-install-recommends "${missing[@]}" >&2
+fi
