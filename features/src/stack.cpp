@@ -206,4 +206,87 @@ forest::FrameData FrameStack::view() const {
   return d;
 }
 
+FrameRange FrameRange::parse(const std::string& text, const std::string& option) {
+  FrameRange r;
+  const auto colon = text.find(':');
+  const auto num = [&](const std::string& s, int fallback) {
+    if (s.empty()) return fallback;
+    try {
+      std::size_t used = 0;
+      const long v = std::stol(s, &used);
+      if (used == s.size() && v >= 0 && v < std::numeric_limits<int>::max()) return static_cast<int>(v);
+    } catch (const std::exception&) {
+    }
+    throw Error("", option, "\"" + text + "\" is not a frame range (A:B, A:, :B or A; frames >= 0)");
+  };
+  if (colon == std::string::npos) {
+    if (text.empty()) throw Error("", option, "empty frame range");
+    r.begin = num(text, 0);
+    r.end = r.begin + 1;
+  } else {
+    r.begin = num(text.substr(0, colon), 0);
+    r.end = num(text.substr(colon + 1), std::numeric_limits<int>::max());
+  }
+  if (r.end <= r.begin) throw Error("", option, "\"" + text + "\" is an empty range");
+  return r;
+}
+
+std::string FrameRange::str() const {
+  return std::to_string(begin) + ":" + (end == std::numeric_limits<int>::max() ? std::string() : std::to_string(end));
+}
+
+StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
+                     bool with_labels, const std::vector<std::string>& features) {
+  if (works.empty()) throw Error("", "WORK", "name at least one work folder");
+  StackSet set;
+  std::vector<std::vector<int>> feature_index;
+  for (const auto& w : works) {
+    StackManifest m = load_stack_manifest(w);
+    if (!set.manifests.empty()) {
+      const StackManifest& first = set.manifests.front();
+      if (m.size != first.size)
+        throw Error(m.manifest_path().string(), "image_size",
+                    "differs from " + first.manifest_path().string() + " (all work folders must share one size)");
+      if (m.classes != first.classes)
+        throw Error(m.manifest_path().string(), "classes", "differ from those of " + first.manifest_path().string());
+    }
+    std::vector<int> idx;
+    const auto& wanted = features.empty() ? m.features : features;
+    for (const auto& name : wanted) {
+      auto it = std::find(m.features.begin(), m.features.end(), name);
+      if (it == m.features.end()) {
+        std::string have;
+        for (const auto& f : m.features) have += (have.empty() ? "" : ",") + f;
+        throw Error(m.manifest_path().string(), "features", "has no feature \"" + name + "\" (it has " + have + ")");
+      }
+      idx.push_back(static_cast<int>(it - m.features.begin()));
+    }
+    feature_index.push_back(idx);
+    set.manifests.push_back(std::move(m));
+  }
+  set.dataset.width = set.manifests.front().size.width;
+  set.dataset.height = set.manifests.front().size.height;
+  set.dataset.classes = set.manifests.front().classes;
+  for (int i : feature_index.front()) set.dataset.features.push_back(set.manifests.front().features[i]);
+  for (std::size_t k = 0; k < set.manifests.size(); ++k) {
+    const StackManifest& m = set.manifests[k];
+    for (int f : labelled_only ? m.labelled_frames : m.frames) {
+      if (!range.contains(f)) continue;
+      set.stacks.push_back(FrameStack::open(m, f, with_labels));
+      set.origin.emplace_back(static_cast<int>(k), f);
+    }
+  }
+  if (set.stacks.empty())
+    throw Error(works.front().string(), "frames",
+                std::string("no ") + (labelled_only ? "labelled " : "") + "frame with a feature stack in " + range.str());
+  for (std::size_t i = 0; i < set.stacks.size(); ++i) {
+    const forest::FrameData full = set.stacks[i].view();
+    forest::FrameData d = full;
+    d.sats.clear();
+    for (int fi : feature_index[set.origin[i].first]) d.sats.push_back(full.sats[fi]);
+    set.dataset.frames.push_back(d);
+  }
+  return set;
+}
+
 }  // namespace smseg::features

@@ -9,6 +9,7 @@
 //   sat = numpy.load("work/stacks/000010.sat.npy", mmap_mode="r")   # sat[f, y, x]
 // In C++ a FrameStack memory-maps the files and hands the forest its FrameData.
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -75,5 +76,29 @@ class FrameStack {
   int features_ = 0;
   std::unique_ptr<Mapping> sat_, gray_, labels_;
 };
+
+/// A half-open frame range "A:B" (Python style: A included, B excluded; "A:" to the end, ":B" from 0,
+/// "A" alone is the single frame A).
+struct FrameRange {
+  int begin = 0;
+  int end = std::numeric_limits<int>::max();
+  bool contains(int f) const { return f >= begin && f < end; }
+  static FrameRange parse(const std::string& text, const std::string& option);  ///< Error naming option
+  std::string str() const;
+};
+
+/// Frames of several work folders as the forest's Dataset, with the memory maps that back it.
+struct StackSet {
+  std::vector<StackManifest> manifests;
+  std::vector<FrameStack> stacks;  ///< owns the mappings that dataset.frames point into
+  std::vector<std::pair<int, int>> origin;  ///< per dataset frame: (work folder index, frame)
+  forest::Dataset dataset;
+};
+
+/// Opens the frames of `works` inside `range` (labelled only if `labelled_only`; with labels if
+/// `with_labels`), selecting `features` by name (empty: all the stack has). All work folders must share
+/// image size and class list; Error naming the folder otherwise, or when no frame is selected.
+StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
+                     bool with_labels, const std::vector<std::string>& features);
 
 }  // namespace smseg::features
