@@ -21,6 +21,33 @@ Eigen::Matrix3d rotation(const Pose& p) {
 }
 Eigen::Vector3d centre(const Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
 
+// Sets a and b to va and vb on every pixel whose centre lies inside the triangle t (x0,y0,x1,y1,x2,y2),
+// edges included: one pass over the triangle's bounding box with edge functions.
+void fill_triangle(cv::Mat& a, cv::Mat& b, const cv::Vec6f& t, double va, double vb) {
+  const double x0 = t[0], y0 = t[1], x1 = t[2], y1 = t[3], x2 = t[4], y2 = t[5];
+  double area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+  if (area == 0) return;
+  const double s = area > 0 ? 1.0 : -1.0;  // orient the edge functions so that inside is >= 0
+  const int xmin = std::max(0, static_cast<int>(std::ceil(std::min({x0, x1, x2}))));
+  const int xmax = std::min(a.cols - 1, static_cast<int>(std::floor(std::max({x0, x1, x2}))));
+  const int ymin = std::max(0, static_cast<int>(std::ceil(std::min({y0, y1, y2}))));
+  const int ymax = std::min(a.rows - 1, static_cast<int>(std::floor(std::max({y0, y1, y2}))));
+  const double eps = -1e-9;
+  for (int y = ymin; y <= ymax; ++y) {
+    double* pa = a.ptr<double>(y);
+    double* pb = b.ptr<double>(y);
+    for (int x = xmin; x <= xmax; ++x) {
+      const double e0 = s * ((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0));
+      const double e1 = s * ((x2 - x1) * (y - y1) - (y2 - y1) * (x - x1));
+      const double e2 = s * ((x0 - x2) * (y - y2) - (y0 - y2) * (x - x2));
+      if (e0 >= eps && e1 >= eps && e2 >= eps) {
+        pa[x] = va;
+        pb[x] = vb;
+      }
+    }
+  }
+}
+
 }  // namespace
 
 const std::vector<std::string>& structure_feature_names() {
@@ -91,8 +118,18 @@ PointAttributes compute_point_attributes(const PointCloudVideo& video, const Fea
 
 std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame,
                                         cv::Size size) {
-  std::vector<cv::Mat> r(6);
-  for (auto& m : r) m = cv::Mat::zeros(size, CV_64FC1);
+  std::vector<cv::Mat> r;
+  rasterise_features(video, attrs, frame, size, r);
+  return r;
+}
+
+void rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame, cv::Size size,
+                        std::vector<cv::Mat>& r) {
+  r.resize(6);
+  for (auto& m : r) {
+    m.create(size, CV_64FC1);  // reuses the buffer when the size matches: no page faults per frame
+    m.setTo(0.0);
+  }
   const auto& obs = video.observations.at(frame);
   const Eigen::Vector3d cam_centre = centre(video.poses.at(frame));
 
@@ -128,16 +165,13 @@ std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const Poin
     }
     std::vector<cv::Vec6f> tris;
     subdiv.getTriangleList(tris);
-    std::vector<cv::Point> poly(3);
     for (const auto& t : tris) {
       int ids[3];
       bool ok = true;
       for (int k = 0; k < 3 && ok; ++k) {
         auto it = obs_at.find(key(t[2 * k], t[2 * k + 1]));
         ok = it != obs_at.end();  // false for the outer virtual vertices
-        if (!ok) break;
-        ids[k] = it->second;
-        poly[k] = cv::Point(static_cast<int>(std::lround(t[2 * k] * 16)), static_cast<int>(std::lround(t[2 * k + 1] * 16)));
+        if (ok) ids[k] = it->second;
       }
       if (!ok) continue;
       const Eigen::Vector3d& v1 = attrs.world[frame][ids[0]];
@@ -148,18 +182,20 @@ std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const Poin
       if (!(len > 1e-12)) continue;  // degenerate (collinear) triangle
       nrm /= len;
       if (nrm.dot(cam_centre - (v1 + v2 + v3) / 3.0) < 0) nrm = -nrm;  // face the camera
-      cv::fillConvexPoly(r[2], poly, cv::Scalar(nrm.x()), cv::LINE_8, 4);
-      cv::fillConvexPoly(r[3], poly, cv::Scalar(nrm.y()), cv::LINE_8, 4);
+      fill_triangle(r[2], r[3], t, nrm.x(), nrm.y());
     }
   }
-  return r;
 }
 
 cv::Mat summed_area_table(const cv::Mat& raster) {
-  CV_Assert(raster.type() == CV_64FC1);
   cv::Mat sat;
-  cv::integral(raster, sat, CV_64F);
+  summed_area_table(raster, sat);
   return sat;
+}
+
+void summed_area_table(const cv::Mat& raster, cv::Mat& sat) {
+  CV_Assert(raster.type() == CV_64FC1);
+  cv::integral(raster, sat, CV_64F);
 }
 
 double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1) {

@@ -11,6 +11,7 @@
 
 #include "smseg/eval/metrics.hpp"
 #include "smseg/features/stack.hpp"
+#include "smseg/forest/classify.hpp"
 #include "smseg/forest/forest.hpp"
 
 namespace smseg::eval {

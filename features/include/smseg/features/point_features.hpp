@@ -59,10 +59,14 @@ PointAttributes compute_point_attributes(const PointCloudVideo& video, const Fea
 /// The six rasters (CV_64FC1, `size`) of one frame, in structure_feature_names() order.
 std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame,
                                         cv::Size size);
+/// The same into `rasters`, reusing its buffers (the hot path: no allocation per frame).
+void rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame, cv::Size size,
+                        std::vector<cv::Mat>& rasters);
 
 /// Summed-area table in cv::integral's layout: (H+1) x (W+1) CV_64FC1, sat(y, x) = sum over rows < y and
 /// columns < x. The sum over a rectangle is four reads, whatever its size.
 cv::Mat summed_area_table(const cv::Mat& raster);
+void summed_area_table(const cv::Mat& raster, cv::Mat& sat);  ///< into sat, reusing its buffer
 
 /// Sum of the raster over the rectangle [x0, x1) x [y0, y1), clipped to the image, from its SAT.
 double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1);

@@ -1,0 +1,85 @@
+// Rasterising the six structure-and-motion features and building their summed-area tables for a
+// 320x240 frame with ~500 tracked points (issue target: 300 frames/s or more on one core).
+// Run: build/bin/bench_features --benchmark_out=bench_features.json --benchmark_out_format=json
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include <opencv2/imgproc.hpp>
+
+#include "smseg/features/point_features.hpp"
+
+using namespace smseg::features;
+
+namespace {
+
+PointCloudVideo make_video(int points, int frames) {
+  PointCloudVideo v;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> ux(-3, 3), uy(0, 2.5), uz(-12, -2);
+  std::vector<Eigen::Vector3d> world(points);
+  for (auto& w : world) w = {ux(rng), uy(rng), uz(rng)};
+  for (int f = 0; f < frames; ++f) {
+    Pose p;
+    p.R = {1, 0, 0, 0, -1, 0, 0, 0, -1};
+    p.t = {0, 1, -0.02 * f};
+    v.poses.push_back(p);
+    std::vector<Observation> obs;
+    for (int k = 0; k < points; ++k) {
+      const Eigen::Vector3d c(world[k].x() - p.t[0], -(world[k].y() - p.t[1]), -(world[k].z() - p.t[2]));
+      if (c.z() < 0.5) continue;
+      Observation o;
+      o.track = k;
+      o.cam = c;
+      o.x = static_cast<float>(200 * c.x() / c.z() + 159.5);
+      o.y = static_cast<float>(200 * c.y() / c.z() + 119.5);
+      if (o.x < 0 || o.y < 0 || o.x > 319 || o.y > 239) continue;
+      obs.push_back(o);
+    }
+    v.observations.push_back(std::move(obs));
+  }
+  return v;
+}
+
+void BM_RasteriseAndSat(benchmark::State& state) {
+  const PointCloudVideo v = make_video(static_cast<int>(state.range(0)), 4);
+  const PointAttributes a = compute_point_attributes(v, {});
+  const cv::Size size(320, 240);
+  cv::setNumThreads(0);  // one core: OpenCV's own threads off
+  std::vector<cv::Mat> rasters, sats(6);  // reused frame to frame, as extract-features does
+  for (auto _ : state) {
+    rasterise_features(v, a, 0, size, rasters);
+    for (int k = 0; k < 6; ++k) summed_area_table(rasters[k], sats[k]);
+    benchmark::DoNotOptimize(sats.back().data);
+  }
+  state.counters["points"] = static_cast<double>(v.observations[0].size());
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_RasteriseAndSat)->Arg(600)->Unit(benchmark::kMillisecond);
+
+void BM_SatOnly(benchmark::State& state) {
+  cv::Mat r = cv::Mat::zeros(240, 320, CV_64FC1), sat;
+  for (auto _ : state) {
+    for (int k = 0; k < 6; ++k) {
+      summed_area_table(r, sat);
+      benchmark::DoNotOptimize(sat.data);
+    }
+  }
+}
+BENCHMARK(BM_SatOnly)->Unit(benchmark::kMillisecond);
+
+void BM_DelaunayOnly(benchmark::State& state) {
+  const PointCloudVideo v = make_video(600, 1);
+  for (auto _ : state) {
+    cv::Subdiv2D subdiv(cv::Rect(-1, -1, 322, 242));
+    for (const auto& o : v.observations[0]) subdiv.insert(cv::Point2f(o.x, o.y));
+    std::vector<cv::Vec6f> tris;
+    subdiv.getTriangleList(tris);
+    benchmark::DoNotOptimize(tris.data());
+  }
+}
+BENCHMARK(BM_DelaunayOnly)->Unit(benchmark::kMillisecond);
+
+}  // namespace
+
+BENCHMARK_MAIN();
