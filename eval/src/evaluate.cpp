@@ -33,8 +33,7 @@ std::string stem(int frame) {
 
 void EvalOptions::validate() const {
   if (grid < 0 || grid > 10000) throw Error("", "--grid", "must be 0 (per pixel) or a cell size in pixels");
-  if (grid > 0 && (votes < 1 || votes > grid * grid))
-    throw Error("", "--votes", "must be in 1..B*B (" + std::to_string(grid * grid) + ")");
+  if (grid > 0 && votes < 1) throw Error("", "--votes", "must be at least 1 (B*B or more: every pixel votes)");
 }
 
 cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameData& frame, const EvalOptions& opt,
@@ -47,25 +46,40 @@ cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameDat
   const int B = opt.grid, C = classifier.num_classes();
   const int cells_x = (frame.width + B - 1) / B, cells_y = (frame.height + B - 1) / B;
   const int cells = cells_x * cells_y;
+  // Each cell's voters: every pixel when V covers the cell, else V distinct pixels drawn with Floyd's
+  // algorithm from a counter-based generator keyed by (seed, frame, cell): thread-independent.
   std::vector<forest::Pixel> pixels;
+  std::vector<std::size_t> first(cells + 1, 0);
   pixels.reserve(std::size_t(cells) * opt.votes);
+  std::vector<int> chosen;
   for (int cy = 0; cy < cells_y; ++cy)
     for (int cx = 0; cx < cells_x; ++cx) {
+      const int cell = cy * cells_x + cx;
       const int x0 = cx * B, y0 = cy * B;
       const int w = std::min(B, frame.width - x0), h = std::min(B, frame.height - y0);
-      const std::uint64_t key = mix(opt.seed ^ mix(std::uint64_t(frame_index) * 1000003ull + std::uint64_t(cy * cells_x + cx)));
-      for (int v = 0; v < opt.votes; ++v) {
-        const std::uint64_t r = mix(key + std::uint64_t(v));
-        pixels.push_back({x0 + int((r & 0xffffffffull) % std::uint64_t(w)), y0 + int((r >> 32) % std::uint64_t(h))});
+      const int n = w * h;
+      if (opt.votes >= n) {
+        for (int i = 0; i < n; ++i) pixels.push_back({x0 + i % w, y0 + i / w});
+      } else {
+        std::uint64_t key = mix(opt.seed ^ mix(std::uint64_t(frame_index) * 1000003ull + std::uint64_t(cell)));
+        chosen.clear();
+        for (int j = n - opt.votes; j < n; ++j) {
+          key = mix(key);
+          const int t = static_cast<int>(key % std::uint64_t(j + 1));
+          chosen.push_back(std::find(chosen.begin(), chosen.end(), t) == chosen.end() ? t : j);
+        }
+        for (int i : chosen) pixels.push_back({x0 + i % w, y0 + i / w});
       }
+      first[cell + 1] = pixels.size();
     }
   std::vector<std::uint8_t> votes(pixels.size());
   std::vector<float> dists(pixels.size() * C);
   classifier.classify_pixels(frame, pixels, votes, dists);
+  std::vector<double> sum(C);
   for (int cell = 0; cell < cells; ++cell) {
-    std::vector<double> sum(C, 0.0);
-    for (int v = 0; v < opt.votes; ++v)
-      for (int c = 0; c < C; ++c) sum[c] += dists[(std::size_t(cell) * opt.votes + v) * C + c];
+    std::fill(sum.begin(), sum.end(), 0.0);
+    for (std::size_t v = first[cell]; v < first[cell + 1]; ++v)
+      for (int c = 0; c < C; ++c) sum[c] += dists[v * C + c];
     const int best = static_cast<int>(std::max_element(sum.begin(), sum.end()) - sum.begin());
     const int cx = cell % cells_x, cy = cell / cells_x;
     const cv::Rect r(cx * B, cy * B, std::min(B, frame.width - cx * B), std::min(B, frame.height - cy * B));

@@ -19,7 +19,8 @@ namespace smseg::eval {
 struct EvalOptions {
   features::FrameRange frames;  ///< labelled frames inside this range are tested
   int grid = 0;                 ///< 0: per pixel; B > 0: B x B cells, each labelled by `votes` pixels
-  int votes = 6;                ///< V: random pixels per cell that vote (summed distributions)
+  int votes = 6;                ///< V: distinct random pixels per cell that vote (summed distributions);
+                                ///< V >= the cell's pixel count: every pixel votes
   std::uint64_t seed = 1;       ///< where the voting pixels fall
   fs::path pictures;            ///< folder for the pictures per test frame; empty: none
   bool progress = false;
