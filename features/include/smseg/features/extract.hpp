@@ -1,0 +1,42 @@
+#pragma once
+// The whole front end of a sequence into feature stacks (`extract-features`): stereo tracks and camera
+// motion (run_stereo_front_end), then the structure-and-motion features of each frame as summed-area
+// tables, written as a work folder (stack.hpp). Parallel over frames (oneTBB); resumable.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "smseg/features/motion.hpp"
+#include "smseg/features/point_features.hpp"
+#include "smseg/features/stack.hpp"
+
+namespace smseg::features {
+
+struct ExtractOptions {
+  FrontEndOptions front_end;   ///< stereo, tracking, filters, motion
+  FeatureOptions features;     ///< causal fC, future frames
+  FrameRange frames;           ///< frames whose stacks are written (the front end always sees all)
+  bool force = false;          ///< rewrite frames already done
+  std::vector<int> preview;    ///< frames to write false-colour PNGs of (WORK/preview/)
+  bool progress = true;
+};
+
+struct ExtractReport {
+  int frames_written = 0, frames_skipped = 0;
+  double front_end_seconds = 0, features_seconds_per_frame = 0;
+  std::size_t bytes_per_frame = 0;
+  FrontEndSummary summary;
+};
+
+/// The point observations of each frame, from the front end's tracks (track id = index in tracks).
+PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_count);
+
+/// Runs everything for `seq` into the work folder `work`. A work folder made with other options is an
+/// Error unless force is set (then it is rebuilt). Frames whose stacks exist are skipped unless force.
+ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& options);
+
+/// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.
+cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names);
+
+}  // namespace smseg::features

@@ -1,0 +1,197 @@
+#include "smseg/features/extract.hpp"
+
+#include <atomic>
+#include <chrono>
+
+#include <opencv2/imgproc.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for_each.h>
+
+#include "smseg/progress.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+Json options_json(const Sequence& seq, const ExtractOptions& o) {
+  const auto& s = o.front_end.stereo;
+  const auto& t = o.front_end.tracking;
+  return {{"stereo",
+           {{"method", stereo_method_name(s.method)},
+            {"min_disparity", s.min_disparity},
+            {"num_disparities", s.num_disparities},
+            {"block_size", s.block_size},
+            {"texture_threshold", s.texture_threshold},
+            {"uniqueness_ratio", s.uniqueness_ratio},
+            {"lr_max_diff", s.lr_max_diff},
+            {"speckle_window", s.speckle_window},
+            {"speckle_range", s.speckle_range}}},
+          {"tracking",
+           {{"detector", keypoint_method_name(t.detector)},
+            {"max_keypoints", t.max_keypoints},
+            {"min_frames", o.front_end.filters.min_frames},
+            {"require_label", o.front_end.filters.require_label}}},
+          {"camera_height", o.front_end.camera_height ? Json(*o.front_end.camera_height)
+                                                      : (seq.camera_height ? Json(*seq.camera_height) : Json(nullptr))},
+          {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
+}
+
+cv::Mat false_colour(const cv::Mat& raster, bool sparse) {
+  cv::Mat src = raster;
+  if (sparse) cv::dilate(raster, src, cv::Mat(), cv::Point(-1, -1), 1);  // points visible at a glance
+  double lo, hi;
+  cv::minMaxLoc(src, &lo, &hi);
+  cv::Mat u8;
+  src.convertTo(u8, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -255.0 * lo / (hi - lo) : 0.0);
+  cv::Mat out;
+  cv::applyColorMap(u8, out, cv::COLORMAP_VIRIDIS);
+  if (sparse) out.setTo(cv::Scalar::all(0), src == 0);
+  return out;
+}
+
+}  // namespace
+
+PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count) {
+  PointCloudVideo v;
+  v.poses.assign(frame_count, Pose{});
+  v.observations.resize(frame_count);
+  for (std::size_t i = 0; i < fe.poses.size(); ++i) {
+    const int f = fe.first_frame + static_cast<int>(i);
+    if (f >= 0 && f < frame_count) v.poses[f] = fe.poses[i];
+  }
+  for (std::size_t k = 0; k < fe.tracks.size(); ++k) {
+    const Track& t = fe.tracks[k];
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const int f = t.frames[i];
+      if (f < 0 || f >= frame_count) continue;
+      Observation o;
+      o.track = static_cast<int>(k);
+      o.x = t.pixels[i].x;
+      o.y = t.pixels[i].y;
+      o.cam = t.points[i];
+      v.observations[f].push_back(o);
+    }
+  }
+  return v;
+}
+
+cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names) {
+  CV_Assert(!rasters.empty() && rasters.size() == names.size());
+  const int cols = 3, rows = (static_cast<int>(rasters.size()) + cols - 1) / cols;
+  const int W = rasters[0].cols, H = rasters[0].rows, gap = 4;
+  cv::Mat out(rows * (H + gap) - gap, cols * (W + gap) - gap, CV_8UC3, cv::Scalar::all(255));
+  for (std::size_t k = 0; k < rasters.size(); ++k) {
+    const bool sparse = names[k] != "fOx" && names[k] != "fOy";
+    cv::Mat tile = false_colour(rasters[k], sparse);
+    cv::putText(tile, names[k], cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar::all(255), 2);
+    const int r = static_cast<int>(k) / cols, c = static_cast<int>(k) % cols;
+    tile.copyTo(out(cv::Rect(c * (W + gap), r * (H + gap), W, H)));
+  }
+  return out;
+}
+
+ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
+  opt.features.validate();
+  if (seq.kind != SequenceKind::Stereo)
+    throw Error(seq.manifest.string(), "kind",
+                "extract-features needs a stereo sequence (the monocular structure-from-motion path is not built yet)");
+  ExtractReport report;
+  const Json options = options_json(seq, opt);
+
+  // A work folder made with other options is rebuilt only when asked.
+  StackManifest m;
+  std::error_code ec;
+  if (fs::exists(work / "stacks.json", ec)) {
+    StackManifest old = load_stack_manifest(work);
+    const bool same = old.options == options && old.size == seq.size && fs::weakly_canonical(old.sequence) == fs::weakly_canonical(seq.root);
+    if (!same && !opt.force)
+      throw Error((work / "stacks.json").string(), "options",
+                  "this work folder was made from another sequence or with other options; use --force to rebuild it");
+    if (same && !opt.force) m = old;
+  }
+  m.work = work;
+  m.sequence = fs::absolute(seq.root);
+  m.sequence_name = seq.name;
+  m.size = seq.size;
+  m.features = structure_feature_names();
+  m.classes.clear();
+  for (const auto& c : seq.classes) m.classes.push_back(c.name);
+  m.options = options;
+  if (opt.force) {
+    m.frames.clear();
+    m.labelled_frames.clear();
+  }
+  save_stack_manifest(m);  // options first: an interrupted run can resume
+
+  // The front end always sees the whole sequence: fC needs the future path.
+  const auto t0 = std::chrono::steady_clock::now();
+  FrontEndOptions fe_opt = opt.front_end;
+  fe_opt.progress = opt.progress;
+  const FrontEndResult fe = run_stereo_front_end(seq, fe_opt);
+  report.front_end_seconds = seconds_since(t0);
+  report.summary = fe.summary;
+  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
+  const PointAttributes attrs = compute_point_attributes(video, opt.features);
+
+  std::vector<int> todo;
+  for (int f = 0; f < seq.frame_count(); ++f) {
+    if (!opt.frames.contains(f)) continue;
+    const bool done = m.has_frame(f) && fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
+                      (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
+    if (done && !opt.force) {
+      ++report.frames_skipped;
+      continue;
+    }
+    todo.push_back(f);
+  }
+
+  Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
+  struct Buffers {
+    std::vector<cv::Mat> rasters, sats;
+  };
+  tbb::enumerable_thread_specific<Buffers> buffers;
+  std::atomic<double> feature_seconds{0};
+  tbb::parallel_for_each(todo.begin(), todo.end(), [&](int f) {
+    Buffers& b = buffers.local();
+    const auto tf = std::chrono::steady_clock::now();
+    rasterise_features(video, attrs, f, seq.size, b.rasters);
+    b.sats.resize(b.rasters.size());
+    for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
+    double s = feature_seconds.load();
+    const double dt = seconds_since(tf);
+    while (!feature_seconds.compare_exchange_weak(s, s + dt)) {
+    }
+    const cv::Mat gray = seq.load_left_gray(f);
+    const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
+    write_frame_stack(work, f, b.sats, gray, labels);
+    if (std::find(opt.preview.begin(), opt.preview.end(), f) != opt.preview.end()) {
+      char name[32];
+      std::snprintf(name, sizeof name, "%06d_features.png", f);
+      write_image_atomic(work / "preview" / name, feature_preview(b.rasters, m.features));
+    }
+    progress.tick();
+  });
+  progress.finish();
+  report.frames_written = static_cast<int>(todo.size());
+  report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());
+
+  // Record the frames now on disk (all of them, including earlier runs').
+  std::vector<int> frames = m.frames;
+  frames.insert(frames.end(), todo.begin(), todo.end());
+  std::sort(frames.begin(), frames.end());
+  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  m.frames = frames;
+  m.labelled_frames.clear();
+  for (int f : frames)
+    if (seq.is_labelled(f)) m.labelled_frames.push_back(f);
+  save_stack_manifest(m);
+  report.bytes_per_frame = std::size_t(m.features.size()) * (seq.size.height + 1) * (seq.size.width + 1) * 8 +
+                           std::size_t(seq.size.area());
+  return report;
+}
+
+}  // namespace smseg::features
