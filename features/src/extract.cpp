@@ -7,6 +7,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for_each.h>
 
+#include "smseg/features/tracks_io.hpp"
 #include "smseg/progress.hpp"
 
 namespace smseg::features {
@@ -18,26 +19,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 Json options_json(const Sequence& seq, const ExtractOptions& o) {
-  const auto& s = o.front_end.stereo;
-  const auto& t = o.front_end.tracking;
-  return {{"stereo",
-           {{"method", stereo_method_name(s.method)},
-            {"min_disparity", s.min_disparity},
-            {"num_disparities", s.num_disparities},
-            {"block_size", s.block_size},
-            {"texture_threshold", s.texture_threshold},
-            {"uniqueness_ratio", s.uniqueness_ratio},
-            {"lr_max_diff", s.lr_max_diff},
-            {"speckle_window", s.speckle_window},
-            {"speckle_range", s.speckle_range}}},
-          {"tracking",
-           {{"detector", keypoint_method_name(t.detector)},
-            {"max_keypoints", t.max_keypoints},
-            {"min_frames", o.front_end.filters.min_frames},
-            {"require_label", o.front_end.filters.require_label}}},
-          {"camera_height", o.front_end.camera_height ? Json(*o.front_end.camera_height)
-                                                      : (seq.camera_height ? Json(*seq.camera_height) : Json(nullptr))},
-          {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
+  Json fe = front_end_options_to_json(o.front_end);
+  if (!o.front_end.camera_height && seq.camera_height) fe["camera_height"] = *seq.camera_height;
+  return {{"front_end", fe}, {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
 }
 
 cv::Mat false_colour(const cv::Mat& raster, bool sparse) {
@@ -134,6 +118,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const FrontEndResult fe = run_stereo_front_end(seq, fe_opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
+  write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
   const PointAttributes attrs = compute_point_attributes(video, opt.features);
 

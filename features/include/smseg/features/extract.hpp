@@ -1,7 +1,8 @@
 #pragma once
 // The whole front end of a sequence into feature stacks (`extract-features`): stereo tracks and camera
 // motion (run_stereo_front_end), then the structure-and-motion features of each frame as summed-area
-// tables, written as a work folder (stack.hpp). Parallel over frames (oneTBB); resumable.
+// tables, written as a work folder (stack.hpp), plus WORK/tracks.json (tracks, camera path and the
+// front-end summary, tracks_io.hpp). Parallel over frames (oneTBB); resumable.
 
 #include <functional>
 #include <string>
