@@ -1,0 +1,390 @@
+// Tests of the synthetic stereo video (make-sequence): ground truth against analytic geometry and the
+// brute-force ray caster, stereo consistency of the images, labels, determinism, option validation.
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <random>
+#include <sstream>
+
+#include <Eigen/Dense>
+#include <gtest/gtest.h>
+#include <opencv2/imgproc.hpp>
+#include <tbb/task_arena.h>
+#include <unistd.h>
+
+#include "smseg/features/synth.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using namespace smseg::features;
+namespace sy = smseg::features::synth;
+using Eigen::Vector3d;
+
+sy::SynthOptions small(const std::string& scene, int frames = 24) {
+  sy::SynthOptions o;
+  o.scene = scene;
+  o.width = 160;
+  o.height = 120;
+  o.frames = frames;
+  return o;
+}
+
+fs::path temp_dir(const std::string& name) {
+  const fs::path p = fs::temp_directory_path() / ("smseg_test_synth_" + name + "_" + std::to_string(::getpid()));
+  fs::remove_all(p);
+  return p;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+Vector3d centre(const Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
+
+class SynthScenes : public ::testing::TestWithParam<std::string> {};
+
+// Floor and ceiling pixels: the stored depth equals the analytic intersection of the pixel's ray with
+// the plane y = 0 (floor) or y = ceiling height, computed here from the pose alone.
+TEST_P(SynthScenes, FloorAndCeilingDepthMatchAnalyticPlanes) {
+  const auto o = small(GetParam());
+  const sy::Scene scene = sy::build_scene(o);
+  int floor_checked = 0, ceiling_checked = 0;
+  for (int f : {0, 11, 23}) {
+    const sy::Frame fr = sy::render_frame(scene, o, f);
+    const Vector3d C = centre(fr.pose);
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        const int label = fr.labels.at<std::uint8_t>(y, x);
+        if (label != sy::kFloor && label != sy::kCeiling) continue;
+        const Vector3d d = sy::pixel_ray(o, fr.pose, x, y);
+        const double plane = label == sy::kFloor ? 0.0 : scene.ceiling_height;
+        ASSERT_NE(d.y(), 0.0);
+        const double lambda = (plane - C.y()) / d.y();
+        ASSERT_GT(lambda, 0) << "frame " << f << " pixel " << x << "," << y << " looks away from its plane";
+        if (label == sy::kFloor) {
+          EXPECT_NEAR(fr.depth.at<float>(y, x), lambda, 1e-5 * lambda + 1e-6)
+              << "frame " << f << " pixel " << x << "," << y;
+        } else {  // ceiling, or a light panel hanging 4 mm below it
+          const double lambda_panel = (plane - 0.005 - C.y()) / d.y();
+          EXPECT_LE(fr.depth.at<float>(y, x), lambda * (1 + 1e-5)) << "frame " << f << " pixel " << x << "," << y;
+          EXPECT_GE(fr.depth.at<float>(y, x), lambda_panel * (1 - 1e-5)) << "frame " << f << " pixel " << x << "," << y;
+        }
+        (label == sy::kFloor ? floor_checked : ceiling_checked)++;
+      }
+  }
+  EXPECT_GT(floor_checked, 3000);
+  EXPECT_GT(ceiling_checked, 200);
+}
+
+// The renderer's binned fast path gives exactly what the brute-force ray caster gives.
+TEST_P(SynthScenes, RenderedDepthAndLabelsEqualBruteForceRayCast) {
+  const auto o = small(GetParam());
+  const sy::Scene scene = sy::build_scene(o);
+  std::mt19937 rng(7);
+  int hits = 0;
+  for (int f : {0, 5, 17}) {
+    const sy::Frame fr = sy::render_frame(scene, o, f);
+    const auto quads = sy::quads_at(scene, sy::frame_time(o, f));
+    const Vector3d C = centre(fr.pose);
+    for (int k = 0; k < 400; ++k) {
+      const int x = static_cast<int>(rng() % o.width), y = static_cast<int>(rng() % o.height);
+      const sy::RayHit h = sy::cast_ray(quads, C, sy::pixel_ray(o, fr.pose, x, y));
+      ASSERT_TRUE(h.hit) << "pixel " << x << "," << y << " sees nothing: the scene is not closed";
+      EXPECT_EQ(fr.labels.at<std::uint8_t>(y, x), h.cls) << "frame " << f << " pixel " << x << "," << y;
+      EXPECT_EQ(fr.depth.at<float>(y, x), static_cast<float>(h.lambda)) << "frame " << f << " pixel " << x << "," << y;
+      ++hits;
+    }
+  }
+  EXPECT_EQ(hits, 1200);
+}
+
+// The pixel straight below the principal point at the bottom of the image (floor ~2 m ahead) sees the
+// floor: the robot keeps furniture and obstacles out of its way ahead; only a person crossing in front,
+// or the far wall of a corridor junction while turning, may take its place.
+TEST_P(SynthScenes, FloorUnderTheCameraIsLabelledFloor) {
+  sy::SynthOptions o = small(GetParam(), 300);
+  const sy::Scene scene = sy::build_scene(o);
+  int floor = 0;
+  for (int f = 0; f < o.frames; ++f) {
+    const Pose pose = sy::camera_pose(scene, o, f);
+    const auto quads = sy::quads_at(scene, sy::frame_time(o, f));
+    const sy::RayHit h = sy::cast_ray(quads, centre(pose), sy::pixel_ray(o, pose, o.cx(), o.height - 1));
+    ASSERT_TRUE(h.hit);
+    EXPECT_TRUE(h.cls == sy::kFloor || h.cls == sy::kPerson || h.cls == sy::kWall)
+        << "frame " << f << ": class " << int(h.cls);
+    if (h.cls == sy::kFloor) {
+      EXPECT_NEAR(h.point.y(), 0.0, 1e-9);
+      ++floor;
+    }
+  }
+  EXPECT_GE(floor, 255) << "of 300 frames";
+  // And in rendered frames (the image path).
+  o.frames = 24;
+  const sy::Scene s2 = sy::build_scene(o);
+  for (int f : {0, 23}) {
+    const sy::Frame fr = sy::render_frame(s2, o, f);
+    EXPECT_EQ(fr.labels.at<std::uint8_t>(o.height - 1, static_cast<int>(std::lround(o.cx()))), sy::kFloor);
+  }
+}
+
+// Stereo: a textured patch of the left image matches the right image best at (within a pixel of) the
+// ground-truth disparity fx * B / Z.
+TEST_P(SynthScenes, RightImageMatchesAtGroundTruthDisparity) {
+  const auto o = small(GetParam());
+  const sy::Scene scene = sy::build_scene(o);
+  const double fx = o.fx();
+  int tested = 0, good = 0;
+  for (int f : {0, 6, 12, 18, 23}) {
+    const sy::Frame fr = sy::render_frame(scene, o, f);
+    cv::Mat L, R;
+    cv::cvtColor(fr.left, L, cv::COLOR_BGR2GRAY);
+    cv::cvtColor(fr.right, R, cv::COLOR_BGR2GRAY);
+    L.convertTo(L, CV_32F);
+    R.convertTo(R, CV_32F);
+    cv::Mat gx;
+    cv::Sobel(L, gx, CV_32F, 1, 0);
+    gx = cv::abs(gx);
+    const int r = 4;
+    for (int y = r + 2; y < o.height - r - 2; y += 3)
+      for (int x = 40; x < o.width - r - 2; x += 3) {
+        const cv::Rect win(x - r, y - r, 2 * r + 1, 2 * r + 1);
+        // Horizontal texture (a horizontal edge alone says nothing about disparity).
+        if (cv::mean(gx(win))[0] < 15.0) continue;
+        const float z = fr.depth.at<float>(y, x);
+        ASSERT_GT(z, 0);
+        const double d_gt = fx * o.baseline / z;
+        if (x - r - d_gt - 3 < 0) continue;
+        // Depth must be nearly constant in the window (no occlusion boundary).
+        double zmin, zmax;
+        cv::minMaxLoc(fr.depth(win), &zmin, &zmax);
+        if (zmax - zmin > 0.05 * z) continue;
+        const int dmax = std::min(x - r, static_cast<int>(d_gt) + 8);
+        double best = 1e300;
+        int best_d = -1;
+        for (int d = 0; d <= dmax; ++d) {
+          const double ssd = cv::norm(L(win), R(cv::Rect(x - r - d, y - r, 2 * r + 1, 2 * r + 1)), cv::NORM_L2SQR);
+          if (ssd < best) {
+            best = ssd;
+            best_d = d;
+          }
+        }
+        ++tested;
+        if (std::abs(best_d - d_gt) <= 1.0) ++good;
+
+      }
+  }
+  EXPECT_GT(tested, 60);
+  EXPECT_GT(good, 0.9 * tested) << good << " of " << tested << " textured patches match within 1 px";
+}
+
+// The static-world assumption is broken: people are seen, and they move.
+TEST_P(SynthScenes, PeopleAreSeenAndMove) {
+  const auto o = small(GetParam(), 300);
+  const sy::Scene scene = sy::build_scene(o);
+  ASSERT_FALSE(scene.people.empty());
+  int frames_with_person = 0;
+  for (int f = 0; f < o.frames; f += 5) {
+    const Pose pose = sy::camera_pose(scene, o, f);
+    const auto quads = sy::quads_at(scene, sy::frame_time(o, f));
+    bool seen = false;
+    for (int y = 4; y < o.height && !seen; y += 8)
+      for (int x = 4; x < o.width && !seen; x += 8)
+        seen = sy::cast_ray(quads, centre(pose), sy::pixel_ray(o, pose, x, y)).cls == sy::kPerson;
+    frames_with_person += seen;
+  }
+  EXPECT_GE(frames_with_person, 6) << "of 60 sampled frames";
+  const auto q0 = sy::quads_at(scene, 0.0), q1 = sy::quads_at(scene, 1.0);
+  ASSERT_EQ(q0.size(), q1.size());
+  ASSERT_GT(q0.size(), scene.quads.size());
+  const std::size_t i = scene.quads.size();  // the first person's first body part
+  EXPECT_EQ(q0[i].cls, sy::kPerson);
+  EXPECT_GT((q0[i].centre - q1[i].centre).norm(), 0.5) << "a person walks ~1 m/s";
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, SynthScenes, ::testing::Values("corridor", "lab"));
+
+TEST(Synth, CastRayAgainstHandBuiltQuads) {
+  std::vector<sy::Quad> quads(2);
+  // A 2 x 1 m quad in the plane z = 5 facing -z (towards the origin), centred at (0, 0, 5).
+  quads[0].centre = {0, 0, 5};
+  quads[0].u = {-1, 0, 0};
+  quads[0].v = {0, 1, 0};
+  quads[0].normal = quads[0].u.cross(quads[0].v);
+  ASSERT_NEAR(quads[0].normal.z(), -1.0, 1e-12);
+  quads[0].hu = 1.0;
+  quads[0].hv = 0.5;
+  quads[0].cls = sy::kWall;
+  // A smaller quad in front of it at z = 3, covering x in [0.5, 1.5].
+  quads[1] = quads[0];
+  quads[1].centre = {1.0, 0, 3};
+  quads[1].hu = 0.5;
+  quads[1].cls = sy::kObstacle;
+  const Vector3d o(0, 0, 0);
+  sy::RayHit h = sy::cast_ray(quads, o, Vector3d(0.1, 0.05, 1.0));
+  ASSERT_TRUE(h.hit);
+  EXPECT_DOUBLE_EQ(h.lambda, 5.0);
+  EXPECT_EQ(h.cls, sy::kWall);
+  EXPECT_NEAR((h.point - Vector3d(0.5, 0.25, 5.0)).norm(), 0.0, 1e-12);
+  h = sy::cast_ray(quads, o, Vector3d(0.3, 0.0, 1.0));  // x = 0.9 at z = 3: the nearer quad
+  ASSERT_TRUE(h.hit);
+  EXPECT_DOUBLE_EQ(h.lambda, 3.0);
+  EXPECT_EQ(h.cls, sy::kObstacle);
+  EXPECT_EQ(h.quad, 1);
+  EXPECT_FALSE(sy::cast_ray(quads, o, Vector3d(0.3, 0.2, 1.0)).hit);  // y = 1.0 at z = 5: above both
+  EXPECT_FALSE(sy::cast_ray(quads, o, Vector3d(0, 0, -1)).hit);       // looking away
+  // One-sided: from behind (z = 10 looking back) nothing is hit.
+  EXPECT_FALSE(sy::cast_ray(quads, Vector3d(0, 0, 10), Vector3d(0, 0, -1)).hit);
+  // Unnormalised direction: lambda is in units of the direction.
+  h = sy::cast_ray(quads, o, Vector3d(0, 0, 2.0));
+  EXPECT_DOUBLE_EQ(h.lambda, 2.5);
+}
+
+TEST(Synth, PosesFollowTheWorldConvention) {
+  auto o = small("corridor", 300);
+  const sy::Scene scene = sy::build_scene(o);
+  const Pose p0 = sy::camera_pose(scene, o, 0);
+  EXPECT_NEAR(p0.t[0], 0.0, 1e-9);
+  EXPECT_NEAR(p0.t[2], 0.0, 1e-9);
+  EXPECT_NEAR(p0.t[1], o.camera_height, 0.01);
+  double yaw0 = 0;
+  int phase = 0;  // 0: before the first turn, 1: turned ~90 degrees, 2: turned back
+  double travelled = 0;
+  for (int f = 0; f < o.frames; ++f) {
+    const Pose p = sy::camera_pose(scene, o, f);
+    const Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> R(p.R.data());
+    EXPECT_NEAR((R * R.transpose() - Eigen::Matrix3d::Identity()).norm(), 0.0, 1e-9);
+    EXPECT_NEAR(R.determinant(), 1.0, 1e-9);
+    EXPECT_LT(R(1, 2), 0.05) << "the camera looks roughly horizontally";
+    EXPECT_GT(R(1, 1), -1.01);
+    EXPECT_LT(R(1, 1), -0.99) << "camera y (down) is world -Y";
+    const double yaw = std::atan2(R(0, 2), R(2, 2));
+    if (f == 0) yaw0 = yaw;
+    double rel = std::abs(yaw - yaw0);
+    rel = std::min(rel, 2 * M_PI - rel);
+    if (phase == 0 && rel > 75 * M_PI / 180) phase = 1;
+    if (phase == 1 && rel < 15 * M_PI / 180) phase = 2;
+    if (f > 0) {
+      const Pose q = sy::camera_pose(scene, o, f - 1);
+      const double step = std::hypot(p.t[0] - q.t[0], p.t[2] - q.t[2]);
+      EXPECT_LT(step * o.fps, 1.0) << "smooth motion, frame " << f;
+      travelled += step;
+    }
+  }
+  EXPECT_EQ(phase, 2) << "the corridor path takes two turns within 300 frames";
+  EXPECT_GT(travelled / (o.frames / o.fps), 0.3);
+  EXPECT_LT(travelled / (o.frames / o.fps), 0.6);
+}
+
+TEST(Synth, WritesAValidSequence) {
+  const fs::path dir = temp_dir("valid");
+  auto o = small("lab", 21);
+  const Sequence seq = sy::make_sequence(o, dir);
+  const Sequence again = load_sequence(dir);
+  EXPECT_NO_THROW(validate_images(again));
+  EXPECT_EQ(again.frame_count(), 21);
+  EXPECT_EQ(again.labelled_frames, (std::vector<int>{0, 10, 20}));
+  ASSERT_EQ(again.classes.size(), 6u);
+  const char* names[] = {"floor", "wall", "ceiling", "furniture", "obstacle", "person"};
+  for (int c = 0; c < 6; ++c) EXPECT_EQ(again.classes[c].name, names[c]);
+  EXPECT_EQ(again.kind, SequenceKind::Stereo);
+  EXPECT_EQ(again.size, cv::Size(160, 120));
+  EXPECT_NEAR(*again.calibration.fx, o.fx(), 1e-9);
+  EXPECT_NEAR(*again.calibration.baseline, 0.12, 1e-12);
+  EXPECT_NEAR(*again.camera_height, 1.0, 1e-12);
+  ASSERT_EQ(again.gt_poses.size(), 21u);
+  EXPECT_NEAR(again.frames[12].time, 1.0, 1e-12);
+  EXPECT_EQ(again.extra["scene"], "lab");
+  // Every frame has labels and depth; nothing is void.
+  for (int f = 0; f < again.frame_count(); f += 5) {
+    const cv::Mat labels = again.load_labels(f);
+    EXPECT_EQ(cv::countNonZero(labels == kVoid), 0);
+    const cv::Mat depth = again.load_gt_depth(f);
+    double lo, hi;
+    cv::minMaxLoc(depth, &lo, &hi);
+    EXPECT_GT(lo, 0.0);
+    EXPECT_LT(hi, 30.0);
+  }
+  // The stored labels and depth are the rendered ones.
+  const sy::Frame fr = sy::render_frame(sy::build_scene(o), o, 10);
+  EXPECT_EQ(cv::countNonZero(again.load_labels(10) != fr.labels), 0);
+  EXPECT_EQ(cv::norm(again.load_gt_depth(10), fr.depth, cv::NORM_INF), 0.0);
+  // Montage: header + one row per frame, three columns.
+  const cv::Mat m = sy::make_montage(again, {0, 20});
+  EXPECT_EQ(m.cols, 3 * 160 + 2 * 4);
+  EXPECT_EQ(m.rows, 22 + 2 * (120 + 4));
+  fs::remove_all(dir);
+}
+
+TEST(Synth, SameSeedSameBytesWhateverTheThreadCount) {
+  const fs::path a = temp_dir("det_a"), b = temp_dir("det_b"), c = temp_dir("det_c");
+  auto o = small("corridor", 8);
+  o.seed = 3;
+  sy::make_sequence(o, a);
+  tbb::task_arena one(1);
+  one.execute([&] { sy::make_sequence(o, b); });
+  int files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(a)) {
+    if (!e.is_regular_file()) continue;
+    const fs::path rel = fs::relative(e.path(), a);
+    ASSERT_TRUE(fs::exists(b / rel)) << rel;
+    EXPECT_EQ(slurp(e.path()), slurp(b / rel)) << rel << " differs between runs";
+    ++files;
+  }
+  EXPECT_EQ(files, 1 + 4 * 8);
+  o.seed = 4;
+  sy::make_sequence(o, c);
+  EXPECT_NE(slurp(a / "left/000000.png"), slurp(c / "left/000000.png"));
+  EXPECT_NE(slurp(a / "right/000005.png"), slurp(c / "right/000005.png"));
+  for (const auto& d : {a, b, c}) fs::remove_all(d);
+}
+
+TEST(Synth, NoiseIsPerCameraAndFrame) {
+  auto o = small("lab", 4);
+  o.noise_sigma = 0;
+  const sy::Scene scene = sy::build_scene(o);
+  const sy::Frame clean = sy::render_frame(scene, o, 2);
+  o.noise_sigma = 3;
+  const sy::Frame noisy = sy::render_frame(scene, o, 2);
+  cv::Mat diff;
+  cv::subtract(noisy.left, clean.left, diff, cv::noArray(), CV_32F);
+  cv::Scalar mean, sd;
+  cv::meanStdDev(diff.reshape(1), mean, sd);
+  EXPECT_NEAR(mean[0], 0.0, 0.3);
+  EXPECT_GT(sd[0], 2.5);  // read noise 3 plus some shot noise, minus clipping
+  EXPECT_LT(sd[0], 4.5);
+  EXPECT_EQ(cv::countNonZero(noisy.labels != clean.labels), 0);
+}
+
+TEST(Synth, BadOptionsNameTheOption) {
+  auto expect_bad = [](const std::string& field, auto mutate) {
+    sy::SynthOptions o;
+    mutate(o);
+    try {
+      o.validate();
+      ADD_FAILURE() << "no error for a bad " << field;
+    } catch (const smseg::Error& e) {
+      EXPECT_EQ(e.field(), field) << e.what();
+    }
+    EXPECT_THROW(sy::build_scene(o), smseg::Error);
+  };
+  expect_bad("scene", [](auto& o) { o.scene = "garden"; });
+  expect_bad("frames", [](auto& o) { o.frames = 0; });
+  expect_bad("width", [](auto& o) { o.width = 8; });
+  expect_bad("height", [](auto& o) { o.height = 100000; });
+  expect_bad("label_every", [](auto& o) { o.label_every = 0; });
+  expect_bad("fps", [](auto& o) { o.fps = -1; });
+  expect_bad("baseline", [](auto& o) { o.baseline = 0; });
+  expect_bad("camera_height", [](auto& o) { o.camera_height = 5; });
+  expect_bad("hfov_deg", [](auto& o) { o.hfov_deg = 179; });
+  expect_bad("speed", [](auto& o) { o.speed = std::nan(""); });
+  expect_bad("noise_sigma", [](auto& o) { o.noise_sigma = -1; });
+  EXPECT_NO_THROW(sy::SynthOptions{}.validate());
+  const sy::Scene scene = sy::build_scene(small("lab", 5));
+  EXPECT_THROW(sy::camera_pose(scene, small("lab", 5), 5), smseg::Error);
+}
+
+}  // namespace
