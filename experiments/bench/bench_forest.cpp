@@ -1,0 +1,174 @@
+// Speed of the forest (libforest): training (corpus construction included) and whole-frame
+// classification on synthetic 320x240 frames with 6 features (smooth random fields whose level
+// depends on a room-like label layout). Targets (issue): train K = 400, M = 7 on 11 frames <= 0.5 s
+// and K = 900 <= 2 s on 2 cores; classify a 320x240 frame with M = 7, K = 400 <= 10 ms.
+// Run: bench_forest --benchmark_out=forest.json --benchmark_out_format=json
+#include <benchmark/benchmark.h>
+
+#include <map>
+#include <numeric>
+
+#include <oneapi/tbb/global_control.h>
+
+#include "smseg/forest/classify.hpp"
+#include "smseg/forest/synthetic.hpp"
+#include "smseg/forest/train.hpp"
+
+using namespace smseg::forest;
+
+namespace {
+
+// Class signal of the synthetic features relative to their noise: low enough that trees grow to a
+// realistic size (a few hundred nodes at K = 400) instead of separating the classes at once.
+constexpr double kSignal = 0.25;
+
+const SyntheticData& training_frames() {
+  static const SyntheticData s = [] {
+    SyntheticOptions o;
+    o.frames = 11;
+    o.seed = 7;
+    o.signal = kSignal;
+    return make_synthetic(o);
+  }();
+  return s;
+}
+
+const SyntheticData& test_frame() {
+  static const SyntheticData s = [] {
+    SyntheticOptions o;
+    o.frames = 1;
+    o.seed = 99;
+    o.signal = kSignal;
+    return make_synthetic(o);
+  }();
+  return s;
+}
+
+void add_forest_counters(benchmark::State& state, const Forest& f) {
+  double nodes = 0, depth = 0;
+  for (const auto& t : f.stats.trees) {
+    nodes += t.nodes;
+    depth += t.depth;
+  }
+  state.counters["nodes_per_tree"] = nodes / static_cast<double>(f.stats.trees.size());
+  state.counters["max_depth_mean"] = depth / static_cast<double>(f.stats.trees.size());
+}
+
+// Args: K, threads, textons, balance(0/1), window mode (0 uniform, 1 thesis)
+void BM_Train(benchmark::State& state) {
+  const auto& s = training_frames();
+  TrainParams p;
+  p.K = static_cast<int>(state.range(0));
+  p.M = 7;
+  p.textons = state.range(2) != 0;
+  p.balance = state.range(3) ? Balance::Classes : Balance::None;
+  p.windows.mode = state.range(4) ? WindowSampling::Thesis : WindowSampling::Uniform;
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(1)));
+  Forest f;
+  for (auto _ : state) {
+    f = train_forest(s.data, p);
+    benchmark::DoNotOptimize(f.trees.data());
+  }
+  add_forest_counters(state, f);
+}
+BENCHMARK(BM_Train)
+    ->ArgNames({"K", "threads", "textons", "balance", "windows"})
+    ->Args({400, 2, 0, 0, 0})
+    ->Args({400, 1, 0, 0, 0})
+    ->Args({900, 2, 0, 0, 0})
+    ->Args({400, 2, 1, 0, 0})
+    ->Args({400, 2, 0, 1, 0})
+    ->Args({400, 2, 0, 0, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2.0);
+
+const Forest& forest_k(int K, bool textons) {
+  static std::map<std::pair<int, bool>, Forest> cache;
+  auto it = cache.find({K, textons});
+  if (it == cache.end()) {
+    TrainParams p;
+    p.K = K;
+    p.M = 7;
+    p.textons = textons;
+    it = cache.emplace(std::make_pair(K, textons), train_forest(training_frames().data, p)).first;
+  }
+  return it->second;
+}
+
+// Args: K, threads, with distributions (0/1), textons (0/1)
+void BM_ClassifyFrame(benchmark::State& state) {
+  const Forest& f = forest_k(static_cast<int>(state.range(0)), state.range(3) != 0);
+  const Classifier clf(f);
+  const auto& s = test_frame();
+  std::vector<std::uint8_t> labels(static_cast<std::size_t>(s.data.width) * s.data.height);
+  std::vector<float> dists(state.range(2) ? labels.size() * f.classes.size() : 0);
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(1)));
+  for (auto _ : state) {
+    clf.classify_frame(s.data.frames[0], labels, dists);
+    benchmark::DoNotOptimize(labels.data());
+  }
+  std::size_t right = 0, counted = 0;
+  for (std::size_t i = 0; i < labels.size(); ++i)
+    if (s.labels[0][i] != kVoidLabel) {
+      ++counted;
+      right += labels[i] == s.labels[0][i];
+    }
+  state.counters["accuracy"] = static_cast<double>(right) / static_cast<double>(counted);
+  state.counters["pixels_per_s"] = benchmark::Counter(static_cast<double>(labels.size()), benchmark::Counter::kIsIterationInvariantRate);
+  add_forest_counters(state, f);
+}
+BENCHMARK(BM_ClassifyFrame)
+    ->ArgNames({"K", "threads", "dists", "textons"})
+    ->Args({400, 2, 0, 0})
+    ->Args({400, 1, 0, 0})
+    ->Args({400, 2, 1, 0})
+    ->Args({900, 2, 0, 0})
+    ->Args({400, 2, 0, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// Balance: accuracy (global and class-average) on held-out frames, with and without per-class test
+// sampling; the synthetic box class covers few pixels. Args: balance (0/1). Counters, not time,
+// are the point here.
+void BM_BalanceAccuracy(benchmark::State& state) {
+  TrainParams p;
+  p.K = 400;
+  p.balance = state.range(0) ? Balance::Classes : Balance::None;
+  static const SyntheticData held_out = [] {
+    SyntheticOptions o;
+    o.frames = 5;
+    o.seed = 1234;
+    o.signal = kSignal;
+    return make_synthetic(o);
+  }();
+  Forest f;
+  for (auto _ : state) f = train_forest(training_frames().data, p);
+  const Classifier clf(f);
+  const std::size_t C = f.classes.size();
+  std::vector<double> right(C, 0.0), total(C, 0.0);
+  std::vector<std::uint8_t> labels(static_cast<std::size_t>(held_out.data.width) * held_out.data.height);
+  for (std::size_t fi = 0; fi < held_out.data.frames.size(); ++fi) {
+    clf.classify_frame(held_out.data.frames[fi], labels);
+    for (std::size_t i = 0; i < labels.size(); ++i) {
+      const auto l = held_out.labels[fi][i];
+      if (l == kVoidLabel) continue;
+      total[l] += 1;
+      right[l] += labels[i] == l;
+    }
+  }
+  double g = 0, n = 0, ca = 0;
+  for (std::size_t c = 0; c < C; ++c) {
+    g += right[c];
+    n += total[c];
+    ca += total[c] > 0 ? right[c] / total[c] : 0.0;
+    state.counters["recall_" + f.classes[c]] = total[c] > 0 ? right[c] / total[c] : 0.0;
+  }
+  state.counters["global"] = g / n;
+  state.counters["class_average"] = ca / static_cast<double>(C);
+}
+BENCHMARK(BM_BalanceAccuracy)->ArgNames({"balance"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+}  // namespace
+
+BENCHMARK_MAIN();

@@ -1,0 +1,68 @@
+#pragma once
+// Classification (thesis section 2.3.4): each pixel runs through every tree; the trees' leaf
+// distributions (normalised class frequencies) are summed and the class of maximum sum is the label
+// (ties: the lowest class index). The classifier flattens the trees into packed POD nodes with
+// float thresholds rounded up to the next float, which decides exactly as float(value) < t.
+
+#include <cstdint>
+#include <span>
+#include <vector>
+
+#include "smseg/forest/data.hpp"
+#include "smseg/forest/forest.hpp"
+
+namespace smseg::forest {
+
+struct Pixel {
+  int x = 0, y = 0;
+};
+
+class Classifier {
+ public:
+  explicit Classifier(const Forest& forest);
+
+  int num_classes() const { return num_classes_; }
+  int width() const { return width_; }
+  int height() const { return height_; }
+
+  /// Summed leaf distributions over the trees for one pixel: out[c], c < num_classes()
+  /// (sums to the number of trees). Returns the MAP class.
+  int posterior(const FrameData& frame, int x, int y, float* out) const;
+  int classify(const FrameData& frame, int x, int y) const;
+
+  /// A list of pixels: labels[i] for pixels[i]; dists (optional, may be empty) gets
+  /// pixels.size() x num_classes() summed distributions. Parallel over pixels.
+  void classify_pixels(const FrameData& frame, std::span<const Pixel> pixels,
+                       std::span<std::uint8_t> labels, std::span<float> dists = {}) const;
+
+  /// A whole frame: labels (height x width, row-major); dists (optional, may be empty):
+  /// height x width x num_classes() summed distributions. Parallel over rows.
+  void classify_frame(const FrameData& frame, std::span<std::uint8_t> labels,
+                      std::span<float> dists = {}) const;
+
+  /// Error when the frame does not fit the forest (size, number of tables, greyscale for textons).
+  void check_frame(const FrameData& frame) const;
+
+ private:
+  struct PackedNode {
+    std::int16_t x0, x1, y0, y1;  // window rectangle relative to the pixel (textons: x0, y0 = offset)
+    std::int32_t feature;         // attribute; -1 leaf
+    float threshold;              // smallest float >= the double threshold
+    std::int32_t left, right;     // children; leaf: left = row of the leaf table
+  };
+  template <bool kTextons>
+  int run(const FrameData& frame, int x, int y, float* acc) const;
+  /// Breadth-wise evaluation of a set of pixels: each tree routes the whole set node by node
+  /// (stable partitions keep the pixels in memory order, so table reads stream), then the summed
+  /// distributions give the labels. xs, ys: coordinates; out labels[i], dists[i * C + c] (optional).
+  void classify_set(const FrameData& frame, const std::int32_t* xs, const std::int32_t* ys, std::size_t n,
+                    std::uint8_t* labels, float* dists) const;
+
+  int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
+  bool textons_ = false;
+  std::vector<std::int32_t> roots_;
+  std::vector<PackedNode> nodes_;
+  std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * num_classes_ + c]
+};
+
+}  // namespace smseg::forest

@@ -1,0 +1,53 @@
+#pragma once
+// Training parameters: one value struct with documented defaults, validated once, passed whole.
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "smseg/forest/window.hpp"
+#include "smseg/io.hpp"
+
+namespace smseg::forest {
+
+/// How training keeps the dominant class from swamping the others.
+enum class Balance {
+  None,     ///< tests drawn as the thesis does: a random labelled frame, then a random non-void pixel
+  Classes   ///< tests drawn per class: a class uniformly among those present, then a pixel of that
+            ///< class uniformly among all training frames; splits and leaves then see a balanced
+            ///< sample (leaf distributions are class-balanced, i.e. a flat prior over classes)
+};
+std::string to_string(Balance b);
+Balance balance_from_string(const std::string& s, const std::string& field);
+
+struct TrainParams {
+  int K = 400;        ///< sets Ks and Kt when they are 0 (thesis: K = Ks = Kt)
+  int Ks = 0;         ///< sampling windows per tree (0: K)
+  int Kt = 0;         ///< tests (training pixels) per tree (0: K)
+  int M = 7;          ///< trees
+  int n_min = 5;      ///< a node with fewer tests becomes a leaf
+  std::uint64_t seed = 1;
+  WindowParams windows;              ///< how the Ks windows are drawn (default uniform)
+  Balance balance = Balance::None;   ///< default off
+  bool textons = false;              ///< add the four texton tests at Ks random offsets
+  /// Memory for the per-tree value matrices (Kt x candidates floats): trees are trained
+  /// concurrently only as far as this allows (at least one at a time). Does not change the
+  /// forest, so it is not serialised.
+  std::size_t memory_mb = 2048;
+  bool progress = false;             ///< progress on stderr (not serialised)
+
+  int ks() const { return Ks > 0 ? Ks : K; }
+  int kt() const { return Kt > 0 ? Kt : K; }
+  /// Error(source, "<parameter>", reason) for the first bad parameter.
+  void validate(const std::string& source = "training parameters") const;
+};
+
+nlohmann::json params_to_json(const TrainParams& p);
+TrainParams params_from_json(const JsonView& j);
+
+nlohmann::json histograms_to_json(const WindowHistograms& h);
+WindowHistograms histograms_from_json(const JsonView& j);
+
+}  // namespace smseg::forest

@@ -1,0 +1,170 @@
+// Dataset validation, training parameters and their JSON form.
+#include <algorithm>
+#include <set>
+
+#include "smseg/error.hpp"
+#include "smseg/forest/data.hpp"
+#include "smseg/forest/params.hpp"
+
+namespace smseg::forest {
+
+void validate_frame(const FrameData& frame, int width, int height, std::size_t num_features,
+                    bool need_gray, const std::string& source, const std::string& field) {
+  if (frame.width != width || frame.height != height)
+    throw Error(source, field, "is " + std::to_string(frame.width) + "x" + std::to_string(frame.height) +
+                                   ", expected " + std::to_string(width) + "x" + std::to_string(height));
+  if (frame.sats.size() != num_features)
+    throw Error(source, field + ".sats",
+                "has " + std::to_string(frame.sats.size()) + " summed-area tables, expected " +
+                    std::to_string(num_features) + " (one per feature)");
+  for (std::size_t f = 0; f < frame.sats.size(); ++f)
+    if (frame.sats[f] == nullptr) throw Error(source, field + ".sats[" + std::to_string(f) + "]", "is null");
+  if (need_gray && frame.gray == nullptr)
+    throw Error(source, field + ".gray", "is missing (texton tests need the greyscale image)");
+}
+
+void Dataset::validate(bool need_labels, bool need_gray, const std::string& source) const {
+  if (width < 1 || height < 1)
+    throw Error(source, "image size", "must be at least 1x1, got " + std::to_string(width) + "x" +
+                                          std::to_string(height));
+  if (width > 32000 || height > 32000) throw Error(source, "image size", "larger than 32000 pixels");
+  if (classes.empty()) throw Error(source, "classes", "is empty");
+  if (classes.size() > 255) throw Error(source, "classes", "more than 255 classes (255 is void)");
+  if (std::set<std::string>(classes.begin(), classes.end()).size() != classes.size())
+    throw Error(source, "classes", "contains a name twice");
+  if (std::set<std::string>(features.begin(), features.end()).size() != features.size())
+    throw Error(source, "features", "contains a name twice");
+  if (features.empty() && !need_gray) throw Error(source, "features", "is empty");
+  if (frames.empty()) throw Error(source, "frames", "no frames");
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    const std::string field = "frames[" + std::to_string(i) + "]";
+    validate_frame(frames[i], width, height, features.size(), need_gray, source, field);
+    if (need_labels) {
+      if (frames[i].labels == nullptr) throw Error(source, field + ".labels", "is missing");
+      const std::uint8_t* l = frames[i].labels;
+      const std::size_t n = static_cast<std::size_t>(width) * height;
+      for (std::size_t p = 0; p < n; ++p)
+        if (l[p] != kVoidLabel && l[p] >= classes.size())
+          throw Error(source, field + ".labels",
+                      "pixel (" + std::to_string(p % width) + ", " + std::to_string(p / width) +
+                          ") has label " + std::to_string(l[p]) + ", but there are only " +
+                          std::to_string(classes.size()) + " classes (255 = void)");
+    }
+  }
+}
+
+std::string to_string(Balance b) { return b == Balance::Classes ? "classes" : "none"; }
+
+Balance balance_from_string(const std::string& s, const std::string& field) {
+  if (s == "none") return Balance::None;
+  if (s == "classes") return Balance::Classes;
+  throw Error("", field, "is \"" + s + "\", expected none or classes");
+}
+
+void TrainParams::validate(const std::string& source) const {
+  auto bad = [&](const char* field, const std::string& why) { throw Error(source, field, why); };
+  if (K < 1) bad("K", "must be >= 1, got " + std::to_string(K));
+  if (Ks < 0) bad("Ks", "must be >= 0 (0: K), got " + std::to_string(Ks));
+  if (Kt < 0) bad("Kt", "must be >= 0 (0: K), got " + std::to_string(Kt));
+  if (ks() > 1000000) bad("Ks", "must be <= 1000000");
+  if (kt() > 100000000) bad("Kt", "must be <= 100000000");
+  if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
+  if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
+  if (memory_mb < 1) bad("memory_mb", "must be >= 1");
+  try {
+    windows.validate();
+  } catch (const Error& e) {
+    throw Error(source, e.field(), e.reason());
+  }
+}
+
+nlohmann::json histograms_to_json(const WindowHistograms& h) {
+  return {{"bounds",
+           {{"max_dx", h.bounds.max_dx}, {"max_dy", h.bounds.max_dy}, {"max_w", h.bounds.max_w},
+            {"max_h", h.bounds.max_h}}},
+          {"dx", h.dx},
+          {"dy", h.dy},
+          {"w", h.w},
+          {"h", h.h}};
+}
+
+WindowHistograms histograms_from_json(const JsonView& j) {
+  const JsonView b = j.at("bounds");
+  WindowBounds bounds;
+  bounds.max_dx = static_cast<int>(b.integer("max_dx"));
+  bounds.max_dy = static_cast<int>(b.integer("max_dy"));
+  bounds.max_w = static_cast<int>(b.integer("max_w"));
+  bounds.max_h = static_cast<int>(b.integer("max_h"));
+  if (bounds.max_dx < 0 || bounds.max_dy < 0 || bounds.max_w < 1 || bounds.max_h < 1 ||
+      bounds.max_dx > 100000 || bounds.max_dy > 100000 || bounds.max_w > 100000 || bounds.max_h > 100000)
+    b.fail("window bounds out of range");
+  WindowHistograms h = WindowHistograms::zeros(bounds);
+  auto read = [&](const char* key, std::vector<double>& out) {
+    const JsonView a = j.at(key);
+    if (a.size() != out.size())
+      a.fail("has " + std::to_string(a.size()) + " bins, expected " + std::to_string(out.size()));
+    for (std::size_t i = 0; i < out.size(); ++i) {
+      out[i] = a.at(i).as_num();
+      if (!(out[i] >= 0.0)) a.at(i).fail("must be >= 0");
+    }
+  };
+  read("dx", h.dx);
+  read("dy", h.dy);
+  read("w", h.w);
+  read("h", h.h);
+  return h;
+}
+
+nlohmann::json params_to_json(const TrainParams& p) {
+  nlohmann::json w = {{"mode", to_string(p.windows.mode)},
+                      {"thesis_dy_share", p.windows.thesis_dy_share},
+                      {"thesis_size_share", p.windows.thesis_size_share}};
+  if (p.windows.mode == WindowSampling::Learned) w["learned"] = histograms_to_json(p.windows.learned);
+  return {{"K", p.K},         {"Ks", p.ks()},   {"Kt", p.kt()},
+          {"M", p.M},         {"n_min", p.n_min}, {"seed", p.seed},
+          {"windows", w},     {"balance", to_string(p.balance)},
+          {"textons", p.textons}};
+}
+
+TrainParams params_from_json(const JsonView& j) {
+  TrainParams p;
+  auto as_int = [&](const char* key) {
+    const auto v = j.integer(key);
+    if (v < -2147483647 || v > 2147483647) j.fail("out of range", key);
+    return static_cast<int>(v);
+  };
+  p.K = as_int("K");
+  p.Ks = as_int("Ks");
+  p.Kt = as_int("Kt");
+  p.M = as_int("M");
+  p.n_min = as_int("n_min");
+  {
+    const JsonView s = j.at("seed");
+    if (!s.json().is_number_unsigned() && !(s.json().is_number_integer() && s.json().get<std::int64_t>() >= 0))
+      s.fail("expected an unsigned integer");
+    p.seed = s.json().get<std::uint64_t>();
+  }
+  const JsonView w = j.at("windows");
+  try {
+    p.windows.mode = window_sampling_from_string(w.str("mode"), "mode");
+  } catch (const Error& e) {
+    w.fail(e.reason(), "mode");
+  }
+  p.windows.thesis_dy_share = w.num("thesis_dy_share");
+  p.windows.thesis_size_share = w.num("thesis_size_share");
+  if (p.windows.mode == WindowSampling::Learned) p.windows.learned = histograms_from_json(w.at("learned"));
+  try {
+    p.balance = balance_from_string(j.str("balance"), "balance");
+  } catch (const Error& e) {
+    j.fail(e.reason(), "balance");
+  }
+  p.textons = j.boolean("textons");
+  try {
+    p.validate(j.file().string());
+  } catch (const Error& e) {
+    j.fail(e.reason(), e.field());
+  }
+  return p;
+}
+
+}  // namespace smseg::forest

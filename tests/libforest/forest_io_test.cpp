@@ -1,0 +1,150 @@
+// The forest file: round trip, and refusal of anything that is not a valid smseg-forest v1.
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <fstream>
+#include <functional>
+
+#include "forest_test_util.hpp"
+#include "smseg/error.hpp"
+#include "smseg/io.hpp"
+
+using namespace forest_test;
+
+namespace {
+
+struct Fixture {
+  SyntheticData s;
+  Forest forest;
+  fs::path dir;
+  Fixture() {
+    SyntheticOptions o;
+    o.width = 64;
+    o.height = 48;
+    o.frames = 3;
+    o.features = 3;
+    o.signal = 0.4;
+    s = make_synthetic(o);
+    TrainParams p;
+    p.K = 120;
+    p.M = 3;
+    p.textons = true;
+    p.windows.mode = WindowSampling::Thesis;
+    forest = train_forest(s.data, p);
+    dir = temp_dir("io");
+  }
+  ~Fixture() { fs::remove_all(dir); }
+  // Writes the forest's JSON after `edit`, then loads it.
+  Forest load_edited(const std::function<void(smseg::Json&)>& edit) const {
+    smseg::Json j = forest_to_json(forest);
+    edit(j);
+    smseg::write_json_atomic(dir / "edited.json", j);
+    return load_forest(dir / "edited.json");
+  }
+  std::string error_of(const std::function<void(smseg::Json&)>& edit) const {
+    try {
+      load_edited(edit);
+    } catch (const smseg::Error& e) {
+      EXPECT_EQ(e.file(), (dir / "edited.json").string());
+      return e.field() + ": " + e.reason();
+    }
+    return "(accepted)";
+  }
+};
+
+}  // namespace
+
+TEST(ForestFile, RoundTripKeepsEverythingAndPredictionsBitForBit) {
+  const Fixture fx;
+  save_forest(fx.forest, fx.dir / "forest.json");
+  const Forest back = load_forest(fx.dir / "forest.json");
+  EXPECT_EQ(forest_to_json(back).dump(), forest_to_json(fx.forest).dump());
+  for (std::size_t t = 0; t < back.trees.size(); ++t)
+    for (std::size_t i = 0; i < back.trees[t].nodes.size(); ++i)
+      ASSERT_EQ(back.trees[t].nodes[i].threshold, fx.forest.trees[t].nodes[i].threshold);  // exact doubles
+  const Classifier a(fx.forest), b(back);
+  const std::size_t n = 64 * 48, C = fx.forest.classes.size();
+  for (const FrameData& frame : fx.s.data.frames) {
+    std::vector<std::uint8_t> la(n), lb(n);
+    std::vector<float> da(n * C), db(n * C);
+    a.classify_frame(frame, la, da);
+    b.classify_frame(frame, lb, db);
+    EXPECT_EQ(la, lb);
+    EXPECT_EQ(0, std::memcmp(da.data(), db.data(), da.size() * sizeof(float)));
+  }
+  EXPECT_EQ(back.params.K, 120);
+  EXPECT_EQ(back.params.windows.mode, WindowSampling::Thesis);
+  EXPECT_TRUE(back.textons);
+  EXPECT_EQ(back.stats.seconds, fx.forest.stats.seconds);
+}
+
+TEST(ForestFile, CorruptedForeignAndWrongVersionFilesAreRefused) {
+  const Fixture fx;
+  save_forest(fx.forest, fx.dir / "forest.json");
+  const std::string text = smseg::read_file(fx.dir / "forest.json");
+  smseg::write_file_atomic(fx.dir / "truncated.json", text.substr(0, text.size() / 2));
+  EXPECT_THROW(load_forest(fx.dir / "truncated.json"), smseg::Error);
+  EXPECT_THROW(load_forest(fx.dir / "missing.json"), smseg::Error);
+  smseg::write_file_atomic(fx.dir / "array.json", "[1, 2, 3]\n");
+  EXPECT_THROW(load_forest(fx.dir / "array.json"), smseg::Error);
+
+  EXPECT_NE(fx.error_of([](smseg::Json& j) { j["format"] = "smseg-sequence"; }).find("format"), std::string::npos);
+  EXPECT_NE(fx.error_of([](smseg::Json& j) { j.erase("format"); }).find("format"), std::string::npos);
+  EXPECT_NE(fx.error_of([](smseg::Json& j) { j["version"] = 2; }).find("version"), std::string::npos);
+}
+
+TEST(ForestFile, InconsistentContentIsRefusedNamingTheField) {
+  const Fixture fx;
+  EXPECT_EQ(fx.error_of([](smseg::Json&) {}), "(accepted)");
+  auto first_split = [](smseg::Json& j) -> smseg::Json& {
+    for (auto& n : j["trees"][0]["nodes"])
+      if (n.contains("f")) return n;
+    throw std::runtime_error("no split");
+  };
+  auto first_leaf = [](smseg::Json& j) -> smseg::Json& {
+    for (auto& n : j["trees"][0]["nodes"])
+      if (n.contains("counts")) return n;
+    throw std::runtime_error("no leaf");
+  };
+  struct Case {
+    const char* what;
+    std::function<void(smseg::Json&)> edit;
+    const char* field;
+  };
+  const std::vector<Case> cases = {
+      {"child out of range", [&](smseg::Json& j) { first_split(j)["left"] = 100000; }, "trees[0].nodes[0].left"},
+      {"child pointing back", [&](smseg::Json& j) { first_split(j)["right"] = 0; }, "trees[0].nodes[0].right"},
+      {"attribute out of range", [&](smseg::Json& j) { first_split(j)["f"] = 7; }, "trees[0].nodes[0].f"},
+      {"window beyond bounds", [&](smseg::Json& j) { first_split(j)["dx"] = 50; }, "trees[0].nodes[0].dx"},
+      {"threshold not a number", [&](smseg::Json& j) { first_split(j)["t"] = "low"; }, "trees[0].nodes[0].t"},
+      {"leaf of the wrong size", [&](smseg::Json& j) { first_leaf(j)["counts"].push_back(1); }, "counts"},
+      {"empty leaf", [&](smseg::Json& j) { for (auto& c : first_leaf(j)["counts"]) c = 0; }, "counts"},
+      {"no trees", [](smseg::Json& j) { j["trees"] = smseg::Json::array(); }, "trees"},
+      {"no classes", [](smseg::Json& j) { j["classes"] = smseg::Json::array(); }, "classes"},
+      {"duplicate feature", [](smseg::Json& j) { j["features"][1] = j["features"][0]; }, "features"},
+      {"bad K", [](smseg::Json& j) { j["params"]["K"] = 0; }, "params.K"},
+      {"bad balance", [](smseg::Json& j) { j["params"]["balance"] = "maybe"; }, "params.balance"},
+      {"no image size", [](smseg::Json& j) { j.erase("image"); }, "image"},
+  };
+  for (const Case& c : cases) {
+    const std::string err = fx.error_of(c.edit);
+    EXPECT_NE(err.find(c.field), std::string::npos) << c.what << " gave: " << err;
+  }
+}
+
+TEST(ForestFile, CompatibilityWithTheDataIsChecked) {
+  const Fixture fx;
+  EXPECT_NO_THROW(check_compatible(fx.forest, fx.s.data.classes, fx.s.data.features, "f.json"));
+  auto classes = fx.s.data.classes;
+  std::swap(classes[0], classes[1]);
+  EXPECT_THROW(check_compatible(fx.forest, classes, fx.s.data.features, "f.json"), smseg::Error);
+  auto features = fx.s.data.features;
+  features.pop_back();
+  try {
+    check_compatible(fx.forest, fx.s.data.classes, features, "f.json");
+    ADD_FAILURE() << "accepted";
+  } catch (const smseg::Error& e) {
+    EXPECT_EQ(e.file(), "f.json");
+    EXPECT_EQ(e.field(), "features");
+  }
+}
