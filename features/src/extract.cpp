@@ -3,6 +3,7 @@
 #include <atomic>
 #include <chrono>
 
+#include <Eigen/LU>
 #include <opencv2/imgproc.hpp>
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for_each.h>
@@ -34,6 +35,30 @@ cv::Mat false_colour(const cv::Mat& raster, bool sparse) {
   cv::Mat out;
   cv::applyColorMap(u8, out, cv::COLORMAP_VIRIDIS);
   if (sparse) out.setTo(cv::Scalar::all(0), src == 0);
+  return out;
+}
+
+// The ground-truth path moved rigidly so that its pose at `first` coincides with `estimated_first`.
+std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, const Pose& estimated_first) {
+  const auto mat = [](const Pose& p) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m(r, c) = p.R[r * 3 + c];
+      m(r, 3) = p.t[r];
+    }
+    return m;
+  };
+  const Eigen::Matrix4d A = mat(estimated_first) * mat(gt[first]).inverse();
+  std::vector<Pose> out;
+  for (std::size_t i = first; i < gt.size(); ++i) {
+    const Eigen::Matrix4d m = A * mat(gt[i]);
+    Pose p;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) p.R[r * 3 + c] = m(r, c);
+      p.t[r] = m(r, 3);
+    }
+    out.push_back(p);
+  }
   return out;
 }
 
@@ -121,6 +146,13 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
   const PointAttributes attrs = compute_point_attributes(video, opt.features);
+  report.cloud = track_cloud(fe, video, attrs);
+  {
+    std::vector<Pose> gt;
+    if (static_cast<int>(seq.gt_poses.size()) == seq.frame_count() && !fe.poses.empty())
+      gt = align_at_first_frame(seq.gt_poses, fe.first_frame, fe.poses.front());
+    write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, report.cloud, seq));
+  }
 
   std::vector<int> todo;
   for (int f = 0; f < seq.frame_count(); ++f) {

@@ -16,8 +16,10 @@ int main(int argc, char** argv) {
       "disparity (block matching with a left-right check by default), keypoints matched frame to frame\n"
       "(symmetric nearest neighbours), tracks and their filters, camera motion (Arun SVD in RANSAC),\n"
       "then per frame the features fH fC fOx fOy fD fR as summed-area tables, the greyscale image and,\n"
-      "for labelled frames, the labels: WORK/stacks.json and WORK/stacks/*.npy. Parallel over frames;\n"
-      "frames already written are skipped (resumable) unless --force.",
+      "for labelled frames, the labels: WORK/stacks.json and WORK/stacks/*.npy. Also WORK/tracks.json\n"
+      "(tracks, camera path, front-end summary), WORK/cloud.pcd (one point per track, class colours and\n"
+      "labels; opens in pcl_viewer) and WORK/path.png (top-down camera path and cloud). Parallel over\n"
+      "frames; frames already written are skipped (resumable) unless --force.",
       "extract-features"};
   std::string seq_dir, work, frames = "0:", stereo = "bm", detector = "sift", preview;
   ExtractOptions opt;
@@ -67,6 +69,7 @@ int main(int argc, char** argv) {
     opt.features.validate();
     const Sequence seq = load_sequence(seq_dir);
     const ExtractReport r = extract_features(seq, work, opt);
+    write_cloud(fs::path(work) / "cloud.pcd", r.cloud, seq);
     const auto& s = r.summary;
     char line[512];
     std::snprintf(line, sizeof line,

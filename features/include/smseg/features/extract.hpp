@@ -2,12 +2,14 @@
 // The whole front end of a sequence into feature stacks (`extract-features`): stereo tracks and camera
 // motion (run_stereo_front_end), then the structure-and-motion features of each frame as summed-area
 // tables, written as a work folder (stack.hpp), plus WORK/tracks.json (tracks, camera path and the
-// front-end summary, tracks_io.hpp). Parallel over frames (oneTBB); resumable.
+// front-end summary, tracks_io.hpp) and WORK/path.png (top-down camera path and cloud; the ground-truth
+// path too when the sequence has one, aligned at the first frame). Parallel over frames; resumable.
 
 #include <functional>
 #include <string>
 #include <vector>
 
+#include "smseg/features/cloud.hpp"
 #include "smseg/features/motion.hpp"
 #include "smseg/features/point_features.hpp"
 #include "smseg/features/stack.hpp"
@@ -28,6 +30,7 @@ struct ExtractReport {
   double front_end_seconds = 0, features_seconds_per_frame = 0;
   std::size_t bytes_per_frame = 0;
   FrontEndSummary summary;
+  std::vector<CloudPoint> cloud;  ///< one point per track (cloud.hpp); the tool writes it with PCL
 };
 
 /// The point observations of each frame, from the front end's tracks (track id = index in tracks).
