@@ -45,7 +45,7 @@ int main(int argc, char** argv) {
   app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str();
   app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
   app.add_flag("--textons", p.textons, "add the texton tests fP, fPs, fPd, fPda on the greyscale image");
-  app.add_option("--windows", windows, "window sampling: uniform | thesis | learned (thesis 4.5.3)")
+  app.add_option("--windows", windows, "window sampling: uniform | thesis-biased | learned (thesis 4.5.3)")
       ->capture_default_str();
   app.add_option("--learned-from", learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   app.add_option("--balance", balance, "none | classes: draw tests per class so no class swamps the rest")

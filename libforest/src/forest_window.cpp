@@ -11,7 +11,7 @@ namespace smseg::forest {
 std::string to_string(WindowSampling mode) {
   switch (mode) {
     case WindowSampling::Uniform: return "uniform";
-    case WindowSampling::Thesis: return "thesis";
+    case WindowSampling::Thesis: return "thesis-biased";
     case WindowSampling::Learned: return "learned";
   }
   return "uniform";
@@ -19,9 +19,9 @@ std::string to_string(WindowSampling mode) {
 
 WindowSampling window_sampling_from_string(const std::string& s, const std::string& field) {
   if (s == "uniform") return WindowSampling::Uniform;
-  if (s == "thesis") return WindowSampling::Thesis;
+  if (s == "thesis-biased") return WindowSampling::Thesis;
   if (s == "learned") return WindowSampling::Learned;
-  throw Error("", field, "is \"" + s + "\", expected uniform, thesis or learned");
+  throw Error("", field, "is \"" + s + "\", expected uniform, thesis-biased or learned");
 }
 
 WindowHistograms WindowHistograms::zeros(const WindowBounds& b) {

@@ -95,7 +95,7 @@ enum class WindowSampling {
 };
 
 std::string to_string(WindowSampling mode);
-/// "uniform" | "thesis" | "learned"; Error naming `field` otherwise.
+/// "uniform" | "thesis-biased" | "learned"; Error naming `field` otherwise.
 WindowSampling window_sampling_from_string(const std::string& s, const std::string& field);
 
 /// Histograms of window attributes over integer values: dx[i] counts dx = i - bounds.max_dx,
