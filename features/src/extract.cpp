@@ -25,16 +25,25 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
   return {{"front_end", fe}, {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
 }
 
-cv::Mat false_colour(const cv::Mat& raster, bool sparse) {
+// False colour over the raster's range. A sparse feature is shown only where there are points (`points`,
+// the dilated fD raster, non-empty), enlarged to 3x3 so that they are visible at a glance.
+cv::Mat false_colour(const cv::Mat& raster, const cv::Mat& points) {
   cv::Mat src = raster;
-  if (sparse) cv::dilate(raster, src, cv::Mat(), cv::Point(-1, -1), 1);  // points visible at a glance
+  cv::Mat mask;
+  if (!points.empty()) {
+    cv::dilate(raster, src, cv::Mat(), cv::Point(-1, -1), 1);
+    cv::Mat lo_src;
+    cv::erode(raster, lo_src, cv::Mat(), cv::Point(-1, -1), 1);
+    src = cv::max(src, 0.0) + cv::min(lo_src, 0.0);  // keep negative values (below the ground) visible
+    mask = points > 0;
+  }
   double lo, hi;
-  cv::minMaxLoc(src, &lo, &hi);
+  cv::minMaxLoc(src, &lo, &hi, nullptr, nullptr, mask);
   cv::Mat u8;
-  src.convertTo(u8, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -255.0 * lo / (hi - lo) : 0.0);
+  src.convertTo(u8, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -255.0 * lo / (hi - lo) : 128.0);
   cv::Mat out;
   cv::applyColorMap(u8, out, cv::COLORMAP_VIRIDIS);
-  if (sparse) out.setTo(cv::Scalar::all(0), src == 0);
+  if (!mask.empty()) out.setTo(cv::Scalar::all(0), ~mask);
   return out;
 }
 
@@ -93,9 +102,12 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
   const int cols = 3, rows = (static_cast<int>(rasters.size()) + cols - 1) / cols;
   const int W = rasters[0].cols, H = rasters[0].rows, gap = 4;
   cv::Mat out(rows * (H + gap) - gap, cols * (W + gap) - gap, CV_8UC3, cv::Scalar::all(255));
+  cv::Mat points;
+  const auto fd = std::find(names.begin(), names.end(), "fD");
+  if (fd != names.end()) cv::dilate(rasters[fd - names.begin()], points, cv::Mat(), cv::Point(-1, -1), 1);
   for (std::size_t k = 0; k < rasters.size(); ++k) {
     const bool sparse = names[k] != "fOx" && names[k] != "fOy";
-    cv::Mat tile = false_colour(rasters[k], sparse);
+    cv::Mat tile = false_colour(rasters[k], sparse ? points : cv::Mat());
     cv::putText(tile, names[k], cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar::all(255), 2);
     const int r = static_cast<int>(k) / cols, c = static_cast<int>(k) % cols;
     tile.copyTo(out(cv::Rect(c * (W + gap), r * (H + gap), W, H)));
@@ -108,6 +120,10 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   if (seq.kind != SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind",
                 "extract-features needs a stereo sequence (the monocular structure-from-motion path is not built yet)");
+  for (int f : opt.preview)
+    if (f < 0 || f >= seq.frame_count())
+      throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
+                                       std::to_string(seq.frame_count() - 1) + ")");
   ExtractReport report;
   const Json options = options_json(seq, opt);
 
@@ -185,14 +201,16 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     const cv::Mat gray = seq.load_left_gray(f);
     const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
     write_frame_stack(work, f, b.sats, gray, labels);
-    if (std::find(opt.preview.begin(), opt.preview.end(), f) != opt.preview.end()) {
-      char name[32];
-      std::snprintf(name, sizeof name, "%06d_features.png", f);
-      write_image_atomic(work / "preview" / name, feature_preview(b.rasters, m.features));
-    }
     progress.tick();
   });
   progress.finish();
+  // Previews of the frames asked for, whether their stacks were written now or earlier.
+  for (int f : opt.preview) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06d_features.png", f);
+    write_image_atomic(work / "preview" / name,
+                       feature_preview(rasterise_features(video, attrs, f, seq.size), m.features));
+  }
   report.frames_written = static_cast<int>(todo.size());
   report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());
 
