@@ -50,6 +50,9 @@ int main(int argc, char** argv) {
   app.add_option("--learned-from", learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   app.add_option("--balance", balance, "none | classes: draw tests per class so no class swamps the rest")
       ->capture_default_str();
+  std::string score = "wehenkel-pavella";
+  app.add_option("--score", score, "split score: wehenkel-pavella (the thesis) | information-gain")
+      ->capture_default_str();
   app.add_option("--memory-mb", p.memory_mb, "memory for the trees' value matrices; limits concurrent trees")
       ->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores); the forest does not depend on it")
@@ -64,6 +67,7 @@ int main(int argc, char** argv) {
     if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
     p.windows.mode = forest::window_sampling_from_string(windows, "--windows");
     p.balance = forest::balance_from_string(balance, "--balance");
+    p.score = forest::score_from_string(score, "--score");
     if (p.windows.mode == forest::WindowSampling::Learned) {
       const auto files = split_list(learned_from);
       if (files.empty()) throw Error("", "--learned-from", "--windows learned needs the forests to learn from");

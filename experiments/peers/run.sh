@@ -16,6 +16,8 @@
 #   M [7]  N_MIN [5]  REPEAT [3] (timed fits per seed, median)  THREADS [1] (every trainer; 0 = all cores)
 #   RANGER_MIN_NODE [N_MIN]  ranger's min.node.size (a node of <= that many rows is a leaf in ranger
 #                            0.14, so N_MIN - 1 is the exact equivalent of our n_min)
+#   SCORE [wehenkel-pavella] our split score (forest-peers --score): wehenkel-pavella | information-gain;
+#                            a comma-separated list runs ours once per score (rows "ours (SCORE)")
 #   KEEP_CSV [0]             1 keeps the corpus CSVs (about 10 MB and 100 MB per corpus seed)
 # Needs: Debian python3-sklearn and r-cran-ranger (PYTHON: the interpreter to use [/usr/bin/python3]).
 # Writes per corpus seed S OUT/corpus-S/{ours,sklearn,ranger,ranger_prob}.json, then OUT/machine.json,
@@ -29,6 +31,8 @@ WORK="${WORK:-$OUT/work}"
 SEEDS="${SEEDS:-1,2,3,4,5}"
 CORPUS_SEEDS="${CORPUS_SEEDS:-1,2,3}"
 KEEP_CSV="${KEEP_CSV:-0}"
+SCORE="${SCORE:-wehenkel-pavella}"
+IFS=',' read -r -a scores <<<"$SCORE"
 K="${K:-400}"
 KT_HELDOUT="${KT_HELDOUT:-4000}"
 TRAIN_FRAMES="${TRAIN_FRAMES:-0:101}"
@@ -89,9 +93,13 @@ for cs in "${corpus_seeds[@]}"; do
   echo "peers: corpora share their $cols columns; $rows_train training rows, $rows_held held-out rows" >&2
 
   # 3. The trainers one after the other: same corpus, same seeds, same thread count.
-  echo "peers: ours (forest-peers)" >&2
-  "$bin/forest-peers" "$d/train.csv" "$d/heldout.csv" -M "$M" --n-min "$N_MIN" --seeds "$SEEDS" \
-    --repeat "$REPEAT" --threads "$THREADS" -o "$d/ours.json" >&2
+  for sc in "${scores[@]}"; do
+    # The first score writes ours.json (the row the speed-ups refer to), others ours-SCORE.json.
+    o="$d/ours.json"; [[ "$sc" == "${scores[0]}" ]] || o="$d/ours-$sc.json"
+    echo "peers: ours (forest-peers --score $sc)" >&2
+    "$bin/forest-peers" "$d/train.csv" "$d/heldout.csv" -M "$M" --n-min "$N_MIN" --seeds "$SEEDS" \
+      --repeat "$REPEAT" --threads "$THREADS" --score "$sc" -o "$o" >&2
+  done
   echo "peers: scikit-learn ExtraTreesClassifier" >&2
   "$PYTHON" "$here/sklearn_peer.py" "$d/train.csv" "$d/heldout.csv" -M "$M" --min-samples-split "$N_MIN" \
     --seeds "$SEEDS" --repeat "$REPEAT" --n-jobs "$n_jobs" -o "$d/sklearn.json" >&2
@@ -116,3 +124,8 @@ json.dump({"cpu": cpu, "cores": int(nproc), "threads_per_trainer": int(threads),
 PY
 echo "peers: machine: $cpu, $(nproc) cores; load average before $load_before, after $load_after" >&2
 "$PYTHON" "$here/summarise.py" "${dirs[@]}" --machine "$OUT/machine.json" -o "$OUT/peers.json" --markdown "$OUT/peers.md"
+for sc in "${scores[@]:1}"; do  # the same table with ours grown with each further score
+  echo
+  "$PYTHON" "$here/summarise.py" "${dirs[@]}" --ours "ours-$sc" --machine "$OUT/machine.json" \
+    -o "$OUT/peers-$sc.json" --markdown "$OUT/peers-$sc.md"
+done

@@ -4,7 +4,7 @@ and one JSON. Each DIR holds one corpus's ours.json (forest-peers) and the peers
 trainer's runs over all corpora and seeds are pooled: mean held-out accuracy (and its spread), median
 fit seconds (wall clock and process CPU), our accuracy difference (ours - peer, points; mean of the
 per-corpus differences) and our speed-up (peer median seconds / ours) against each peer.
-Usage: summarise.py DIR [DIR ...] [--peers sklearn,ranger,ranger_prob] [--machine M.json] -o peers.json
+Usage: summarise.py DIR [DIR ...] [--peers sklearn,ranger,ranger_prob] [--ours STEM] [--machine M.json] -o peers.json
                     [--markdown peers.md]"""
 import argparse
 import json
@@ -40,12 +40,13 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("dirs", nargs="+")
     ap.add_argument("--peers", default="sklearn,ranger,ranger_prob")
+    ap.add_argument("--ours", default="ours", help="our result file's stem in each DIR (e.g. ours-information-gain)")
     ap.add_argument("--machine", help="JSON describing the machine and its load")
     ap.add_argument("-o", "--out", required=True)
     ap.add_argument("--markdown")
     a = ap.parse_args()
     names = ["ours"] + [p for p in a.peers.split(",") if p]
-    results = {n: [load(os.path.join(d, n + ".json")) for d in a.dirs] for n in names}
+    results = {n: [load(os.path.join(d, (a.ours if n == "ours" else n) + ".json")) for d in a.dirs] for n in names}
     rows = []
     ours = pooled(results["ours"])
     for n in names:

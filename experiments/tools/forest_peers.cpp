@@ -1,6 +1,7 @@
 // forest-peers: our extremely randomized trees on an exported corpus (train-forest --export-corpus),
 // the same way scikit-learn's ExtraTreesClassifier and ranger see it (experiments/peers/): every tree
-// is grown with grow_tree on the SAME rows and candidate columns (no bootstrap, no per-tree windows),
+// is grown with grow_tree on the SAME rows and candidate columns (no bootstrap, no per-tree windows;
+// grow_trees, which shares one test-major copy of the values between the trees, is what is timed),
 // then the held-out rows are classified (sum of normalised leaf distributions, argmax, ties to the
 // lowest class). Reports accuracy and training seconds, wall clock and process CPU (medians of --repeat
 // fits; the CSV reading is not timed, as the peers' scripts time the fit only).
@@ -136,12 +137,12 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Train our extremely randomized trees on an exported corpus (train-forest --export-corpus) the way\n"
       "scikit-learn's ExtraTreesClassifier and ranger do in experiments/peers/: M trees grown with\n"
-      "grow_tree on the same rows and columns (no bootstrap), each seeded by tree_seed(seed, t); then\n"
+      "grow_trees on the same rows and columns (no bootstrap), each seeded by tree_seed(seed, t); then\n"
       "classify the held-out rows (summed normalised leaf distributions, argmax). Both CSVs must have the\n"
       "same header (same candidate columns). Prints and writes accuracy and training seconds (median of\n"
       "--repeat fits, CSV reading not timed) per seed.",
       "forest-peers"};
-  std::string train_csv, heldout_csv, out, seeds_opt;
+  std::string train_csv, heldout_csv, out, seeds_opt, score_opt = "wehenkel-pavella";
   int M = 7, n_min = 5, repeat = 3, threads = 1, classes = 0;
   std::uint64_t seed = 1;
   app.add_option("TRAIN", train_csv, "training corpus CSV (label, then one value per candidate)")->required();
@@ -155,6 +156,8 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--classes", classes, "number of classes (0: 1 + the largest label in either CSV)")
       ->capture_default_str();
+  app.add_option("--score", score_opt, "split score: wehenkel-pavella (the thesis) | information-gain")
+      ->capture_default_str();
   app.add_option("-o,--out", out, "result JSON file (default: none)");
 
   return run_tool(app, argc, argv, [&] {
@@ -162,6 +165,7 @@ int main(int argc, char** argv) {
     if (n_min < 1) throw Error("", "--n-min", "must be at least 1");
     if (repeat < 1) throw Error("", "--repeat", "must be at least 1");
     if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or more");
+    const Score score = score_from_string(score_opt, "--score");
     const std::vector<std::uint64_t> seeds = seeds_opt.empty() ? std::vector<std::uint64_t>{seed} : parse_seeds(seeds_opt);
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
@@ -181,12 +185,14 @@ int main(int argc, char** argv) {
     std::vector<double> accs, secs, cpus;
     std::vector<double> acc(static_cast<std::size_t>(classes));
     for (const std::uint64_t s : seeds) {
-      std::vector<Tree> trees(static_cast<std::size_t>(M));
+      std::vector<Tree> trees;
+      std::vector<std::uint64_t> tree_seeds(static_cast<std::size_t>(M));
+      for (int t = 0; t < M; ++t) tree_seeds[static_cast<std::size_t>(t)] = tree_seed(s, t);
       std::vector<double> times, cpu_times;
       for (int r = 0; r < repeat; ++r) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::clock_t c0 = std::clock();  // process CPU time, all threads
-        tbb::parallel_for(0, M, [&](int t) { trees[static_cast<std::size_t>(t)] = grow_tree(corpus, n_min, tree_seed(s, t)); });
+        trees = grow_trees(corpus, n_min, tree_seeds, score);
         cpu_times.push_back(static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC);
         times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
@@ -222,7 +228,7 @@ int main(int argc, char** argv) {
     double mean_acc = 0.0;
     for (double a : accs) mean_acc += a;
     mean_acc /= static_cast<double>(accs.size());
-    Json result{{"tool", "smseg forest-peers (grow_tree)"},
+    Json result{{"tool", "smseg forest-peers (grow_trees, " + to_string(score) + ")"},
                 {"train", train_csv},
                 {"heldout", heldout_csv},
                 {"rows_train", train.rows()},
@@ -231,6 +237,7 @@ int main(int argc, char** argv) {
                 {"classes", classes},
                 {"trees", M},
                 {"n_min", n_min},
+                {"score", to_string(score)},
                 {"threads", threads},
                 {"repeat", repeat},
                 {"runs", runs},

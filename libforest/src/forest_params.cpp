@@ -61,6 +61,14 @@ Balance balance_from_string(const std::string& s, const std::string& field) {
   throw Error("", field, "is \"" + s + "\", expected none or classes");
 }
 
+std::string to_string(Score s) { return s == Score::InformationGain ? "information-gain" : "wehenkel-pavella"; }
+
+Score score_from_string(const std::string& s, const std::string& field) {
+  if (s == "wehenkel-pavella") return Score::WehenkelPavella;
+  if (s == "information-gain") return Score::InformationGain;
+  throw Error("", field, "is \"" + s + "\", expected wehenkel-pavella or information-gain");
+}
+
 void TrainParams::validate(const std::string& source) const {
   auto bad = [&](const char* field, const std::string& why) { throw Error(source, field, why); };
   if (K < 1) bad("K", "must be >= 1, got " + std::to_string(K));
@@ -71,6 +79,8 @@ void TrainParams::validate(const std::string& source) const {
   if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
   if (memory_mb < 1) bad("memory_mb", "must be >= 1");
+  if (score != Score::WehenkelPavella && score != Score::InformationGain)
+    bad("score", "is not wehenkel-pavella or information-gain");
   try {
     windows.validate();
   } catch (const Error& e) {
@@ -123,7 +133,7 @@ nlohmann::json params_to_json(const TrainParams& p) {
   return {{"K", p.K},         {"Ks", p.ks()},   {"Kt", p.kt()},
           {"M", p.M},         {"n_min", p.n_min}, {"seed", p.seed},
           {"windows", w},     {"balance", to_string(p.balance)},
-          {"textons", p.textons}};
+          {"textons", p.textons}, {"score", to_string(p.score)}};
 }
 
 TrainParams params_from_json(const JsonView& j) {
@@ -159,6 +169,13 @@ TrainParams params_from_json(const JsonView& j) {
     j.fail(e.reason(), "balance");
   }
   p.textons = j.boolean("textons");
+  if (j.has("score")) {  // absent in files written before the option: the default
+    try {
+      p.score = score_from_string(j.str("score"), "score");
+    } catch (const Error& e) {
+      j.fail(e.reason(), "score");
+    }
+  }
   try {
     p.validate(j.file().string());
   } catch (const Error& e) {

@@ -221,41 +221,53 @@ struct Split {
   }
 };
 
+/// The corpus's candidate-major values test-major: out[t * nc + c] = values[c * n + t] (tiled).
+std::unique_ptr<float[]> transpose_values(const float* values, std::size_t n, std::size_t nc) {
+  auto out = std::make_unique_for_overwrite<float[]>(std::max<std::size_t>(n * nc, 1));
+  constexpr std::size_t kTile = 16;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (n + kTile - 1) / kTile, 4),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t tb = r.begin(); tb != r.end(); ++tb) {
+      const std::size_t t0 = tb * kTile, t1 = std::min(n, t0 + kTile);
+      for (std::size_t c0 = 0; c0 < nc; c0 += kTile) {
+        const std::size_t c1 = std::min(nc, c0 + kTile);
+        for (std::size_t t = t0; t < t1; ++t)
+          for (std::size_t c = c0; c < c1; ++c) out[t * nc + c] = values[c * n + t];
+      }
+    }
+  });
+  return out;
+}
+
 class Grower {
  public:
-  /// Takes the corpus apart: its value matrix is reordered in place as the tree grows, so that the
-  /// tests of every node are contiguous in every column (sequential, vectorisable scans).
-  Grower(Corpus&& corpus, int n_min, std::uint64_t seed)
+  /// Grows a tree from `corpus` (its tests and candidates; it must outlive the grower).
+  ///
+  /// Layout: the values come test-major (rows_[t * nc + c], transpose_values), and a node is a
+  /// range of order_ (test indices, grouped by class). A split partitions only that index range;
+  /// the columns never move. Per node, every candidate's range over the node's tests and its
+  /// class-wise counts below its threshold come from two passes over the node's rows, each a
+  /// contiguous, vectorisable loop over a block of candidates.
+  /// `rows`: the corpus's values test-major (transpose_values), kept by the caller.
+  Grower(const Corpus& corpus, const float* rows, int n_min, std::uint64_t seed, Score score)
       : n_(corpus.tests.size()),
         nc_(corpus.candidates.size()),
         n_min_(n_min),
         seed_(seed),
+        score_(score),
         C_(static_cast<std::size_t>(corpus.num_classes)),
-        candidates_(std::move(corpus.candidates)),
-        values_(std::move(corpus.values)) {
+        candidates_(corpus.candidates),
+        rows_(rows) {
     xlogx_.resize(n_ + 1);
     xlogx_[0] = 0.0;
     for (std::size_t i = 1; i <= n_; ++i) xlogx_[i] = static_cast<double>(i) * std::log(static_cast<double>(i));
     labels_.resize(n_);
     for (std::size_t t = 0; t < n_; ++t) labels_[t] = corpus.tests[t].label;
-    // Tests grouped by class (build_corpus already sorts them so; others are permuted once). Stable
-    // partitions keep every node's tests grouped by class, so a class's left count is a plain sum.
-    std::vector<std::uint32_t> perm(n_);
-    std::iota(perm.begin(), perm.end(), 0u);
-    std::stable_sort(perm.begin(), perm.end(), [&](std::uint32_t a, std::uint32_t b) { return labels_[a] < labels_[b]; });
-    bool identity = true;
-    for (std::size_t i = 0; i < n_; ++i) identity = identity && perm[i] == i;
-    if (!identity) {
-      std::vector<float> tmp(n_);
-      for (std::size_t c = 0; c < nc_; ++c) {
-        float* col = column(c);
-        for (std::size_t i = 0; i < n_; ++i) tmp[i] = col[perm[i]];
-        std::copy(tmp.begin(), tmp.end(), col);
-      }
-      std::vector<std::uint8_t> l(n_);
-      for (std::size_t i = 0; i < n_; ++i) l[i] = labels_[perm[i]];
-      labels_ = std::move(l);
-    }
+    // Tests grouped by class (stably): partitions keep every node's tests grouped by class, so a
+    // class's tests are one run of the node's range.
+    order_.resize(n_);
+    std::iota(order_.begin(), order_.end(), 0u);
+    std::stable_sort(order_.begin(), order_.end(), [&](std::uint32_t a, std::uint32_t b) { return labels_[a] < labels_[b]; });
   }
 
   Tree grow() {
@@ -263,27 +275,18 @@ class Grower {
     tree.nodes.emplace_back();
     struct Item {
       int node;
-      std::size_t begin, end;
-      std::shared_ptr<const LiveSet> live;  // candidates that vary over the node's tests, with range
+      std::size_t begin, end;  // the node's range of order_
     };
-    auto root = std::make_shared<LiveSet>();
-    {
-      std::vector<float> lo(nc_), hi(nc_);
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nc_, 64), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t c = r.begin(); c != r.end(); ++c) minmax(column(c), n_, lo[c], hi[c]);
-      });
-      for (std::size_t c = 0; c < nc_; ++c) root->add(static_cast<std::uint32_t>(c), lo[c], hi[c]);
-    }
-    std::vector<Item> stack{{0, 0, n_, root}};
-    std::vector<std::uint32_t> counts(C_), lcounts(C_);
-    std::vector<std::uint8_t> mask, tmp8;
+    std::vector<Item> stack{{0, 0, n_}};
+    std::vector<std::uint32_t> counts(C_), tmp;
     while (!stack.empty()) {
-      Item it = std::move(stack.back());
+      const Item it = stack.back();
       stack.pop_back();
       const std::size_t b = it.begin, m = it.end - it.begin;
-      count_classes(b, it.end, counts);
+      std::fill(counts.begin(), counts.end(), 0u);
+      for (std::size_t i = b; i < it.end; ++i) ++counts[labels_[order_[i]]];
       Split best;
-      if (!is_leaf(counts, m)) best = best_split(it.node, b, m, counts, *it.live);
+      if (!is_leaf(counts, m)) best = best_split(it.node, order_.data() + b, m, counts);
       Node& node = tree.nodes[static_cast<std::size_t>(it.node)];
       if (best.score < 0.0) {  // pure, too few tests, or every candidate constant
         node.counts = counts;
@@ -293,76 +296,33 @@ class Grower {
       node.feature = cand.feature;
       node.win = cand.win;
       node.threshold = best.threshold;
-      // Stable partition (value < threshold first) of the labels and of every live column; the
-      // children's value ranges come out of the same pass (the segments are then in L1/L2).
+      // Stable partition of the node's tests (value < threshold first).
       const float tf = float_ceil(best.threshold);
-      const float* bc = column(best.candidate) + b;
-      mask.resize(m);
-      std::size_t nl = 0;
-      for (std::size_t i = 0; i < m; ++i) nl += mask[i] = bc[i] < tf ? 1 : 0;
-      tmp8.resize(m);
-      partition(labels_.data() + b, mask.data(), m, nl, tmp8.data());
-      count_classes(b, b + nl, lcounts);
-      const bool grow_left = !is_leaf(lcounts, nl);
-      for (std::size_t k = 0; k < C_; ++k) lcounts[k] = counts[k] - lcounts[k];
-      const bool grow_right = !is_leaf(lcounts, m - nl);
-      auto left_set = std::make_shared<LiveSet>(), right_set = std::make_shared<LiveSet>();
-      if (grow_left || grow_right) {
-        const LiveSet& live = *it.live;
-        const std::size_t L = live.cand.size();
-        std::vector<float> llo(L), lhi(L), rlo(L), rhi(L);
-        auto part = [&](std::size_t j0, std::size_t j1) {
-          std::vector<float> tmp(m);
-          for (std::size_t j = j0; j < j1; ++j) {
-            float* seg = column(live.cand[j]) + b;
-            partition(seg, mask.data(), m, nl, tmp.data());
-            if (grow_left) minmax(seg, nl, llo[j], lhi[j]);
-            if (grow_right) minmax(seg + nl, m - nl, rlo[j], rhi[j]);
-          }
-        };
-        if (m * L < (std::size_t{1} << 20)) {
-          part(0, L);
-        } else {
-          tbb::parallel_for(tbb::blocked_range<std::size_t>(0, L, 32),
-                            [&](const tbb::blocked_range<std::size_t>& r) { part(r.begin(), r.end()); });
-        }
-        for (std::size_t j = 0; j < L; ++j) {
-          if (grow_left) left_set->add(live.cand[j], llo[j], lhi[j]);
-          if (grow_right) right_set->add(live.cand[j], rlo[j], rhi[j]);
-        }
+      std::uint32_t* ord = order_.data() + b;
+      tmp.resize(m);
+      std::size_t nl = 0, nr = 0;
+      for (std::size_t i = 0; i < m; ++i) {
+        const std::uint32_t t = ord[i];
+        const bool left = rows_[t * nc_ + best.candidate] < tf;
+        ord[nl] = t;  // nl <= i: never overwrites an unread entry
+        tmp[nr] = t;
+        nl += left;
+        nr += !left;
       }
+      std::copy(tmp.begin(), tmp.begin() + static_cast<std::ptrdiff_t>(nr), ord + nl);
       const int left = static_cast<int>(tree.nodes.size());
       node.left = left;
       node.right = left + 1;
       tree.nodes.emplace_back();  // invalidates `node`
       tree.nodes.emplace_back();
-      it.live.reset();
       // Depth first, left subtree first.
-      stack.push_back({left + 1, b + nl, it.end, std::move(right_set)});
-      stack.push_back({left, b, b + nl, std::move(left_set)});
+      stack.push_back({left + 1, b + nl, it.end});
+      stack.push_back({left, b, b + nl});
     }
     return tree;
   }
 
  private:
-  struct LiveSet {
-    std::vector<std::uint32_t> cand;
-    std::vector<float> lo, hi;
-    void add(std::uint32_t c, float l, float h) {
-      if (!(l < h)) return;  // constant here, hence in every descendant
-      cand.push_back(c);
-      lo.push_back(l);
-      hi.push_back(h);
-    }
-  };
-
-  float* column(std::size_t c) { return values_.data() + c * n_; }
-  const float* column(std::size_t c) const { return values_.data() + c * n_; }
-
-  void count_classes(std::size_t b, std::size_t e, std::vector<std::uint32_t>& counts) const {
-    std::fill(counts.begin(), counts.end(), 0u);
-    for (std::size_t i = b; i < e; ++i) ++counts[labels_[i]];
-  }
   bool is_leaf(const std::vector<std::uint32_t>& counts, std::size_t m) const {
     const bool pure = std::count_if(counts.begin(), counts.end(), [](std::uint32_t v) { return v > 0; }) <= 1;
     return pure || m < static_cast<std::size_t>(n_min_) || m < 2;
@@ -370,104 +330,98 @@ class Grower {
 
   typedef float v4f __attribute__((vector_size(16)));
   typedef std::int32_t v4i __attribute__((vector_size(16)));
-
   static v4f load4(const float* p) {
     v4f v;
     std::memcpy(&v, p, sizeof v);
     return v;
   }
+  static void store4(float* p, v4f v) { std::memcpy(p, &v, sizeof v); }
 
-  static void minmax(const float* v, std::size_t m, float& lo_out, float& hi_out) {
-    if (m == 0) {
-      lo_out = hi_out = 0.0f;
-      return;
+  static constexpr std::size_t kBlock = 256;  // candidates per block (scratch stays in L1)
+
+  /// The best split of a node over candidates [j0, j1): every candidate that is not constant over
+  /// the node's tests gets one threshold uniform in (min, max] and is scored.
+  Split scan_block(int node, const std::uint32_t* ord, std::size_t m, const std::vector<std::uint32_t>& counts,
+                   double sum_nc, std::size_t j0, std::size_t j1) const {
+    const std::size_t B = j1 - j0;
+    alignas(64) float lo[kBlock], hi[kBlock], tf[kBlock];
+    alignas(64) std::int32_t cnt[kBlock];
+    {
+      const float* r = rows_ + ord[0] * nc_ + j0;
+      std::copy(r, r + B, lo);
+      std::copy(r, r + B, hi);
     }
-    float lo = v[0], hi = v[0];
-    std::size_t i = 0;
-    if (m >= 8) {
-      v4f lo0 = load4(v), hi0 = lo0, lo1 = load4(v + 4), hi1 = lo1;
-      for (i = 8; i + 8 <= m; i += 8) {
-        const v4f a = load4(v + i), c = load4(v + i + 4);
-        lo0 = a < lo0 ? a : lo0;
-        hi0 = a > hi0 ? a : hi0;
-        lo1 = c < lo1 ? c : lo1;
-        hi1 = c > hi1 ? c : hi1;
+    const std::size_t B4 = B & ~std::size_t{3};  // whole 4-float vectors; the rest one by one
+    for (std::size_t i = 1; i < m; ++i) {
+      const float* r = rows_ + ord[i] * nc_ + j0;
+      for (std::size_t j = 0; j < B4; j += 4) {
+        const v4f v = load4(r + j), l = load4(lo + j), h = load4(hi + j);
+        store4(lo + j, v < l ? v : l);
+        store4(hi + j, v > h ? v : h);
       }
-      lo0 = lo1 < lo0 ? lo1 : lo0;
-      hi0 = hi1 > hi0 ? hi1 : hi0;
-      for (int k = 0; k < 4; ++k) {
-        lo = std::min(lo, lo0[k]);
-        hi = std::max(hi, hi0[k]);
+      for (std::size_t j = B4; j < B; ++j) {
+        const float v = r[j];
+        lo[j] = v < lo[j] ? v : lo[j];
+        hi[j] = v > hi[j] ? v : hi[j];
       }
     }
-    for (; i < m; ++i) {
-      lo = std::min(lo, v[i]);
-      hi = std::max(hi, v[i]);
+    double thr[kBlock];
+    for (std::size_t j = 0; j < B; ++j) {
+      const double dlo = lo[j], dhi = hi[j];
+      if (!(lo[j] < hi[j])) {  // constant over the node: not a candidate here
+        tf[j] = -std::numeric_limits<float>::infinity();
+        continue;
+      }
+      double t = dhi - hash_uniform(seed_, static_cast<std::uint64_t>(node), j0 + j) * (dhi - dlo);
+      if (!(t > dlo)) t = dhi;  // threshold in (lo, hi]: both sides non-empty
+      thr[j] = t;
+      tf[j] = float_ceil(t);
     }
-    lo_out = lo;
-    hi_out = hi;
+    // Class-wise counts below the thresholds: left[k * B + j].
+    std::vector<std::uint32_t> left(C_ * B);
+    std::size_t s = 0;
+    for (std::size_t k = 0; k < C_; ++k) {
+      if (counts[k] == 0) continue;
+      std::fill(cnt, cnt + B, 0);
+      for (std::size_t i = s; i < s + counts[k]; ++i) {
+        const float* r = rows_ + ord[i] * nc_ + j0;
+        for (std::size_t j = 0; j < B4; j += 4) {
+          v4i c;
+          std::memcpy(&c, cnt + j, sizeof c);
+          c -= load4(r + j) < load4(tf + j);  // true is -1
+          std::memcpy(cnt + j, &c, sizeof c);
+        }
+        for (std::size_t j = B4; j < B; ++j) cnt[j] += r[j] < tf[j] ? 1 : 0;
+      }
+      for (std::size_t j = 0; j < B; ++j) left[k * B + j] = static_cast<std::uint32_t>(cnt[j]);
+      s += counts[k];
+    }
+    Split best;
+    std::vector<std::uint32_t> lj(C_);
+    for (std::size_t j = 0; j < B; ++j) {
+      if (!(lo[j] < hi[j])) continue;
+      for (std::size_t k = 0; k < C_; ++k) lj[k] = left[k * B + j];
+      const Split cand{score(lj, counts, m, sum_nc), j0 + j, thr[j]};
+      if (cand.better_than(best)) best = cand;
+    }
+    return best;
   }
 
-  static std::uint32_t count_less(const float* v, std::size_t m, float t) {
-    std::size_t i = 0;
-    std::uint32_t cnt = 0;
-    if (m >= 8) {
-      v4i c0 = {0, 0, 0, 0}, c1 = c0;
-      const v4f tv = {t, t, t, t};
-      for (; i + 8 <= m; i += 8) {
-        c0 -= load4(v + i) < tv;  // true is -1
-        c1 -= load4(v + i + 4) < tv;
-      }
-      c0 += c1;
-      cnt = static_cast<std::uint32_t>(c0[0] + c0[1] + c0[2] + c0[3]);
-    }
-    for (; i < m; ++i) cnt += v[i] < t ? 1u : 0u;
-    return cnt;
-  }
-
-  // Stable, branch-free partition of seg[0..m) by mask (1 = left, nl of them).
-  template <class T>
-  static void partition(T* seg, const std::uint8_t* mask, std::size_t m, std::size_t nl, T* tmp) {
-    std::size_t l = 0, r = 0;
-    for (std::size_t i = 0; i < m; ++i) {
-      const T v = seg[i];
-      seg[l] = v;  // l <= i: never overwrites an unread value
-      tmp[r] = v;
-      l += mask[i];
-      r += 1u - mask[i];
-    }
-    std::copy(tmp, tmp + r, seg + nl);
-  }
-
-  Split best_split(int node, std::size_t b, std::size_t m, const std::vector<std::uint32_t>& counts,
-                   const LiveSet& live) const {
+  Split best_split(int node, const std::uint32_t* ord, std::size_t m, const std::vector<std::uint32_t>& counts) const {
     double sum_nc = 0.0;
     for (auto v : counts) sum_nc += xlogx_[v];
-    auto scan = [&](std::size_t j0, std::size_t j1) {
+    const std::size_t blocks = (nc_ + kBlock - 1) / kBlock;
+    auto scan = [&](std::size_t b0, std::size_t b1) {
       Split best;
-      std::vector<std::uint32_t> left(C_);
-      for (std::size_t j = j0; j < j1; ++j) {
-        const std::size_t c = live.cand[j];
-        const float* vals = column(c) + b;
-        const double dlo = live.lo[j], dhi = live.hi[j];
-        double t = dhi - hash_uniform(seed_, static_cast<std::uint64_t>(node), c) * (dhi - dlo);
-        if (!(t > dlo)) t = dhi;  // threshold in (lo, hi]: both sides non-empty
-        const float tf = float_ceil(t);
-        std::size_t s = 0;
-        for (std::size_t k = 0; k < C_; ++k) {
-          left[k] = counts[k] ? count_less(vals + s, counts[k], tf) : 0u;
-          s += counts[k];
-        }
-        const double sc = score(left, counts, m, sum_nc);
-        const Split cand{sc, c, t};
-        if (cand.better_than(best)) best = cand;
+      for (std::size_t bi = b0; bi < b1; ++bi) {
+        const Split s = scan_block(node, ord, m, counts, sum_nc, bi * kBlock, std::min(nc_, (bi + 1) * kBlock));
+        if (s.better_than(best)) best = s;
       }
       return best;
     };
-    const std::size_t L = live.cand.size();
-    if (m * L < (std::size_t{1} << 20)) return scan(0, L);
+    if (m * nc_ < (std::size_t{1} << 19)) return scan(0, blocks);
     return tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(0, L, 16), Split{},
+        tbb::blocked_range<std::size_t>(0, blocks, 1), Split{},
         [&](const tbb::blocked_range<std::size_t>& r, Split acc) {
           const Split s = scan(r.begin(), r.end());
           return s.better_than(acc) ? s : acc;
@@ -475,6 +429,8 @@ class Grower {
         [](const Split& a, const Split& c) { return a.better_than(c) ? a : c; });
   }
 
+  /// The split score in n log n form (natural logs): Wehenkel-Pavella 2 n I / (n H(C) + n H(S)), or
+  /// the information gain n I / n = I(C;S) in nats.
   double score(const std::vector<std::uint32_t>& left, const std::vector<std::uint32_t>& counts,
                std::size_t n, double sum_nc) const {
     std::size_t nl = 0;
@@ -488,8 +444,9 @@ class Grower {
     if (nl == 0 || nr == 0) return 0.0;
     const double nlogn = xlogx_[n];
     const double hc = nlogn - sum_nc;                                // n H(C)
-    const double hs = nlogn - xlogx_[nl] - xlogx_[nr];               // n H(S)
     const double hcs = (xlogx_[nl] - sum_l) + (xlogx_[nr] - sum_r);  // n H(C|S)
+    if (score_ == Score::InformationGain) return (hc - hcs) / static_cast<double>(n);
+    const double hs = nlogn - xlogx_[nl] - xlogx_[nr];               // n H(S)
     const double denom = hc + hs;
     return denom > 0.0 ? 2.0 * (hc - hcs) / denom : 0.0;
   }
@@ -497,11 +454,13 @@ class Grower {
   std::size_t n_, nc_;
   int n_min_;
   std::uint64_t seed_;
+  Score score_;
   std::size_t C_;
-  std::vector<Candidate> candidates_;
-  std::vector<float> values_;
+  const std::vector<Candidate>& candidates_;
   std::vector<double> xlogx_;
-  std::vector<std::uint8_t> labels_;
+  std::vector<std::uint8_t> labels_;   // by test index
+  std::vector<std::uint32_t> order_;   // test indices; every node is a range, grouped by class
+  const float* rows_;                  // test-major values: rows_[t * nc_ + c]
 };
 
 }  // namespace
@@ -526,6 +485,24 @@ double wehenkel_pavella(std::span<const std::uint32_t> left, std::span<const std
   return 2.0 * (hc - hcs) / (hc + hs);
 }
 
+double information_gain(std::span<const std::uint32_t> left, std::span<const std::uint32_t> right) {
+  if (left.size() != right.size()) throw Error("", "information_gain", "left and right class counts differ in size");
+  auto xlx = [](double x) { return x > 0.0 ? x * std::log2(x) : 0.0; };
+  double nl = 0, nr = 0, sl = 0, sr = 0, sc = 0;
+  for (std::size_t k = 0; k < left.size(); ++k) {
+    nl += left[k];
+    nr += right[k];
+    sl += xlx(left[k]);
+    sr += xlx(right[k]);
+    sc += xlx(static_cast<double>(left[k]) + right[k]);
+  }
+  if (nl == 0 || nr == 0) return 0.0;
+  const double n = nl + nr;
+  const double hc = (xlx(n) - sc) / n;
+  const double hcs = ((xlx(nl) - sl) + (xlx(nr) - sr)) / n;
+  return std::max(0.0, hc - hcs);
+}
+
 Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree) {
   validate_for_training(data, params);
   if (tree < 0 || tree >= params.M)
@@ -535,14 +512,31 @@ Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree) {
   return make_corpus(data, params, sampler, stacks, tree);
 }
 
-Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed) {
+namespace {
+void check_corpus(const Corpus& corpus, Score score) {
   if (corpus.tests.empty()) throw Error("", "corpus", "no tests");
   if (corpus.values.size() != corpus.tests.size() * corpus.candidates.size())
     throw Error("", "corpus.values", "size is not tests x candidates");
   for (const auto& t : corpus.tests)
     if (t.label >= corpus.num_classes) throw Error("", "corpus.tests", "label outside the class list");
-  Corpus copy = corpus;
-  return Grower(std::move(copy), n_min, seed).grow();
+  if (score != Score::WehenkelPavella && score != Score::InformationGain) throw Error("", "score", "unknown split score");
+}
+}  // namespace
+
+Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed, Score score) {
+  check_corpus(corpus, score);
+  const auto rows = transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
+  return Grower(corpus, rows.get(), n_min, seed, score).grow();
+}
+
+std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const std::uint64_t> seeds, Score score) {
+  check_corpus(corpus, score);
+  const auto rows = transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
+  std::vector<Tree> trees(seeds.size());
+  tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t t) {
+    trees[t] = Grower(corpus, rows.get(), n_min, seeds[t], score).grow();
+  });
+  return trees;
 }
 
 Forest train_forest(const Dataset& data, const TrainParams& params) {
@@ -562,7 +556,8 @@ Forest train_forest(const Dataset& data, const TrainParams& params) {
 
   const std::size_t candidates = static_cast<std::size_t>(params.ks()) *
                                  (data.features.size() + (params.textons ? kNumTextonTests : 0));
-  const std::size_t per_tree = candidates * static_cast<std::size_t>(params.kt()) * sizeof(float) +
+  // The value matrix and its test-major copy (the grower's).
+  const std::size_t per_tree = 2 * candidates * static_cast<std::size_t>(params.kt()) * sizeof(float) +
                                static_cast<std::size_t>(params.kt()) * 32;
   const std::size_t budget = params.memory_mb << 20;
   const std::size_t in_flight = std::clamp<std::size_t>(budget / std::max<std::size_t>(per_tree, 1), 1,
@@ -582,8 +577,11 @@ Forest train_forest(const Dataset& data, const TrainParams& params) {
           tbb::make_filter<int, void>(tbb::filter_mode::parallel, [&](int t) {
             const auto tt = Clock::now();
             Corpus corpus = make_corpus(data, params, sampler, stacks, t);
+            std::unique_ptr<float[]> rows =
+                transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
+            std::vector<float>().swap(corpus.values);
             forest.trees[static_cast<std::size_t>(t)] =
-                Grower(std::move(corpus), params.n_min, tree_seed(params.seed, t)).grow();
+                Grower(corpus, rows.get(), params.n_min, tree_seed(params.seed, t), params.score).grow();
             tree_seconds[static_cast<std::size_t>(t)] = seconds_since(tt);
             progress.tick();
           }));
@@ -628,3 +626,4 @@ void export_corpus_csv(const Dataset& data, const TrainParams& params, int tree,
 }
 
 }  // namespace smseg::forest
+

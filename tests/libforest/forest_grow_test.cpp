@@ -49,9 +49,11 @@ struct RefGrower {
   const Corpus& c;
   int n_min;
   std::uint64_t seed;
+  Score kind;
   std::vector<double> xlogx;
 
-  RefGrower(const Corpus& corpus, int nmin, std::uint64_t s) : c(corpus), n_min(nmin), seed(s) {
+  RefGrower(const Corpus& corpus, int nmin, std::uint64_t s, Score k = Score::WehenkelPavella)
+      : c(corpus), n_min(nmin), seed(s), kind(k) {
     xlogx.resize(c.tests.size() + 1);
     for (std::size_t i = 1; i < xlogx.size(); ++i) xlogx[i] = static_cast<double>(i) * std::log(static_cast<double>(i));
   }
@@ -69,6 +71,7 @@ struct RefGrower {
     if (nl == 0 || nr == 0) return 0.0;
     const double hc = xlogx[n] - sc, hs = xlogx[n] - xlogx[nl] - xlogx[nr];
     const double hcs = (xlogx[nl] - sl) + (xlogx[nr] - sr);
+    if (kind == Score::InformationGain) return (hc - hcs) / static_cast<double>(n);  // I(C;S) in nats
     return hc + hs > 0 ? 2.0 * (hc - hcs) / (hc + hs) : 0.0;
   }
   Tree grow() {
@@ -260,4 +263,80 @@ TEST(GrowTree, RejectsMalformedCorpora) {
   EXPECT_THROW(grow_tree(c, 1, 1), smseg::Error);
   Corpus d = make_corpus(2, {0, 3}, {{0, 1}});
   EXPECT_THROW(grow_tree(d, 1, 1), smseg::Error);
+}
+
+TEST(InformationGain, HandComputedValues) {
+  using V = std::vector<std::uint32_t>;
+  // A perfect split of two equal classes: I = H(C) = 1 bit.
+  EXPECT_NEAR(information_gain(V{2, 0}, V{0, 2}), 1.0, 1e-12);
+  // Uninformative splits: I = 0.
+  EXPECT_NEAR(information_gain(V{1, 1}, V{1, 1}), 0.0, 1e-12);
+  EXPECT_NEAR(information_gain(V{3, 6}, V{1, 2}), 0.0, 1e-12);
+  // Left {3,1}, right {0,4}: H(C) = H(3/8) = 0.954434 bits, H(C|S) = 0.5 H(1/4) = 0.405639 bits,
+  // I = 0.548795 bits (Wehenkel-Pavella divides 2 I by H(C) + H(S) = 1.954434: 0.561590).
+  EXPECT_NEAR(information_gain(V{3, 1}, V{0, 4}), 0.5487949, 1e-6);
+  // Three classes {4,4,8} split {4,0,0} / {0,4,8}: H(C) = 1.5 bits, H(C|S) = 0.75 H(1/3) = 0.688722,
+  // I = 0.811278 bits.
+  EXPECT_NEAR(information_gain(V{4, 0, 0}, V{0, 4, 8}), 0.8112781, 1e-6);
+  // Same node, a lopsided and a balanced split: Wehenkel-Pavella divides the balanced split's gain
+  // by the larger H(C) + H(S) (H(S) = 1 bit against 0.47), so relative to the balanced split it rates
+  // the lopsided one higher than information gain does.
+  const double ig_small = information_gain(V{10, 0}, V{10, 80}), ig_half = information_gain(V{18, 32}, V{2, 48});
+  const double wp_small = wehenkel_pavella(V{10, 0}, V{10, 80}), wp_half = wehenkel_pavella(V{18, 32}, V{2, 48});
+  EXPECT_LT(ig_small / ig_half, wp_small / wp_half);
+  EXPECT_EQ(information_gain(V{3, 4}, V{0, 0}), 0.0);
+  EXPECT_THROW(information_gain(V{1, 2}, V{1}), smseg::Error);
+}
+
+TEST(GrowTree, InformationGainEqualsTheReferenceAndIsDeterministic) {
+  int differ = 0;
+  for (int trial = 0; trial < 8; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    Rng rng(2000 + static_cast<std::uint64_t>(trial));
+    const int C = 2 + trial % 4, n = 60 + 50 * trial, K = 6 + 3 * trial;
+    std::vector<int> labels(static_cast<std::size_t>(n));
+    for (auto& l : labels) l = static_cast<int>(rng.below(static_cast<std::uint64_t>(C)));
+    std::vector<std::vector<float>> cols(static_cast<std::size_t>(K));
+    for (int k = 0; k < K; ++k)
+      for (int i = 0; i < n; ++i) {
+        float v = static_cast<float>(rng.uniform());
+        if (k % 3 == 1) v = static_cast<float>(rng.below(4));
+        if (k % 4 == 0) v += 0.3f * static_cast<float>(labels[static_cast<std::size_t>(i)]);
+        cols[static_cast<std::size_t>(k)].push_back(v);
+      }
+    const Corpus c = make_corpus(C, labels, cols);
+    const std::uint64_t seed = 7 + static_cast<std::uint64_t>(trial);
+    const Tree ig = grow_tree(c, 5, seed, Score::InformationGain);
+    expect_same_tree(ig, RefGrower(c, 5, seed, Score::InformationGain).grow());
+    expect_same_tree(ig, grow_tree(c, 5, seed, Score::InformationGain));  // same seed, same tree
+    const Tree wp = grow_tree(c, 5, seed);
+    differ += wp.nodes.size() != ig.nodes.size() || wp.nodes[0].win != ig.nodes[0].win ||
+              wp.nodes[0].threshold != ig.nodes[0].threshold;
+    // grow_trees (one shared layout) grows the same trees as grow_tree.
+    const std::vector<std::uint64_t> seeds{seed, seed + 1, seed + 2};
+    const std::vector<Tree> many = grow_trees(c, 5, seeds, Score::InformationGain);
+    ASSERT_EQ(many.size(), 3u);
+    for (std::size_t i = 0; i < seeds.size(); ++i) expect_same_tree(many[i], grow_tree(c, 5, seeds[i], Score::InformationGain));
+  }
+  EXPECT_GT(differ, 0);  // the option does change trees
+}
+
+TEST(GrowTree, TrainForestUsesTheScoreOption) {
+  SyntheticOptions o;
+  o.width = 64;
+  o.height = 48;
+  o.frames = 3;
+  o.features = 3;
+  o.signal = 0.3;
+  const SyntheticData s = make_synthetic(o);
+  TrainParams p;
+  p.K = 120;
+  p.M = 2;
+  p.score = Score::InformationGain;
+  const Corpus c = build_corpus(s.data, p, 1);
+  const Tree t = grow_tree(c, p.n_min, tree_seed(p.seed, 1), Score::InformationGain);
+  expect_same_tree(t, RefGrower(c, p.n_min, tree_seed(p.seed, 1), Score::InformationGain).grow());
+  const Forest f = train_forest(s.data, p);
+  expect_same_tree(f.trees[1], t);
+  EXPECT_EQ(f.params.score, Score::InformationGain);
 }

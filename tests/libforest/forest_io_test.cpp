@@ -124,6 +124,8 @@ TEST(ForestFile, InconsistentContentIsRefusedNamingTheField) {
       {"duplicate feature", [](smseg::Json& j) { j["features"][1] = j["features"][0]; }, "features"},
       {"bad K", [](smseg::Json& j) { j["params"]["K"] = 0; }, "params.K"},
       {"bad balance", [](smseg::Json& j) { j["params"]["balance"] = "maybe"; }, "params.balance"},
+      {"bad score", [](smseg::Json& j) { j["params"]["score"] = "gini"; }, "params.score"},
+      {"score not a string", [](smseg::Json& j) { j["params"]["score"] = 1; }, "params.score"},
       {"no image size", [](smseg::Json& j) { j.erase("image"); }, "image"},
   };
   for (const Case& c : cases) {
@@ -147,4 +149,17 @@ TEST(ForestFile, CompatibilityWithTheDataIsChecked) {
     EXPECT_EQ(e.file(), "f.json");
     EXPECT_EQ(e.field(), "features");
   }
+}
+
+TEST(ForestFile, SplitScoreIsSavedAndOldFilesReadAsTheDefault) {
+  const Fixture fx;
+  EXPECT_EQ(forest_to_json(fx.forest)["params"]["score"], "wehenkel-pavella");
+  // Files written before the option have no "score": the thesis's default.
+  const Forest old = fx.load_edited([](smseg::Json& j) { j["params"].erase("score"); });
+  EXPECT_EQ(old.params.score, Score::WehenkelPavella);
+  const Forest ig = fx.load_edited([](smseg::Json& j) { j["params"]["score"] = "information-gain"; });
+  EXPECT_EQ(ig.params.score, Score::InformationGain);
+  EXPECT_EQ(params_to_json(ig.params)["score"], "information-gain");
+  EXPECT_EQ(score_from_string("information-gain", "x"), Score::InformationGain);
+  EXPECT_THROW(score_from_string("entropy", "--score"), smseg::Error);
 }

@@ -22,6 +22,14 @@ enum class Balance {
 std::string to_string(Balance b);
 Balance balance_from_string(const std::string& s, const std::string& field);
 
+/// How a candidate split of a node is scored (the highest score wins).
+enum class Score {
+  WehenkelPavella,  ///< 2 I(C;S) / (H(C) + H(S)), Wehenkel & Pavella's normalisation (the thesis)
+  InformationGain   ///< I(C;S) = H(C) - H(C|S), plain information gain (scikit-learn's 'entropy')
+};
+std::string to_string(Score s);  ///< "wehenkel-pavella" | "information-gain"
+Score score_from_string(const std::string& s, const std::string& field);
+
 struct TrainParams {
   int K = 400;        ///< sets Ks and Kt when they are 0 (thesis: K = Ks = Kt)
   int Ks = 0;         ///< sampling windows per tree (0: K)
@@ -32,6 +40,8 @@ struct TrainParams {
   WindowParams windows;              ///< how the Ks windows are drawn (default uniform)
   Balance balance = Balance::None;   ///< default off
   bool textons = false;              ///< add the four texton tests at Ks random offsets
+  /// The split score (default: the thesis's). Forest files without it read as the default.
+  Score score = Score::WehenkelPavella;
   /// Memory for the per-tree value matrices (Kt x candidates floats): trees are trained
   /// concurrently only as far as this allows (at least one at a time). Does not change the
   /// forest, so it is not serialised.

@@ -10,7 +10,8 @@
 //     the corpus, a candidate-major float matrix (Kt x candidates x 4 bytes);
 //  4. grow the tree depth first: at each node every non-constant candidate gets one threshold
 //     uniform in (min, max] of its values over the node's tests; the best Wehenkel-Pavella score
-//     2 I(C;S) / (H(C) + H(S)) splits (ties: lowest candidate index). A node is a leaf when its tests
+//     2 I(C;S) / (H(C) + H(S)) splits (ties: lowest candidate index); with Score::InformationGain
+//     the best I(C;S) does. A node is a leaf when its tests
 //     share one class, when every candidate is constant over them, or when fewer than n_min remain.
 // Trees run in parallel (oneTBB), and candidates of big nodes too; thresholds are counter-based
 // draws keyed by (tree seed, node index, candidate), so the forest does not depend on thread count.
@@ -53,12 +54,22 @@ struct Corpus {
 /// The corpus tree `tree` of train_forest(data, params) is grown from.
 Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree);
 
-/// Grows one tree from a corpus (steps 4 above). seed: the tree's seed (thresholds).
-Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed);
+/// Grows one tree from a corpus (steps 4 above). seed: the tree's seed (thresholds); score: the
+/// split score (TrainParams::score).
+Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed, Score score = Score::WehenkelPavella);
+
+/// grow_tree for each seed (in parallel), sharing one test-major copy of the corpus's values (the
+/// grower's layout) instead of making one per tree: trees[i] == grow_tree(corpus, n_min, seeds[i], score).
+std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const std::uint64_t> seeds,
+                             Score score = Score::WehenkelPavella);
 
 /// Wehenkel-Pavella normalised information gain of a binary split, 2 I(C;S) / (H(C) + H(S)),
 /// from the per-class test counts on each side; 0 when either side is empty or H(C) = 0.
 double wehenkel_pavella(std::span<const std::uint32_t> left, std::span<const std::uint32_t> right);
+
+/// Information gain of a binary split, I(C;S) = H(C) - H(C|S) in bits, from the per-class test
+/// counts on each side; 0 when either side is empty.
+double information_gain(std::span<const std::uint32_t> left, std::span<const std::uint32_t> right);
 
 /// Writes the corpus of tree `tree` as CSV: a header "label,<candidate names>", then one row per
 /// test: its class index, then every candidate attribute's value (float, round-trip precision).
