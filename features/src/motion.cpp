@@ -3,8 +3,10 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include <Eigen/Dense>
+#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -69,6 +71,44 @@ int count_inliers(const RigidMotion& m, const std::vector<Eigen::Vector3d>& p, c
   if (sse) *sse = s;
   return n;
 }
+
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d S;
+  S << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return S;
+}
+
+Eigen::Matrix3d exp_so3(const Eigen::Vector3d& w) {
+  const double a = w.norm();
+  if (a < 1e-12) return nearest_rotation(Eigen::Matrix3d::Identity() + skew(w));
+  return Eigen::AngleAxisd(a, w / a).toRotationMatrix();
+}
+
+// d(u, v, d)/dY of the stereo projection at Y (camera frame, Y.z() > 0).
+Eigen::Matrix3d projection_jacobian(const StereoCamera& c, const Eigen::Vector3d& Y) {
+  const double iz = 1.0 / Y.z(), iz2 = iz * iz;
+  Eigen::Matrix3d J;
+  J << c.fx * iz, 0, -c.fx * Y.x() * iz2, 0, c.fy * iz, -c.fy * Y.y() * iz2, 0, 0, -c.fx * c.baseline * iz2;
+  return J;
+}
+
+constexpr double kMinDepth = 1e-3;  // metres: points behind or at the camera give no residual
+
+// Symmetric reprojection residuals of one correspondence under M (X_b = R X_a + T); false when a
+// moved point falls behind a camera. r_fwd: frame a's point in frame b; r_bwd: frame b's point in a.
+bool symmetric_residuals(const RigidMotion& M, const Eigen::Vector3d& Xa, const Eigen::Vector3d& Xb,
+                         const Eigen::Vector3d& ma, const Eigen::Vector3d& mb, const StereoCamera& c,
+                         Eigen::Vector3d& r_fwd, Eigen::Vector3d& r_bwd, Eigen::Vector3d& Y, Eigen::Vector3d& Z) {
+  Y = M.R * Xa + M.t;
+  Z = M.R.transpose() * (Xb - M.t);
+  if (Y.z() < kMinDepth || Z.z() < kMinDepth) return false;
+  r_fwd = c.project(Y) - mb;
+  r_bwd = c.project(Z) - ma;
+  return true;
+}
+
+double huber_weight(double r, double k) { return r <= k ? 1.0 : k / r; }
 
 }  // namespace
 
@@ -190,6 +230,145 @@ MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std:
   return est;
 }
 
+StereoCamera StereoCamera::from(const Calibration& calib) {
+  if (!calib.fx || !(*calib.fx > 0)) throw Error("", "calibration.fx", "the stereo camera needs the focal length");
+  if (!calib.baseline || !(*calib.baseline > 0))
+    throw Error("", "calibration.baseline", "the stereo camera needs the baseline");
+  StereoCamera c;
+  c.fx = *calib.fx;
+  c.fy = calib.fy.value_or(c.fx);
+  c.cx = calib.cx;
+  c.cy = calib.cy;
+  c.baseline = *calib.baseline;
+  return c;
+}
+
+Eigen::Vector3d StereoCamera::project(const Eigen::Vector3d& X) const {
+  const double iz = 1.0 / X.z();
+  return {fx * X.x() * iz + cx, fy * X.y() * iz + cy, fx * baseline * iz};
+}
+
+Eigen::Vector3d StereoCamera::backproject(const Eigen::Vector3d& uvd) const {
+  const double z = fx * baseline / uvd.z();
+  return {(uvd.x() - cx) * z / fx, (uvd.y() - cy) * z / fy, z};
+}
+
+void RefineOptions::validate() const {
+  auto bad = [](const char* f, const std::string& why) { throw Error("", std::string("refine.") + f, why); };
+  if (iterations < 1 || iterations > 1000) bad("iterations", "must be in 1..1000");
+  if (!(huber_px > 0)) bad("huber_px", "must be > 0 (pixels)");
+  if (!(inlier_px > 0)) bad("inlier_px", "must be > 0 (pixels)");
+  if (!(disparity_weight >= 0) || !std::isfinite(disparity_weight)) bad("disparity_weight", "must be >= 0");
+  if (!(second_min_share >= 0 && second_min_share <= 1)) bad("second_min_share", "must be in 0..1");
+}
+
+RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::Vector3d>& uvd_a,
+                          const std::vector<Eigen::Vector3d>& uvd_b, const StereoCamera& cam,
+                          const RefineOptions& o, const std::vector<std::uint8_t>& use,
+                          std::vector<std::uint8_t>* inliers, double* rms_px) {
+  if (uvd_a.size() != uvd_b.size() || (!use.empty() && use.size() != uvd_a.size()))
+    throw Error("", "points", "refine_motion needs as many measurements in both frames (and flags)");
+  const int n = static_cast<int>(uvd_a.size());
+  std::vector<Eigen::Vector3d> Xa(n), Xb(n);
+  std::vector<std::uint8_t> valid(n, 0);
+  for (int i = 0; i < n; ++i) {
+    if (!(uvd_a[i].z() > 0) || !(uvd_b[i].z() > 0) || !uvd_a[i].allFinite() || !uvd_b[i].allFinite()) continue;
+    Xa[i] = cam.backproject(uvd_a[i]);
+    Xb[i] = cam.backproject(uvd_b[i]);
+    valid[i] = 1;
+  }
+  const Eigen::Vector3d Dw(1, 1, o.disparity_weight);
+  // Robust cost of M over the used correspondences; optionally the normal equations.
+  auto evaluate = [&](const RigidMotion& M, Eigen::Matrix<double, 6, 6>* H, Eigen::Matrix<double, 6, 1>* g,
+                      int* used) {
+    double cost = 0;
+    int k = 0;
+    if (H) H->setZero(), g->setZero();
+    for (int i = 0; i < n; ++i) {
+      if (!valid[i] || (!use.empty() && !use[i])) continue;
+      Eigen::Vector3d rf, rb, Y, Z;
+      if (!symmetric_residuals(M, Xa[i], Xb[i], uvd_a[i], uvd_b[i], cam, rf, rb, Y, Z)) {
+        cost += 2 * o.huber_px * o.huber_px * 10;  // behind a camera: a large constant penalty
+        continue;
+      }
+      ++k;
+      rf = rf.cwiseProduct(Dw);
+      rb = rb.cwiseProduct(Dw);
+      const double nf = rf.norm(), nb = rb.norm();
+      for (double r : {nf, nb}) cost += r <= o.huber_px ? 0.5 * r * r : o.huber_px * (r - 0.5 * o.huber_px);
+      if (!H) continue;
+      Eigen::Matrix<double, 3, 6> Jf, Jb;
+      Jf.leftCols<3>() = -skew(Y);
+      Jf.rightCols<3>().setIdentity();
+      Jf = Dw.asDiagonal() * projection_jacobian(cam, Y) * Jf;
+      const Eigen::Matrix3d Rt = M.R.transpose();
+      Jb.leftCols<3>() = Rt * skew(Xb[i]);
+      Jb.rightCols<3>() = -Rt;
+      Jb = Dw.asDiagonal() * projection_jacobian(cam, Z) * Jb;
+      const double wf = huber_weight(nf, o.huber_px), wb = huber_weight(nb, o.huber_px);
+      *H += wf * Jf.transpose() * Jf + wb * Jb.transpose() * Jb;
+      *g += wf * Jf.transpose() * rf + wb * Jb.transpose() * rb;
+    }
+    if (used) *used = k;
+    return cost;
+  };
+  RigidMotion M = initial;
+  Eigen::Matrix<double, 6, 6> H;
+  Eigen::Matrix<double, 6, 1> g;
+  int used = 0;
+  double cost = evaluate(M, &H, &g, &used);
+  if (used >= 3) {
+    double lambda = 1e-4;
+    for (int it = 0; it < o.iterations; ++it) {
+      bool accepted = false;
+      for (int tries = 0; tries < 8 && !accepted; ++tries) {
+        Eigen::Matrix<double, 6, 6> A = H;
+        A.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
+        const Eigen::Matrix<double, 6, 1> delta = A.ldlt().solve(-g);
+        if (!delta.allFinite()) {
+          lambda *= 10;
+          continue;
+        }
+        const Eigen::Matrix3d dR = exp_so3(delta.head<3>());
+        RigidMotion C;
+        C.R = nearest_rotation(dR * M.R);
+        C.t = dR * M.t + delta.tail<3>();
+        const double c2 = evaluate(C, nullptr, nullptr, nullptr);
+        if (c2 <= cost) {
+          const bool converged = delta.norm() < 1e-10 || cost - c2 < 1e-12 * std::max(1.0, cost);
+          M = C;
+          lambda = std::max(1e-9, lambda / 3);
+          accepted = true;
+          if (converged) it = o.iterations;
+        } else {
+          lambda *= 4;
+        }
+      }
+      if (!accepted) break;
+      cost = evaluate(M, &H, &g, &used);
+    }
+  }
+  if (inliers || rms_px) {
+    if (inliers) inliers->assign(n, 0);
+    double sse = 0;
+    int k = 0;
+    const double thr = o.inlier_px;
+    for (int i = 0; i < n; ++i) {
+      if (!valid[i]) continue;
+      Eigen::Vector3d rf, rb, Y, Z;
+      if (!symmetric_residuals(M, Xa[i], Xb[i], uvd_a[i], uvd_b[i], cam, rf, rb, Y, Z)) continue;
+      rf = rf.cwiseProduct(Dw);
+      rb = rb.cwiseProduct(Dw);
+      if (rf.norm() > thr || rb.norm() > thr) continue;
+      if (inliers) (*inliers)[i] = 1;
+      sse += 0.5 * (rf.squaredNorm() + rb.squaredNorm());
+      ++k;
+    }
+    if (rms_px) *rms_px = k > 0 ? std::sqrt(sse / k) : 0;
+  }
+  return M;
+}
+
 Pose initial_pose(double camera_height) {
   Pose p;
   p.R = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
@@ -220,33 +399,183 @@ std::vector<Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_heig
   return poses;
 }
 
-std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, int first_frame, int frame_count,
-                                              const RansacOptions& o) {
-  o.validate();
-  const int npairs = std::max(0, frame_count - 1);
-  std::vector<std::vector<Eigen::Vector3d>> P(npairs), Q(npairs);
+namespace {
+
+// Per pair: the 3D points and (u, v, d) measurements of the tracks seen in frames t and t+1.
+struct PairData {
+  std::vector<Eigen::Vector3d> P, Q, ma, mb;
+};
+
+std::vector<PairData> gather_pairs(const std::vector<Track>& tracks, int first_frame, int npairs, bool measurements) {
+  std::vector<PairData> d(npairs);
   for (const auto& tr : tracks) {
     for (std::size_t k = 0; k + 1 < tr.size(); ++k) {
       if (tr.frames[k + 1] != tr.frames[k] + 1) continue;
       const int pair = tr.frames[k] - first_frame;
       if (pair < 0 || pair >= npairs) continue;
-      P[pair].push_back(tr.points[k]);
-      Q[pair].push_back(tr.points[k + 1]);
+      d[pair].P.push_back(tr.points[k]);
+      d[pair].Q.push_back(tr.points[k + 1]);
+      if (measurements) {
+        d[pair].ma.emplace_back(tr.pixels[k].x, tr.pixels[k].y, tr.disparities[k]);
+        d[pair].mb.emplace_back(tr.pixels[k + 1].x, tr.pixels[k + 1].y, tr.disparities[k + 1]);
+      }
     }
   }
-  std::vector<PairMotion> out(npairs);
+  return d;
+}
+
+// One motion hypothesis of a pair: RANSAC (Arun) then, when asked, the reprojection refinement.
+struct Candidate {
+  PairMotion pm;
+  std::vector<std::uint8_t> inliers;  ///< over the pair's correspondences
+};
+
+Candidate solve_pair(const PairData& d, const std::vector<int>& subset, const RansacOptions& o, std::uint64_t stream,
+                     const StereoCamera* cam, const RefineOptions* ro) {
+  const int n_all = static_cast<int>(d.P.size());
+  std::vector<Eigen::Vector3d> P, Q, ma, mb;
+  for (int i : subset) {
+    P.push_back(d.P[i]), Q.push_back(d.Q[i]);
+    if (cam) ma.push_back(d.ma[i]), mb.push_back(d.mb[i]);
+  }
+  const MotionEstimate e = estimate_motion(P, Q, o, stream);
+  Candidate c;
+  c.pm.motion = e.motion;
+  c.pm.points = n_all;
+  c.pm.inliers = e.inliers;
+  c.pm.ok = e.ok;
+  c.pm.rms = e.rms;
+  c.inliers.assign(n_all, 0);
+  for (std::size_t j = 0; j < subset.size(); ++j) c.inliers[subset[j]] = e.inlier_mask[j];
+  if (!cam || !e.ok) return c;
+  // Stage 2: reprojection refinement from the RANSAC motion and its inliers, then inliers by
+  // reprojection error over the subset, refined again.
+  std::vector<std::uint8_t> in;
+  double rms_px = 0;
+  RigidMotion m = refine_motion(e.motion, ma, mb, *cam, *ro, e.inlier_mask, &in, &rms_px);
+  for (int round = 0; round < 2; ++round) m = refine_motion(m, ma, mb, *cam, *ro, in, &in, &rms_px);
+  int k_in = 0;
+  double sse = 0;
+  for (std::size_t i = 0; i < in.size(); ++i)
+    if (in[i]) ++k_in, sse += (m.apply(P[i]) - Q[i]).squaredNorm();
+  if (k_in >= o.min_inliers && k_in >= o.min_inlier_ratio * static_cast<double>(subset.size())) {
+    c.pm.motion = m;
+    c.pm.inliers = k_in;
+    c.pm.rms = std::sqrt(sse / k_in);
+    c.pm.rms_px = rms_px;
+    c.inliers.assign(n_all, 0);
+    for (std::size_t j = 0; j < subset.size(); ++j) c.inliers[subset[j]] = in[j];
+  }
+  return c;
+}
+
+// Distance between two motions for the constant-velocity choice: metres plus rotation angle in
+// radians times 1 m.
+double motion_distance(const RigidMotion& a, const RigidMotion& b) {
+  const double cosang = std::clamp(((a.R.transpose() * b.R).trace() - 1) / 2, -1.0, 1.0);
+  return (a.t - b.t).norm() + std::acos(cosang);
+}
+
+std::vector<PairMotion> pair_motions(const std::vector<Track>& tracks, int first_frame, int frame_count,
+                                     const RansacOptions& o, const StereoCamera* cam, const RefineOptions* ro) {
+  o.validate();
+  if (ro) ro->validate();
+  const bool refine = cam && ro && ro->enabled;
+  const bool second = refine && ro->second_hypothesis;
+  const int npairs = std::max(0, frame_count - 1);
+  const std::vector<PairData> data = gather_pairs(tracks, first_frame, npairs, refine);
+  std::vector<std::vector<Candidate>> cands(npairs);
   tbb::parallel_for(tbb::blocked_range<int>(0, npairs, 1), [&](const tbb::blocked_range<int>& r) {
     for (int k = r.begin(); k < r.end(); ++k) {
-      const MotionEstimate e = estimate_motion(P[k], Q[k], o, static_cast<std::uint64_t>(first_frame + k));
-      PairMotion& pm = out[k];
-      pm.motion = e.motion;
-      pm.points = e.points;
-      pm.inliers = e.inliers;
-      pm.ok = e.ok;
-      pm.rms = e.rms;
+      const PairData& d = data[k];
+      const int n = static_cast<int>(d.P.size());
+      std::vector<int> all(n);
+      for (int i = 0; i < n; ++i) all[i] = i;
+      const auto stream = static_cast<std::uint64_t>(first_frame + k);
+      cands[k].push_back(solve_pair(d, all, o, stream, refine ? cam : nullptr, ro));
+      const Candidate& a = cands[k][0];
+      if (!second || !a.pm.ok) continue;
+      // A second motion among the first one's outliers: with an independently moving object (a
+      // person filling the view) the largest rigid set may be the object, not the scene.
+      std::vector<int> rest;
+      for (int i = 0; i < n; ++i)
+        if (!a.inliers[i]) rest.push_back(i);
+      const double need = std::max<double>(o.min_inliers, ro->second_min_share * n);
+      if (static_cast<double>(rest.size()) < need) continue;
+      Candidate b = solve_pair(d, rest, o, stream + (1ULL << 40), cam, ro);
+      if (b.pm.ok && b.pm.inliers >= need) cands[k].push_back(std::move(b));
     }
   });
+  // Sequential choice: the candidate closest to the previous chosen good motion (constant velocity).
+  // With second_hypothesis, one more candidate: the refinement started from that previous motion, on
+  // the correspondences it already explains within 3 inlier_px (the scene, when a moving object
+  // holds most of the points).
+  std::vector<PairMotion> out(npairs);
+  std::optional<RigidMotion> previous;
+  for (int k = 0; k < npairs; ++k) {
+    auto& cs = cands[k];
+    if (second && previous && cs[0].pm.ok) {
+      const PairData& d = data[k];
+      const int n = static_cast<int>(d.P.size());
+      std::vector<std::uint8_t> loose(n, 0);
+      const Eigen::Vector3d Dw(1, 1, ro->disparity_weight);
+      int n_loose = 0;
+      for (int i = 0; i < n; ++i) {
+        Eigen::Vector3d rf, rb, Y, Z;
+        if (!(d.ma[i].z() > 0) || !(d.mb[i].z() > 0)) continue;
+        if (!symmetric_residuals(*previous, cam->backproject(d.ma[i]), cam->backproject(d.mb[i]), d.ma[i], d.mb[i],
+                                 *cam, rf, rb, Y, Z))
+          continue;
+        const double thr = 3 * ro->inlier_px;
+        if (rf.cwiseProduct(Dw).norm() <= thr && rb.cwiseProduct(Dw).norm() <= thr) loose[i] = 1, ++n_loose;
+      }
+      const double need = std::max<double>(o.min_inliers, ro->second_min_share * n);
+      if (n_loose >= need) {
+        std::vector<std::uint8_t> in;
+        double rms_px = 0;
+        RigidMotion m = refine_motion(*previous, d.ma, d.mb, *cam, *ro, loose, &in, &rms_px);
+        for (int round = 0; round < 2; ++round) m = refine_motion(m, d.ma, d.mb, *cam, *ro, in, &in, &rms_px);
+        int k_in = 0;
+        double sse = 0;
+        for (int i = 0; i < n; ++i)
+          if (in[i]) ++k_in, sse += (m.apply(d.P[i]) - d.Q[i]).squaredNorm();
+        if (k_in >= need) {
+          Candidate c;
+          c.pm.motion = m;
+          c.pm.points = n;
+          c.pm.inliers = k_in;
+          c.pm.ok = true;
+          c.pm.rms = std::sqrt(sse / k_in);
+          c.pm.rms_px = rms_px;
+          cs.push_back(std::move(c));
+        }
+      }
+    }
+    std::size_t pick = 0;
+    if (previous && cs.size() > 1) {
+      double best = std::numeric_limits<double>::infinity();
+      for (std::size_t j = 0; j < cs.size(); ++j) {
+        const double dist = motion_distance(cs[j].pm.motion, *previous);
+        if (dist < best) best = dist, pick = j;
+      }
+    }
+    out[k] = cs[pick].pm;
+    if (out[k].ok) previous = out[k].motion;
+  }
   return out;
+}
+
+}  // namespace
+
+std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, int first_frame, int frame_count,
+                                              const RansacOptions& o) {
+  return pair_motions(tracks, first_frame, frame_count, o, nullptr, nullptr);
+}
+
+std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, int first_frame, int frame_count,
+                                              const RansacOptions& o, const StereoCamera& camera,
+                                              const RefineOptions& refine) {
+  return pair_motions(tracks, first_frame, frame_count, o, &camera, &refine);
 }
 
 }  // namespace smseg::features

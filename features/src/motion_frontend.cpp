@@ -27,6 +27,7 @@ void FrontEndOptions::validate() const {
   tracking.validate();
   filters.validate();
   motion.validate();
+  refine.validate();
   if (camera_height && !(*camera_height > 0)) throw Error("", "camera_height", "must be positive (metres)");
   if (first_frame < 0) throw Error("", "first_frame", "must be >= 0");
   if (last_frame != -1 && last_frame <= first_frame)
@@ -135,7 +136,7 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   }
   const double t_tracks = since(t0);
   t0 = Clock::now();
-  res.pair_motions = estimate_pair_motions(for_motion, first, n, o.motion);
+  res.pair_motions = estimate_pair_motions(for_motion, first, n, o.motion, StereoCamera::from(seq.calibration), o.refine);
   res.poses = chain_poses(res.pair_motions, *height);
   const double t_motion = since(t0);
 

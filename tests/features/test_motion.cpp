@@ -204,3 +204,124 @@ TEST(Motion, PairMotionsFromTracks) {
   EXPECT_FALSE(pm[1].ok);
   EXPECT_EQ(pm[1].points, 0);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Reprojection refinement and the moving-object guard.
+
+namespace {
+
+StereoCamera rig() {
+  StereoCamera c;
+  c.fx = c.fy = 246.4;
+  c.cx = 159.5;
+  c.cy = 119.5;
+  c.baseline = 0.12;
+  return c;
+}
+
+// Points spread over 1.5 .. 15 m in front of the camera, inside the image.
+std::vector<Eigen::Vector3d> deep_cloud(int n, std::uint64_t seed) {
+  std::mt19937_64 g(seed);
+  std::uniform_real_distribution<double> u(-0.5, 0.5), inv(1 / 15.0, 1 / 1.5);
+  std::vector<Eigen::Vector3d> p;
+  for (int i = 0; i < n; ++i) {
+    const double z = 1 / inv(g);
+    p.emplace_back(u(g) * z, u(g) * 0.7 * z, z);
+  }
+  return p;
+}
+
+}  // namespace
+
+TEST(MotionRefine, ReprojectionRefinementBeatsTheUnweighted3DFit) {
+  const StereoCamera cam = rig();
+  const Eigen::Matrix3d R = rotation(1.5, {0, 1, 0});
+  const Eigen::Vector3d t(0.01, 0, -0.04);
+  std::mt19937_64 g(11);
+  std::normal_distribution<double> px(0, 0.3);
+  double arun_t = 0, refined_t = 0, arun_r = 0, refined_r = 0;
+  for (int trial = 0; trial < 10; ++trial) {
+    const auto X = deep_cloud(150, 100 + trial);
+    std::vector<Eigen::Vector3d> ma, mb, P, Q;
+    for (const auto& x : X) {
+      Eigen::Vector3d a = cam.project(x), b = cam.project(R * x + t);
+      for (auto* m : {&a, &b}) *m += Eigen::Vector3d(px(g), px(g), px(g));
+      if (a.z() < 1 || b.z() < 1) continue;
+      ma.push_back(a), mb.push_back(b), P.push_back(cam.backproject(a)), Q.push_back(cam.backproject(b));
+    }
+    const RigidMotion arun = fit_rigid(P, Q);
+    std::vector<std::uint8_t> in;
+    double rms = 0;
+    const RigidMotion m = refine_motion(arun, ma, mb, cam, RefineOptions{}, {}, &in, &rms);
+    arun_t += (arun.t - t).norm(), refined_t += (m.t - t).norm();
+    arun_r += angle_deg(arun.R, R), refined_r += angle_deg(m.R, R);
+    EXPECT_NEAR(m.R.determinant(), 1.0, 1e-9);
+    EXPECT_LT(rms, 1.0);
+    int k = 0;
+    for (auto v : in) k += v;
+    EXPECT_GT(k, static_cast<int>(0.9 * static_cast<double>(ma.size())));
+  }
+  EXPECT_LT(refined_t, 0.5 * arun_t) << "mean translation error, Arun " << arun_t / 10 << " refined " << refined_t / 10;
+  EXPECT_LT(refined_r, 0.5 * arun_r) << "mean rotation error, Arun " << arun_r / 10 << " refined " << refined_r / 10;
+  EXPECT_LT(refined_t / 10, 0.01);
+  // Exact measurements: the exact motion back from a perturbed start.
+  const auto X = deep_cloud(60, 7);
+  std::vector<Eigen::Vector3d> ma, mb;
+  for (const auto& x : X) ma.push_back(cam.project(x)), mb.push_back(cam.project(R * x + t));
+  RigidMotion start;
+  start.R = rotation(0.5, {1, 0, 0}) * R;
+  start.t = t + Eigen::Vector3d(0.05, -0.02, 0.03);
+  RefineOptions o;
+  o.iterations = 50;
+  const RigidMotion m = refine_motion(start, ma, mb, cam, o);
+  EXPECT_LT(angle_deg(m.R, R), 1e-5);  // acos resolution near 0 is ~1e-6 degrees
+  EXPECT_LT((m.t - t).norm(), 1e-6);
+  // Too few usable correspondences: the start is returned.
+  const RigidMotion same = refine_motion(start, {ma[0], ma[1]}, {mb[0], mb[1]}, cam, o);
+  EXPECT_EQ(same.t, start.t);
+  o.huber_px = 0;
+  EXPECT_THROW(o.validate(), Error);
+}
+
+TEST(MotionRefine, AMovingObjectHoldingMostPointsDoesNotTakeOverThePath) {
+  // Camera: 4 cm forward per frame. Frame pair 0 sees only the static scene; in pairs 1..3 an object
+  // with 70 points (against 30 static ones) moves sideways 10 cm per frame.
+  const StereoCamera cam = rig();
+  RigidMotion cam_step;  // static points: X' = X - (0, 0, 0.04)
+  cam_step.t = Eigen::Vector3d(0, 0, -0.04);
+  const Eigen::Vector3d object_step(0.10, 0, 0);
+  std::vector<Track> tracks;
+  auto add_track = [&](Eigen::Vector3d x, int f0, int f1, bool moving) {
+    Track tr;
+    for (int f = f0; f <= f1; ++f) {
+      const Eigen::Vector3d uvd = cam.project(x);
+      tr.frames.push_back(f);
+      tr.pixels.emplace_back(static_cast<float>(uvd.x()), static_cast<float>(uvd.y()));
+      tr.disparities.push_back(static_cast<float>(uvd.z()));
+      tr.points.push_back(cam.backproject(Eigen::Vector3d(tr.pixels.back().x, tr.pixels.back().y, tr.disparities.back())));
+      tr.labels.push_back(-1);
+      x = cam_step.apply(x) + (moving ? object_step : Eigen::Vector3d::Zero());
+    }
+    tracks.push_back(tr);
+  };
+  for (const auto& x : deep_cloud(60, 21)) add_track(x, 0, 1, false);  // pair 0
+  for (const auto& x : deep_cloud(30, 22)) add_track(x, 1, 4, false);
+  std::mt19937_64 g(23);
+  std::uniform_real_distribution<double> u(-0.3, 0.3);
+  for (int i = 0; i < 70; ++i) add_track(Eigen::Vector3d(u(g), u(g), 2.5 + u(g)), 1, 4, true);
+  const auto pm = estimate_pair_motions(tracks, 0, 5, RansacOptions{}, cam, RefineOptions{});
+  ASSERT_EQ(pm.size(), 4u);
+  for (int k = 0; k < 4; ++k) {
+    EXPECT_TRUE(pm[k].ok) << "pair " << k;
+    EXPECT_LT((pm[k].motion.t - cam_step.t).norm(), 1e-3) << "pair " << k;
+    EXPECT_LT(angle_deg(pm[k].motion.R, Eigen::Matrix3d::Identity()), 0.05) << "pair " << k;
+  }
+  // Without the guard, the largest rigid set (the object) wins: the test is not vacuous.
+  RefineOptions plain;
+  plain.second_hypothesis = false;
+  const auto pm2 = estimate_pair_motions(tracks, 0, 5, RansacOptions{}, cam, plain);
+  EXPECT_GT((pm2[2].motion.t - cam_step.t).norm(), 0.05);
+  // Deterministic.
+  const auto pm3 = estimate_pair_motions(tracks, 0, 5, RansacOptions{}, cam, RefineOptions{});
+  for (int k = 0; k < 4; ++k) EXPECT_EQ(pm3[k].motion.t, pm[k].motion.t);
+}
