@@ -5,11 +5,11 @@
 #include <cmath>
 #include <cstdio>
 
+#include <opencv2/ximgproc/slic.hpp>
 #include <tbb/parallel_for.h>
 
 #include "smseg/eval/render.hpp"
 #include "smseg/forest/classify.hpp"
-#include "smseg/forest/rng.hpp"
 #include "smseg/progress.hpp"
 
 namespace smseg::eval {
@@ -29,75 +29,255 @@ std::string stem(int frame) {
   return buf;
 }
 
-}  // namespace
-
-void EvalOptions::validate() const {
-  if (grid < 0 || grid > 10000) throw Error("", "--grid", "must be 0 (per pixel) or a cell size in pixels");
-  if (grid > 0 && votes < 1) throw Error("", "--votes", "must be at least 1 (B*B or more: every pixel votes)");
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameData& frame, const EvalOptions& opt,
-                    int frame_index) {
-  cv::Mat labels(frame.height, frame.width, CV_8UC1);
-  if (opt.grid <= 0) {
-    classifier.classify_frame(frame, std::span<std::uint8_t>(labels.data, labels.total()));
-    return labels;
+/// Appends the voters of one region of n pixels to `out` as indices 0..n-1 into the region's pixels:
+/// every pixel when V >= n, else V distinct ones by Floyd's algorithm from a generator keyed by
+/// (seed, frame, region).
+void draw_voters(int n, const EvalOptions& opt, int frame_index, int region, std::vector<int>& out) {
+  out.clear();
+  if (opt.votes >= n) {
+    for (int i = 0; i < n; ++i) out.push_back(i);
+    return;
   }
-  const int B = opt.grid, C = classifier.num_classes();
-  const int cells_x = (frame.width + B - 1) / B, cells_y = (frame.height + B - 1) / B;
-  const int cells = cells_x * cells_y;
-  // Each cell's voters: every pixel when V covers the cell, else V distinct pixels drawn with Floyd's
-  // algorithm from a counter-based generator keyed by (seed, frame, cell): thread-independent.
-  std::vector<forest::Pixel> pixels;
-  std::vector<std::size_t> first(cells + 1, 0);
-  pixels.reserve(std::size_t(cells) * opt.votes);
-  std::vector<int> chosen;
-  for (int cy = 0; cy < cells_y; ++cy)
-    for (int cx = 0; cx < cells_x; ++cx) {
-      const int cell = cy * cells_x + cx;
-      const int x0 = cx * B, y0 = cy * B;
-      const int w = std::min(B, frame.width - x0), h = std::min(B, frame.height - y0);
-      const int n = w * h;
-      if (opt.votes >= n) {
-        for (int i = 0; i < n; ++i) pixels.push_back({x0 + i % w, y0 + i / w});
-      } else {
-        std::uint64_t key = mix(opt.seed ^ mix(std::uint64_t(frame_index) * 1000003ull + std::uint64_t(cell)));
-        chosen.clear();
-        for (int j = n - opt.votes; j < n; ++j) {
-          key = mix(key);
-          const int t = static_cast<int>(key % std::uint64_t(j + 1));
-          chosen.push_back(std::find(chosen.begin(), chosen.end(), t) == chosen.end() ? t : j);
-        }
-        for (int i : chosen) pixels.push_back({x0 + i % w, y0 + i / w});
-      }
-      first[cell + 1] = pixels.size();
-    }
-  std::vector<std::uint8_t> votes(pixels.size());
-  std::vector<float> dists(pixels.size() * C);
-  classifier.classify_pixels(frame, pixels, votes, dists);
-  std::vector<double> sum(C);
-  for (int cell = 0; cell < cells; ++cell) {
+  std::uint64_t key = mix(opt.seed ^ mix(std::uint64_t(frame_index) * 1000003ull + std::uint64_t(region)));
+  for (int j = n - opt.votes; j < n; ++j) {
+    key = mix(key);
+    const int t = static_cast<int>(key % std::uint64_t(j + 1));
+    out.push_back(std::find(out.begin(), out.end(), t) == out.end() ? t : j);
+  }
+}
+
+/// Classifies the voters (pixels[first[r] .. first[r+1]) of region r) and returns each region's class
+/// (255 for a region without voters).
+std::vector<std::uint8_t> tally(const forest::Classifier& classifier, const forest::FrameData& frame,
+                                const std::vector<forest::Pixel>& pixels, const std::vector<std::size_t>& first,
+                                VoteRule rule) {
+  const int C = classifier.num_classes();
+  const std::size_t regions = first.size() - 1;
+  std::vector<std::uint8_t> labels(pixels.size());
+  std::vector<float> dists(rule == VoteRule::Sum ? pixels.size() * std::size_t(C) : 0);
+  // Blocks of voters in parallel (a frame's voters are often fewer than the classifier's own chunk);
+  // each pixel's result does not depend on the blocking.
+  constexpr std::size_t kBlock = 256;
+  const std::size_t blocks = (pixels.size() + kBlock - 1) / kBlock;
+  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
+    const std::size_t lo = b * kBlock, n = std::min(kBlock, pixels.size() - lo);
+    classifier.classify_pixels(frame, std::span<const forest::Pixel>(pixels.data() + lo, n),
+                               std::span<std::uint8_t>(labels.data() + lo, n),
+                               dists.empty() ? std::span<float>() : std::span<float>(dists.data() + lo * std::size_t(C), n * std::size_t(C)));
+  });
+  std::vector<std::uint8_t> winner(regions, 255);
+  std::vector<double> sum(static_cast<std::size_t>(C));
+  for (std::size_t r = 0; r < regions; ++r) {
+    if (first[r] == first[r + 1]) continue;
     std::fill(sum.begin(), sum.end(), 0.0);
-    for (std::size_t v = first[cell]; v < first[cell + 1]; ++v)
-      for (int c = 0; c < C; ++c) sum[c] += dists[v * C + c];
-    const int best = static_cast<int>(std::max_element(sum.begin(), sum.end()) - sum.begin());
-    const int cx = cell % cells_x, cy = cell / cells_x;
-    const cv::Rect r(cx * B, cy * B, std::min(B, frame.width - cx * B), std::min(B, frame.height - cy * B));
-    labels(r).setTo(best);
+    for (std::size_t v = first[r]; v < first[r + 1]; ++v) {
+      if (rule == VoteRule::Sum) {
+        for (int c = 0; c < C; ++c) sum[std::size_t(c)] += dists[v * std::size_t(C) + std::size_t(c)];
+      } else {
+        sum[labels[v]] += 1.0;
+      }
+    }
+    winner[r] = static_cast<std::uint8_t>(std::max_element(sum.begin(), sum.end()) - sum.begin());
+  }
+  return winner;
+}
+
+/// Touches every page of a frame's memory-mapped tables and images, so that the timed classification
+/// measures classification, not reading the stack from disk.
+void prefault(const forest::FrameData& frame) {
+  volatile double sink = 0;
+  const std::size_t sat_size = std::size_t(frame.width + 1) * std::size_t(frame.height + 1);
+  constexpr std::size_t kStep = 4096 / sizeof(double);
+  for (const double* sat : frame.sats) {
+    for (std::size_t i = 0; i < sat_size; i += kStep) sink = sink + sat[i];
+    sink = sink + sat[sat_size - 1];
+  }
+  const std::size_t n = std::size_t(frame.width) * std::size_t(frame.height);
+  for (const std::uint8_t* img : {frame.gray, frame.labels})
+    if (img)
+      for (std::size_t i = 0; i < n; i += 4096) sink = sink + img[i];
+}
+
+}  // namespace
+
+std::string to_string(VoteRule v) { return v == VoteRule::Sum ? "sum" : "majority"; }
+
+VoteRule vote_rule_from_string(const std::string& s, const std::string& option) {
+  if (s == "sum") return VoteRule::Sum;
+  if (s == "majority") return VoteRule::Majority;
+  throw Error("", option, "\"" + s + "\" is not a vote rule (sum or majority)");
+}
+
+int superpixels_from_string(const std::string& s, const std::string& option) {
+  if (s == "small") return kSmallSuperpixels;
+  if (s == "large") return kLargeSuperpixels;
+  std::size_t used = 0;
+  int n = 0;
+  try {
+    n = std::stoi(s, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != s.size() || n < 4 || n > 1000)
+    throw Error("", option, "\"" + s + "\" is not small, large or a region size of 4..1000 pixels");
+  return n;
+}
+
+void EvalOptions::validate() const {
+  if (grid < 0 || grid > 10000) throw Error("", "--grid", "must be 0 (no grid) or a cell size of 1..10000 pixels");
+  if (superpixels != 0 && (superpixels < 4 || superpixels > 1000))
+    throw Error("", "--superpixels", "region size must be 4..1000 pixels");
+  if (grid > 0 && superpixels > 0) throw Error("", "--superpixels", "cannot be combined with --grid");
+  if (voting() && votes < 1) throw Error("", "--votes", "must be at least 1 (the region's size or more: every pixel votes)");
+  if (trees < 0) throw Error("", "--trees", "must be 0 (every tree) or a number of trees");
+  if (tolerance < 0 || tolerance > 1000) throw Error("", "--tolerance", "must be 0..1000 pixels");
+}
+
+forest::Forest first_trees(const forest::Forest& forest, int m, const std::string& option) {
+  if (m < 1 || m > static_cast<int>(forest.trees.size()))
+    throw Error("", option, std::to_string(m) + " trees asked, the forest has " + std::to_string(forest.trees.size()));
+  forest::Forest f = forest;
+  f.trees.resize(static_cast<std::size_t>(m));
+  f.stats.trees.resize(std::min(f.stats.trees.size(), static_cast<std::size_t>(m)));
+  return f;
+}
+
+cv::Mat superpixels(const cv::Mat& gray, int region_size, int* count) {
+  CV_Assert(gray.type() == CV_8UC1 && !gray.empty());
+  cv::Ptr<cv::ximgproc::SuperpixelSLIC> slic =
+      cv::ximgproc::createSuperpixelSLIC(gray, cv::ximgproc::SLICO, region_size, 10.0f);
+  slic->iterate(10);
+  slic->enforceLabelConnectivity(25);
+  cv::Mat ids;
+  slic->getLabels(ids);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(ids, &lo, &hi);
+  if (lo < 0) throw Error("", "superpixels", "SLIC returned a negative region id");
+  if (count) *count = static_cast<int>(hi) + 1;
+  return ids;
+}
+
+cv::Mat vote_regions(const forest::Classifier& classifier, const forest::FrameData& frame, const cv::Mat& regions,
+                     int count, const EvalOptions& opt, int frame_index) {
+  CV_Assert(regions.type() == CV_32SC1 && regions.rows == frame.height && regions.cols == frame.width);
+  // Each region's pixels in raster order (counting sort by id).
+  std::vector<std::size_t> start(std::size_t(count) + 1, 0);
+  for (int y = 0; y < regions.rows; ++y) {
+    const std::int32_t* id = regions.ptr<std::int32_t>(y);
+    for (int x = 0; x < regions.cols; ++x) {
+      if (id[x] < 0 || id[x] >= count) throw Error("", "regions", "region id outside 0.." + std::to_string(count - 1));
+      ++start[std::size_t(id[x]) + 1];
+    }
+  }
+  for (std::size_t r = 0; r < std::size_t(count); ++r) start[r + 1] += start[r];
+  std::vector<forest::Pixel> members(start.back());
+  {
+    std::vector<std::size_t> next(start.begin(), start.end() - 1);
+    for (int y = 0; y < regions.rows; ++y) {
+      const std::int32_t* id = regions.ptr<std::int32_t>(y);
+      for (int x = 0; x < regions.cols; ++x) members[next[std::size_t(id[x])]++] = {x, y};
+    }
+  }
+  std::vector<forest::Pixel> voters;
+  std::vector<std::size_t> first(std::size_t(count) + 1, 0);
+  std::vector<int> chosen;
+  for (int r = 0; r < count; ++r) {
+    const int n = static_cast<int>(start[std::size_t(r) + 1] - start[std::size_t(r)]);
+    if (n > 0) {
+      draw_voters(n, opt, frame_index, r, chosen);
+      for (int i : chosen) voters.push_back(members[start[std::size_t(r)] + std::size_t(i)]);
+    }
+    first[std::size_t(r) + 1] = voters.size();
+  }
+  const std::vector<std::uint8_t> winner = tally(classifier, frame, voters, first, opt.vote);
+  cv::Mat labels(frame.height, frame.width, CV_8UC1);
+  for (int y = 0; y < regions.rows; ++y) {
+    const std::int32_t* id = regions.ptr<std::int32_t>(y);
+    std::uint8_t* out = labels.ptr<std::uint8_t>(y);
+    for (int x = 0; x < regions.cols; ++x) out[x] = winner[std::size_t(id[x])];
   }
   return labels;
 }
 
-EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
-  opt.validate();
-  const features::StackSet set = features::open_stacks(works, opt.frames, true, true, forest.features);
+cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameData& frame, const EvalOptions& opt,
+                    int frame_index, LabelTimes* times) {
+  LabelTimes t;
+  cv::Mat labels;
+  if (opt.superpixels > 0) {
+    if (!frame.gray) throw Error("", "--superpixels", "the frame has no greyscale image to cut into superpixels");
+    auto t0 = std::chrono::steady_clock::now();
+    const cv::Mat gray(frame.height, frame.width, CV_8UC1, const_cast<std::uint8_t*>(frame.gray));
+    int count = 0;
+    const cv::Mat regions = superpixels(gray, opt.superpixels, &count);
+    t.regions = seconds_since(t0);
+    t0 = std::chrono::steady_clock::now();
+    labels = vote_regions(classifier, frame, regions, count, opt, frame_index);
+    t.classify = seconds_since(t0);
+  } else if (opt.grid <= 0) {
+    const auto t0 = std::chrono::steady_clock::now();
+    labels.create(frame.height, frame.width, CV_8UC1);
+    classifier.classify_frame(frame, std::span<std::uint8_t>(labels.data, labels.total()));
+    t.classify = seconds_since(t0);
+  } else {
+    // Grid: cells in raster order; a cell's pixels in raster order (the same draws as vote_regions
+    // would make on the grid's region map, without building it).
+    const auto t0 = std::chrono::steady_clock::now();
+    const int B = opt.grid;
+    const int cells_x = (frame.width + B - 1) / B, cells_y = (frame.height + B - 1) / B;
+    const int cells = cells_x * cells_y;
+    std::vector<forest::Pixel> voters;
+    std::vector<std::size_t> first(std::size_t(cells) + 1, 0);
+    voters.reserve(std::size_t(cells) * std::size_t(std::min(opt.votes, B * B)));
+    std::vector<int> chosen;
+    for (int cy = 0; cy < cells_y; ++cy)
+      for (int cx = 0; cx < cells_x; ++cx) {
+        const int cell = cy * cells_x + cx;
+        const int x0 = cx * B, y0 = cy * B;
+        const int w = std::min(B, frame.width - x0), h = std::min(B, frame.height - y0);
+        draw_voters(w * h, opt, frame_index, cell, chosen);
+        for (int i : chosen) voters.push_back({x0 + i % w, y0 + i / w});
+        first[std::size_t(cell) + 1] = voters.size();
+      }
+    const std::vector<std::uint8_t> winner = tally(classifier, frame, voters, first, opt.vote);
+    labels.create(frame.height, frame.width, CV_8UC1);
+    for (int y = 0; y < frame.height; ++y) {
+      std::uint8_t* row = labels.ptr<std::uint8_t>(y);
+      const std::uint8_t* w = winner.data() + std::size_t(y / B) * std::size_t(cells_x);
+      for (int cx = 0; cx < cells_x; ++cx)
+        std::fill(row + cx * B, row + std::min(frame.width, (cx + 1) * B), w[cx]);
+    }
+    t.classify = seconds_since(t0);
+  }
+  if (times) *times = t;
+  return labels;
+}
+
+void check_forest_fits(const forest::Forest& forest, const features::StackSet& set) {
   const features::StackManifest& m0 = set.manifests.front();
   forest::check_compatible(forest, m0.classes, forest.features, m0.manifest_path());
   if (forest.width != m0.size.width || forest.height != m0.size.height)
     throw Error(m0.manifest_path().string(), "image_size",
                 "stacks are " + std::to_string(m0.size.width) + "x" + std::to_string(m0.size.height) +
                     ", the forest was trained on " + std::to_string(forest.width) + "x" + std::to_string(forest.height));
-  const forest::Classifier classifier(forest);
+}
+
+EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
+  opt.validate();
+  const features::StackSet set = features::open_stacks(works, opt.frames, true, true, forest.features);
+  return evaluate(forest, set, works, opt);
+}
+
+EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set, const std::vector<fs::path>& works,
+                    const EvalOptions& opt) {
+  opt.validate();
+  check_forest_fits(forest, set);
+  if (opt.costs && opt.costs->classes != forest.classes)
+    throw Error(opt.costs_file, "classes", "the cost matrix was not made for this forest's classes");
+  const forest::Classifier classifier(opt.trees > 0 ? first_trees(forest, opt.trees) : forest);
   const int C = static_cast<int>(forest.classes.size());
 
   // Pictures need the sequences (input images, class colours).
@@ -108,22 +288,26 @@ EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& w
   EvalResult result;
   result.confusion = Confusion(C);
   Progress progress("eval-forest", static_cast<long>(set.stacks.size()), opt.progress);
-  double total_seconds = 0;
+  double total_seconds = 0, total_regions = 0;
   for (std::size_t i = 0; i < set.stacks.size(); ++i) {
     const auto [work_index, frame] = set.origin[i];
     const forest::FrameData& data = set.dataset.frames[i];
-    const auto t0 = std::chrono::steady_clock::now();
-    const cv::Mat predicted = label_frame(classifier, data, opt, frame);
-    const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    prefault(data);
+    LabelTimes times;
+    const cv::Mat predicted = label_frame(classifier, data, opt, frame, &times);
     const cv::Mat truth(data.height, data.width, CV_8UC1, const_cast<std::uint8_t*>(data.labels));
     FrameResult fr;
     fr.work = works[work_index].string();
     fr.frame = frame;
     fr.confusion = Confusion(C);
     fr.confusion.add(truth, predicted);
-    fr.seconds = secs;
-    total_seconds += secs;
+    fr.near_misses = near_misses(truth, predicted, opt.tolerance);
+    fr.seconds = times.classify;
+    fr.superpixel_seconds = times.regions;
+    total_seconds += times.classify;
+    total_regions += times.regions;
     result.confusion.merge(fr.confusion);
+    result.near_misses += fr.near_misses;
     result.frames.push_back(std::move(fr));
 
     if (!opt.pictures.empty()) {
@@ -142,7 +326,16 @@ EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& w
   }
   progress.finish();
   result.seconds_per_frame = total_seconds / double(set.stacks.size());
+  result.superpixel_seconds_per_frame = total_regions / double(set.stacks.size());
   return result;
+}
+
+double EvalResult::tolerant_accuracy() const {
+  const auto total = confusion.total();
+  if (total == 0) return std::nan("");
+  std::int64_t right = 0;
+  for (int c = 0; c < confusion.classes(); ++c) right += confusion.at(c, c);
+  return double(right + near_misses) / double(total);
 }
 
 nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptions& opt,
@@ -152,13 +345,20 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
   json per_frame = json::array();
   std::vector<double> accs;
   for (const auto& f : frames) {
-    per_frame.push_back({{"work", f.work},
-                         {"frame", f.frame},
-                         {"global_accuracy", num(f.confusion.global_accuracy())},
-                         {"class_average_accuracy", num(f.confusion.class_average_accuracy())},
-                         {"mean_iou", num(f.confusion.mean_iou())},
-                         {"pixels", f.confusion.total()},
-                         {"seconds", f.seconds}});
+    const auto total = f.confusion.total();
+    double right = 0;
+    for (int c = 0; c < f.confusion.classes(); ++c) right += double(f.confusion.at(c, c));
+    json rec = {{"work", f.work},
+                {"frame", f.frame},
+                {"global_accuracy", num(f.confusion.global_accuracy())},
+                {"class_average_accuracy", num(f.confusion.class_average_accuracy())},
+                {"mean_iou", num(f.confusion.mean_iou())},
+                {"boundary_tolerant_accuracy", num(total ? (right + double(f.near_misses)) / double(total) : NAN)},
+                {"pixels", total},
+                {"seconds", f.seconds},
+                {"superpixel_seconds", f.superpixel_seconds}};
+    if (opt.costs) rec["mean_cost"] = num(mean_cost(f.confusion, *opt.costs));
+    per_frame.push_back(std::move(rec));
     if (!std::isnan(f.confusion.global_accuracy())) accs.push_back(f.confusion.global_accuracy());
   }
   json spread = nullptr;
@@ -169,8 +369,9 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
     mean /= double(accs.size());
     for (double a : accs) var += (a - mean) * (a - mean);
     var /= double(accs.size());
-    spread = {{"min", accs.front()}, {"max", accs.back()}, {"median", accs[accs.size() / 2]},
-              {"mean", mean}, {"std", std::sqrt(var)}};
+    const std::size_t n = accs.size();
+    const double median = n % 2 ? accs[n / 2] : 0.5 * (accs[n / 2 - 1] + accs[n / 2]);
+    spread = {{"min", accs.front()}, {"max", accs.back()}, {"median", median}, {"mean", mean}, {"std", std::sqrt(var)}};
   }
   json per_class = json::array();
   const auto rec = confusion.recall();
@@ -180,30 +381,43 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
                          {"pixels", confusion.row_total(static_cast<int>(c))}});
   int nodes = 0;
   for (const auto& t : forest.stats.trees) nodes += t.nodes;
-  return {{"format", "smseg-results"},
-          {"version", 1},
-          {"global_accuracy", num(confusion.global_accuracy())},
-          {"class_average_accuracy", num(confusion.class_average_accuracy())},
-          {"mean_iou", num(confusion.mean_iou())},
-          {"classes", forest.classes},
-          {"per_class", per_class},
-          {"confusion", {{"counts", confusion.counts_json()}, {"normalised", confusion.normalised_json()}}},
-          {"per_frame", per_frame},
-          {"accuracy_spread", spread},
-          {"seconds_per_frame", seconds_per_frame},
-          {"params",
-           {{"works", works},
-            {"test_frames", opt.frames.str()},
-            {"mode", opt.grid > 0 ? "grid" : "pixel"},
-            {"grid", opt.grid},
-            {"votes", opt.grid > 0 ? json(opt.votes) : json(nullptr)},
-            {"seed", opt.seed}}},
-          {"forest",
-           {{"params", forest::params_to_json(forest.params)},
-            {"features", forest.features},
-            {"trees", forest.trees.size()},
-            {"nodes", nodes},
-            {"training_seconds", forest.stats.seconds}}}};
+  json j = {{"format", "smseg-results"},
+            {"version", 1},
+            {"global_accuracy", num(confusion.global_accuracy())},
+            {"class_average_accuracy", num(confusion.class_average_accuracy())},
+            {"mean_iou", num(confusion.mean_iou())},
+            {"boundary_tolerant_accuracy", num(tolerant_accuracy())},
+            {"mean_cost", opt.costs ? num(mean_cost(confusion, *opt.costs)) : json(nullptr)},
+            {"classes", forest.classes},
+            {"per_class", per_class},
+            {"confusion", {{"counts", confusion.counts_json()}, {"normalised", confusion.normalised_json()}}},
+            {"per_frame", per_frame},
+            {"accuracy_spread", spread},
+            {"seconds_per_frame", seconds_per_frame},
+            {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
+            {"params",
+             {{"works", works},
+              {"test_frames", opt.frames.str()},
+              {"mode", opt.mode()},
+              {"grid", opt.grid},
+              {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
+              {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
+              {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
+              {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
+              {"tolerance", opt.tolerance},
+              {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
+              {"seed", opt.seed}}},
+            {"forest",
+             {{"params", forest::params_to_json(forest.params)},
+              {"image", {{"width", forest.width}, {"height", forest.height}}},
+              {"classes", forest.classes},
+              {"features", forest.features},
+              {"textons", forest.textons},
+              {"trees", forest.trees.size()},
+              {"nodes", nodes},
+              {"training_seconds", forest.stats.seconds}}}};
+  if (opt.costs) j["costs"] = {{"classes", opt.costs->classes}, {"matrix", opt.costs->cost}};
+  return j;
 }
 
 }  // namespace smseg::eval

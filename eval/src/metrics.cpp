@@ -4,7 +4,13 @@
 #include <cstdio>
 #include <limits>
 
+#include <algorithm>
+#include <set>
+
+#include <opencv2/imgproc.hpp>
+
 #include "smseg/error.hpp"
+#include "smseg/io.hpp"
 
 namespace smseg::eval {
 
@@ -147,6 +153,90 @@ std::string Confusion::table(const std::vector<std::string>& names) const {
     out += "\n";
   }
   return out;
+}
+
+CostMatrix CostMatrix::load(const std::filesystem::path& path, const std::vector<std::string>& classes) {
+  return from_json(read_json(path), path, classes);
+}
+
+CostMatrix CostMatrix::from_json(const nlohmann::json& j, const std::filesystem::path& file,
+                                 const std::vector<std::string>& classes) {
+  const JsonView v(j, file);
+  check_format(v, "smseg-costs", {1});
+  const JsonView names = v.at("classes");
+  const std::size_t n = names.size();
+  std::vector<std::string> file_classes;
+  for (std::size_t i = 0; i < n; ++i) file_classes.push_back(names.at(i).as_str());
+  // Names must be exactly the forest's classes (each once, any order).
+  std::vector<int> pos(classes.size(), -1);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto it = std::find(classes.begin(), classes.end(), file_classes[i]);
+    if (it == classes.end())
+      names.at(i).fail("class \"" + file_classes[i] + "\" is not a class of the forest");
+    const auto k = static_cast<std::size_t>(it - classes.begin());
+    if (pos[k] >= 0) names.at(i).fail("class \"" + file_classes[i] + "\" appears twice");
+    pos[k] = static_cast<int>(i);
+  }
+  for (std::size_t k = 0; k < classes.size(); ++k)
+    if (pos[k] < 0) names.fail("the forest's class \"" + classes[k] + "\" has no row and column");
+  const JsonView rows = v.at("costs");
+  if (rows.size() != n) rows.fail("expected " + std::to_string(n) + " rows, one per class");
+  std::vector<double> raw(n * n);
+  for (std::size_t t = 0; t < n; ++t) {
+    const JsonView row = rows.at(t);
+    if (row.size() != n) row.fail("expected " + std::to_string(n) + " costs, one per class");
+    for (std::size_t p = 0; p < n; ++p) {
+      const double c = row.at(p).as_num();
+      if (!std::isfinite(c) || c < 0) row.at(p).fail("a cost must be a finite number >= 0");
+      if (t == p && c != 0) row.at(p).fail("a right label costs nothing: the diagonal must be 0");
+      raw[t * n + p] = c;
+    }
+  }
+  CostMatrix m;
+  m.classes = classes;
+  m.cost.resize(n * n);
+  for (std::size_t t = 0; t < n; ++t)
+    for (std::size_t p = 0; p < n; ++p) m.cost[t * n + p] = raw[std::size_t(pos[t]) * n + std::size_t(pos[p])];
+  return m;
+}
+
+double mean_cost(const Confusion& confusion, const CostMatrix& costs) {
+  if (static_cast<std::size_t>(confusion.classes()) != costs.classes.size())
+    throw Error("", "costs", "the cost matrix has another number of classes than the confusion matrix");
+  const auto total = confusion.total();
+  if (total == 0) return kNaN;
+  double sum = 0;
+  for (int t = 0; t < confusion.classes(); ++t)
+    for (int p = 0; p < confusion.classes(); ++p) sum += double(confusion.at(t, p)) * costs.at(t, p);
+  return sum / double(total);
+}
+
+std::int64_t near_misses(const cv::Mat& truth, const cv::Mat& predicted, int tolerance) {
+  CV_Assert(truth.type() == CV_8UC1 && predicted.type() == CV_8UC1 && truth.size() == predicted.size());
+  if (tolerance < 0) throw Error("", "--tolerance", "must be >= 0");
+  if (tolerance == 0) return 0;
+  // Wrong, non-void pixels and the output classes they took.
+  const cv::Mat wrong = (truth != predicted) & (truth != 255);
+  std::set<int> taken;
+  for (int y = 0; y < truth.rows; ++y) {
+    const std::uint8_t* w = wrong.ptr<std::uint8_t>(y);
+    const std::uint8_t* p = predicted.ptr<std::uint8_t>(y);
+    for (int x = 0; x < truth.cols; ++x)
+      if (w[x]) taken.insert(p[x]);
+  }
+  if (taken.empty()) return 0;
+  // A disc of radius T: a pixel is near class c when a truth pixel of c lies at distance <= T.
+  const int T = tolerance;
+  cv::Mat disc(2 * T + 1, 2 * T + 1, CV_8UC1);
+  for (int i = 0; i < disc.rows; ++i)
+    for (int k = 0; k < disc.cols; ++k) disc.at<std::uint8_t>(i, k) = (i - T) * (i - T) + (k - T) * (k - T) <= T * T;
+  std::int64_t near = 0;
+  cv::Mat near_c;
+  for (int c : taken) {
+    cv::dilate(truth == c, near_c, disc, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+    near += cv::countNonZero(near_c & wrong & (predicted == c));
+  }
+  return near;
 }
 
 }  // namespace smseg::eval

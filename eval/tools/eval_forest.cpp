@@ -1,25 +1,52 @@
-// eval-forest: label the test frames of work folders with a forest; scores, results.json, pictures.
+// eval-forest: label the test frames of work folders with a forest; scores, results.json, pictures,
+// and sweeps of M, B or V (sweep.jsonl).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <iostream>
 
+#include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
 
 #include "smseg/cli.hpp"
 #include "smseg/eval/evaluate.hpp"
+#include "smseg/eval/sweep.hpp"
+
+namespace {
+
+std::string pct(double v) {
+  if (std::isnan(v)) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.1f%%", 100 * v);
+  return buf;
+}
+
+std::string mode_text(const smseg::eval::EvalOptions& opt) {
+  using smseg::eval::to_string;
+  if (opt.grid > 0)
+    return "grid B=" + std::to_string(opt.grid) + " V=" + std::to_string(opt.votes) + " " + to_string(opt.vote);
+  if (opt.superpixels > 0)
+    return "superpixels " + std::to_string(opt.superpixels) + " px V=" + std::to_string(opt.votes) + " " +
+           to_string(opt.vote);
+  return "per pixel";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace smseg;
   CLI::App app{
-      "Evaluate a forest on the labelled frames of one or more work folders (thesis 2.3.4, 3.2.7):\n"
-      "each pixel runs through every tree and takes the class of maximum summed leaf distribution,\n"
-      "or with --grid B the image is cut into B x B cells and V random pixels of each cell vote.\n"
-      "Prints global accuracy, class-average accuracy, mean IoU and the row-normalised confusion\n"
+      "Evaluate a forest on the labelled frames of one or more work folders (thesis 2.3.4, 3.2.7, 4.5.1):\n"
+      "each pixel runs through every tree and takes the class of maximum summed leaf distribution; or the\n"
+      "image is cut into regions (--grid B: B x B cells; --superpixels: SLIC regions) and V random pixels\n"
+      "of each region vote for its class. Prints global accuracy, class-average accuracy, mean IoU, the\n"
+      "boundary-tolerant accuracy, the mean cost per pixel (--costs) and the row-normalised confusion\n"
       "matrix; writes OUT/results.json and, per test frame, OUT/frames/NNNNNN_{labels,overlay,error,\n"
-      "montage}.png. Void pixels never count.",
+      "montage}.png. With --sweep, evaluates one point per value instead and appends one JSON line per\n"
+      "point to OUT/sweep.jsonl (a rerun resumes: finished points are skipped). Void pixels never count.",
       "eval-forest"};
-  std::string forest_file, frames = "0:", out;
-  std::vector<std::string> works;
+  std::string forest_file, frames = "0:", out, superpixels, vote = "sum", costs;
+  std::vector<std::string> works, sweeps;
   eval::EvalOptions opt;
   int threads = 0;
   bool no_pictures = false, quiet = false;
@@ -27,8 +54,28 @@ int main(int argc, char** argv) {
   app.add_option("WORK", works, "work folders (from extract-features)")->required();
   app.add_option("--test-frames", frames, "labelled frames to test, A:B half-open (110: = from 110 on)")
       ->capture_default_str();
-  app.add_option("--grid", opt.grid, "grid voting cell size B in pixels (0: per pixel)")->capture_default_str();
-  app.add_option("--votes", opt.votes, "V: voting pixels per grid cell")->capture_default_str();
+  app.add_option("--grid", opt.grid, "grid voting: cell size B in pixels (0: per pixel)")->capture_default_str();
+  app.add_option("--superpixels", superpixels,
+                 "superpixel voting: SLIC region size, small (" + std::to_string(eval::kSmallSuperpixels) +
+                     " px), large (" + std::to_string(eval::kLargeSuperpixels) +
+                     " px) or N px; superpixel time is reported apart (default: none)");
+  app.add_option("--votes", opt.votes, "V: random voting pixels per region (grid cell or superpixel)")
+      ->capture_default_str();
+  app.add_option("--vote", vote, "how voters decide: sum (of their distributions) or majority (of their labels)")
+      ->capture_default_str();
+  app.add_option("--trees", opt.trees, "use only the first m trees of the forest (0: all)")->capture_default_str();
+  app.add_option("--tolerance", opt.tolerance,
+                 "T of the boundary-tolerant accuracy: a wrong pixel within T px (Euclidean) of a true region of its "
+                 "output class counts as a near miss")
+      ->capture_default_str();
+  app.add_option("--costs", costs,
+                 "class-to-class cost matrix, reports the mean cost per pixel: {\"format\": \"smseg-costs\", "
+                 "\"version\": 1, \"classes\": [every class of the forest, any order], \"costs\": [[row per true "
+                 "class: cost of each output class; >= 0, diagonal 0]]}");
+  app.add_option("--sweep", sweeps,
+                 "sweep instead of one evaluation: M=A:B (first m trees), B=A:B:S (grid size) or V=A:B "
+                 "(votes); bounds inclusive; repeatable; one JSON line per point in OUT/sweep.jsonl, resumable; no "
+                 "pictures or results.json");
   app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_flag("--no-pictures", no_pictures, "write results.json only");
@@ -36,25 +83,76 @@ int main(int argc, char** argv) {
   app.add_option("-o,--out", out, "output folder")->required();
   return run_tool(app, argc, argv, [&] {
     std::unique_ptr<tbb::global_control> limit;
-    if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+    if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
+    if (threads > 0) {
+      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+      cv::setNumThreads(threads);  // SLIC runs on OpenCV's own thread pool
+    }
     opt.frames = features::FrameRange::parse(frames, "--test-frames");
     opt.progress = !quiet;
-    if (!no_pictures) opt.pictures = fs::path(out) / "frames";
+    if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
+    opt.vote = eval::vote_rule_from_string(vote, "--vote");
+    std::vector<eval::SweepSpec> specs;
+    for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
+    if (!no_pictures && specs.empty()) opt.pictures = fs::path(out) / "frames";
     opt.validate();
     const forest::Forest f = forest::load_forest(forest_file);
+    if (opt.trees > static_cast<int>(f.trees.size()))
+      throw Error(forest_file, "--trees", std::to_string(opt.trees) + " trees asked, the forest has " +
+                                              std::to_string(f.trees.size()));
+    if (!costs.empty()) {
+      opt.costs = eval::CostMatrix::load(costs, f.classes);
+      opt.costs_file = costs;
+    }
     const std::vector<fs::path> work_paths(works.begin(), works.end());
+
+    if (!specs.empty()) {
+      const fs::path jsonl = fs::path(out) / "sweep.jsonl";
+      for (const auto& spec : specs) {
+        const auto report = eval::run_sweep(f, forest_file, work_paths, opt, spec, jsonl, [&](const Json& rec) {
+          char line[256];
+          std::snprintf(line, sizeof line, "%s=%d: global %s, class-average %s, mean IoU %s, %.2f ms per frame",
+                        rec["sweep"].get<std::string>().c_str(), rec["value"].get<int>(),
+                        pct(rec["global_accuracy"].is_null() ? NAN : rec["global_accuracy"].get<double>()).c_str(),
+                        pct(rec["class_average_accuracy"].is_null() ? NAN : rec["class_average_accuracy"].get<double>()).c_str(),
+                        pct(rec["mean_iou"].is_null() ? NAN : rec["mean_iou"].get<double>()).c_str(),
+                        1000 * rec["seconds_per_frame"].get<double>());
+          std::cout << line << std::endl;
+        });
+        std::cout << "sweep " << spec.str() << ": " << report.run << " points evaluated, " << report.done_before
+                  << " already done -> " << jsonl.string() << "\n";
+      }
+      return 0;
+    }
+
     const eval::EvalResult r = eval::evaluate(f, work_paths, opt);
     write_json_atomic(fs::path(out) / "results.json", r.to_json(f, opt, works));
-    char line[256];
-    std::snprintf(line, sizeof line,
-                  "%zu test frames: global accuracy %.1f%%, class-average accuracy %.1f%%, mean IoU %.1f%%, "
-                  "%.2f ms per frame (%s)",
-                  r.frames.size(), 100 * r.confusion.global_accuracy(), 100 * r.confusion.class_average_accuracy(),
-                  100 * r.confusion.mean_iou(), 1000 * r.seconds_per_frame,
-                  opt.grid > 0 ? ("grid B=" + std::to_string(opt.grid) + " V=" + std::to_string(opt.votes)).c_str()
-                               : "per pixel");
-    std::cout << line << "\n";
+    std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
+                       pct(r.confusion.global_accuracy()) + ", class-average accuracy " +
+                       pct(r.confusion.class_average_accuracy()) + ", mean IoU " + pct(r.confusion.mean_iou()) +
+                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy());
+    if (opt.costs) {
+      char buf[64];
+      std::snprintf(buf, sizeof buf, ", mean cost %.4f", eval::mean_cost(r.confusion, *opt.costs));
+      line += buf;
+    }
+    char buf[128];
+    std::snprintf(buf, sizeof buf, ", %.2f ms per frame", 1000 * r.seconds_per_frame);
+    line += buf;
+    if (opt.superpixels > 0) {
+      std::snprintf(buf, sizeof buf, " + %.2f ms superpixels", 1000 * r.superpixel_seconds_per_frame);
+      line += buf;
+    }
+    std::cout << line << " (" << mode_text(opt) << ")\n";
     if (!quiet) {
+      std::vector<double> accs;
+      for (const auto& fr : r.frames)
+        if (fr.confusion.total() > 0) accs.push_back(fr.confusion.global_accuracy());
+      if (!accs.empty()) {
+        std::sort(accs.begin(), accs.end());
+        std::cout << "per-frame global accuracy: min " << pct(accs.front()) << ", median "
+                  << pct(accs[accs.size() / 2]) << ", max " << pct(accs.back()) << "\n";
+      }
       std::cout << "\nConfusion matrix (rows: ground truth, columns: output; % of the row):\n"
                 << r.confusion.table(f.classes) << "\n";
       std::cout << "results: " << (fs::path(out) / "results.json").string();

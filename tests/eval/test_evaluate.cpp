@@ -3,56 +3,13 @@
 #include <gtest/gtest.h>
 
 #include "smseg/eval/evaluate.hpp"
-#include "smseg/features/point_features.hpp"
-#include "smseg/forest/train.hpp"
+#include "eval_fixture.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg;
 
-namespace {
-
-// A 64x48 "scene": class 0 (floor) below row 30, class 1 (wall) above; sparse points carry fH = 0 on
-// the floor and 1.5 on the wall, fD marks them. Row 0 is void.
-fs::path make_work(const std::string& name, int frames, std::vector<std::string> classes = {"floor", "wall"}) {
-  const fs::path work = fs::temp_directory_path() / ("smseg_eval_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(work);
-  features::StackManifest m;
-  m.work = work;
-  m.sequence = work / "no-sequence";
-  m.size = cv::Size(64, 48);
-  m.features = {"fH", "fD"};
-  m.classes = classes;
-  cv::RNG rng(3);
-  for (int f = 0; f < frames; ++f) {
-    cv::Mat fh = cv::Mat::zeros(48, 64, CV_64FC1), fd = cv::Mat::zeros(48, 64, CV_64FC1);
-    cv::Mat labels(48, 64, CV_8UC1);
-    const int boundary = 26 + f % 8;
-    for (int y = 0; y < 48; ++y)
-      for (int x = 0; x < 64; ++x) {
-        labels.at<std::uint8_t>(y, x) = y == 0 ? 255 : (y >= boundary ? 0 : 1);
-        if (rng.uniform(0, 6) == 0) {
-          fd.at<double>(y, x) = 1;
-          fh.at<double>(y, x) = y >= boundary ? 0.0 : 1.5;
-        }
-      }
-    features::write_frame_stack(work, f, {features::summed_area_table(fh), features::summed_area_table(fd)},
-                                cv::Mat(48, 64, CV_8UC1, cv::Scalar(100)), labels);
-    m.frames.push_back(f);
-    m.labelled_frames.push_back(f);
-  }
-  features::save_stack_manifest(m);
-  return work;
-}
-
-forest::Forest train(const fs::path& work, int frames_end) {
-  const auto set = features::open_stacks({work}, features::FrameRange{0, frames_end}, true, true, {});
-  forest::TrainParams p;
-  p.K = 200;
-  p.M = 5;
-  return forest::train_forest(set.dataset, p);
-}
-
-}  // namespace
+using eval_test::make_work;
+using eval_test::train;
 
 TEST(Evaluate, LearnsASeparableSceneAndScoresIt) {
   const fs::path work = make_work("learn", 12);
@@ -124,4 +81,70 @@ TEST(Evaluate, MismatchedForestIsRefused) {
   EXPECT_THROW(eval::evaluate(f, {work}, opt), smseg::Error);  // no such frames
   fs::remove_all(work);
   fs::remove_all(other);
+}
+
+TEST(Evaluate, BadInputsGiveOneClearErrorEach) {
+  const fs::path work = make_work("bad", 4);
+  const forest::Forest f = train(work, 3);
+  eval::EvalOptions opt;
+  opt.frames = features::FrameRange{3, 4};
+  const auto expect_error = [](const auto& run, const std::string& part) {
+    try {
+      run();
+      ADD_FAILURE() << "accepted, expected an error mentioning " << part;
+    } catch (const smseg::Error& e) {
+      EXPECT_NE(std::string(e.what()).find(part), std::string::npos) << e.what();
+    }
+  };
+  // Stacks of another size than the forest was trained on.
+  const fs::path big = make_work("bad_size", 4, {"floor", "wall"}, cv::Size(80, 60));
+  expect_error([&] { eval::evaluate(f, {big}, opt); }, "80x60");
+  // A forest trained on other features than the stack has.
+  forest::Forest other_features = f;
+  other_features.features = {"fH", "fOx"};
+  expect_error([&] { eval::evaluate(other_features, {work}, opt); }, "fOx");
+  // A forest trained on other classes.
+  forest::Forest other_classes = f;
+  other_classes.classes = {"floor", "sky"};
+  expect_error([&] { eval::evaluate(other_classes, {work}, opt); }, "classes");
+  // Missing frames: none in the range, or a stack file gone.
+  eval::EvalOptions none = opt;
+  none.frames = features::FrameRange{40, 50};
+  expect_error([&] { eval::evaluate(f, {work}, none); }, "frames");
+  fs::remove(features::sat_path(work, 3));
+  expect_error([&] { eval::evaluate(f, {work}, opt); }, "000003");
+  // A cost matrix made for other classes.
+  eval::EvalOptions costs = opt;
+  costs.frames = features::FrameRange{0, 3};
+  costs.costs = eval::CostMatrix{{"road", "sky"}, {0, 1, 1, 0}};
+  costs.costs_file = "costs.json";
+  expect_error([&] { eval::evaluate(f, {work}, costs); }, "costs.json");
+  fs::remove_all(work);
+  fs::remove_all(big);
+}
+
+TEST(Evaluate, ResultsCarryTheNewScoresAndParameters) {
+  const fs::path work = make_work("results", 6);
+  const forest::Forest f = train(work, 5);
+  eval::EvalOptions opt;
+  opt.frames = features::FrameRange{5, 6};
+  opt.superpixels = 10;
+  opt.votes = 5;
+  opt.vote = eval::VoteRule::Majority;
+  opt.tolerance = 2;
+  opt.costs = eval::CostMatrix{f.classes, {0, 2, 1, 0}};
+  opt.costs_file = "c.json";
+  const eval::EvalResult r = eval::evaluate(f, {work}, opt);
+  EXPECT_GE(r.tolerant_accuracy(), r.confusion.global_accuracy());
+  const auto j = r.to_json(f, opt, {work.string()});
+  EXPECT_EQ(j["params"]["mode"], "superpixels");
+  EXPECT_EQ(j["params"]["vote"], "majority");
+  EXPECT_EQ(j["params"]["tolerance"], 2);
+  EXPECT_EQ(j["params"]["trees"], 5);
+  EXPECT_EQ(j["forest"]["image"]["width"], 64);
+  EXPECT_DOUBLE_EQ(j["mean_cost"].get<double>(),
+                   (2.0 * double(r.confusion.at(0, 1)) + double(r.confusion.at(1, 0))) / double(r.confusion.total()));
+  EXPECT_GT(j["superpixel_seconds_per_frame"].get<double>(), 0.0);
+  EXPECT_TRUE(j["per_frame"][0].contains("boundary_tolerant_accuracy"));
+  fs::remove_all(work);
 }

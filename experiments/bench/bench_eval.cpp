@@ -1,0 +1,133 @@
+// Speed of evaluation (eval/): eval::label_frame on one 320x240 frame, per pixel, grid voting and
+// superpixel voting (superpixel segmentation timed apart). Targets (evaluation issue), M = 7, K = 400
+// forest on 2 cores: per pixel <= 10 ms per frame; grid B = 20, V = 6 <= 0.5 ms per frame.
+//
+// By default the forest is trained in the benchmark on synthetic frames (libforest's make_synthetic:
+// 6 smooth class-dependent feature fields, as bench_forest uses). To time a real forest and stacks:
+//   SMSEG_BENCH_FOREST=work/forest.json SMSEG_BENCH_WORK=work SMSEG_BENCH_FRAME=110 bench_eval
+// Run: bench_eval --benchmark_out=eval.json --benchmark_out_format=json
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <memory>
+#include <optional>
+
+#include <oneapi/tbb/global_control.h>
+#include <opencv2/core/utility.hpp>
+
+#include "smseg/eval/evaluate.hpp"
+#include "smseg/forest/synthetic.hpp"
+#include "smseg/forest/train.hpp"
+
+using namespace smseg;
+
+namespace {
+
+struct Setup {
+  forest::Forest forest;
+  forest::SyntheticData synthetic;                 // synthetic mode: owns the frame
+  std::optional<features::StackSet> stacks;        // env mode: owns the mappings
+  forest::FrameData frame;
+  int frame_index = 0;
+  std::string source;
+};
+
+const Setup& setup() {
+  static const Setup* s = [] {
+    auto* x = new Setup;
+    const char* forest_file = std::getenv("SMSEG_BENCH_FOREST");
+    const char* work = std::getenv("SMSEG_BENCH_WORK");
+    if (forest_file && work) {
+      x->forest = forest::load_forest(forest_file);
+      const char* frame = std::getenv("SMSEG_BENCH_FRAME");
+      x->frame_index = frame ? std::atoi(frame) : 0;
+      x->stacks = features::open_stacks({work}, features::FrameRange{x->frame_index, x->frame_index + 1}, false,
+                                        false, x->forest.features);
+      eval::check_forest_fits(x->forest, *x->stacks);
+      x->frame = x->stacks->dataset.frames.front();
+      x->source = std::string(work);
+      return x;
+    }
+    // Class signal low enough that trees grow to a realistic size (as in bench_forest).
+    forest::SyntheticOptions o;
+    o.frames = 11;
+    o.seed = 7;
+    o.signal = 0.25;
+    const forest::SyntheticData train = forest::make_synthetic(o);
+    forest::TrainParams p;
+    p.K = 400;
+    p.M = 7;
+    x->forest = forest::train_forest(train.data, p);
+    o.frames = 1;
+    o.seed = 99;
+    x->synthetic = forest::make_synthetic(o);
+    x->frame = x->synthetic.data.frames.front();
+    x->source = "synthetic";
+    return x;
+  }();
+  return *s;
+}
+
+void counters(benchmark::State& state, const Setup& s) {
+  double nodes = 0;
+  for (const auto& t : s.forest.trees) nodes += static_cast<double>(t.nodes.size());
+  state.counters["nodes_per_tree"] = nodes / static_cast<double>(s.forest.trees.size());
+  state.counters["trees"] = static_cast<double>(s.forest.trees.size());
+  state.counters["width"] = s.frame.width;
+  state.counters["height"] = s.frame.height;
+  state.SetLabel(s.source);
+}
+
+// Args: mode (0 per pixel, 1 grid, 2 superpixels), region size (B or SLIC size), V, threads
+void BM_LabelFrame(benchmark::State& state) {
+  const Setup& s = setup();
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(3)));
+  const forest::Classifier classifier(s.forest);
+  eval::EvalOptions opt;
+  if (state.range(0) == 1) opt.grid = static_cast<int>(state.range(1));
+  if (state.range(0) == 2) opt.superpixels = static_cast<int>(state.range(1));
+  opt.votes = static_cast<int>(state.range(2));
+  double regions = 0, classify = 0;
+  for (auto _ : state) {
+    eval::LabelTimes t;
+    cv::Mat labels = eval::label_frame(classifier, s.frame, opt, s.frame_index, &t);
+    benchmark::DoNotOptimize(labels.data);
+    regions += t.regions;
+    classify += t.classify;
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["classify_ms"] = 1000 * classify / n;
+  state.counters["superpixels_ms"] = 1000 * regions / n;
+  counters(state, s);
+}
+BENCHMARK(BM_LabelFrame)
+    ->ArgNames({"mode", "size", "V", "threads"})
+    ->Args({0, 0, 0, 1})
+    ->Args({0, 0, 0, 2})
+    ->Args({1, 20, 6, 1})
+    ->Args({1, 20, 6, 2})
+    ->Args({1, 20, 9, 2})
+    ->Args({2, eval::kSmallSuperpixels, 9, 2})
+    ->Args({2, eval::kLargeSuperpixels, 9, 2})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The SLIC segmentation alone (what --superpixels adds before classification), OpenCV threads default.
+void BM_Superpixels(benchmark::State& state) {
+  const Setup& s = setup();
+  if (!s.frame.gray) {
+    state.SkipWithError("the frame has no greyscale image");
+    return;
+  }
+  const cv::Mat gray(s.frame.height, s.frame.width, CV_8UC1, const_cast<std::uint8_t*>(s.frame.gray));
+  for (auto _ : state) {
+    cv::Mat ids = eval::superpixels(gray, static_cast<int>(state.range(0)));
+    benchmark::DoNotOptimize(ids.data);
+  }
+  counters(state, s);
+}
+BENCHMARK(BM_Superpixels)->ArgNames({"size"})->Arg(eval::kSmallSuperpixels)->Arg(eval::kLargeSuperpixels)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
