@@ -84,6 +84,13 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                  {"min_inliers", o.motion.min_inliers},
                  {"min_inlier_ratio", o.motion.min_inlier_ratio},
                  {"seed", o.motion.seed}};
+  j["refine"] = {{"enabled", o.refine.enabled},
+                 {"iterations", o.refine.iterations},
+                 {"huber_px", o.refine.huber_px},
+                 {"inlier_px", o.refine.inlier_px},
+                 {"disparity_weight", o.refine.disparity_weight},
+                 {"second_hypothesis", o.refine.second_hypothesis},
+                 {"second_min_share", o.refine.second_min_share}};
   if (o.camera_height) j["camera_height"] = *o.camera_height;
   j["first_frame"] = o.first_frame;
   j["last_frame"] = o.last_frame;

@@ -42,6 +42,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_flag("--require-label", opt.front_end.filters.require_label,
                "drop tracks that never pass through a labelled frame (the thesis's training filter)");
+  bool no_refine = false;
+  app.add_flag("--no-refine", no_refine,
+               "motion from RANSAC + Arun SVD alone (the thesis method), without the reprojection refinement");
   app.add_option("--camera-height", camera_height, "camera height above the ground in metres (default: the sequence's)");
   app.add_flag("--causal", opt.features.causal, "fC from the camera path up to the current frame only (on-line use)");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
@@ -60,6 +63,7 @@ int main(int argc, char** argv) {
       if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
       opt.front_end.camera_height = camera_height;
     }
+    opt.front_end.refine.enabled = !no_refine;
     opt.frames = FrameRange::parse(frames, "--frames");
     std::stringstream ss(preview);
     for (std::string item; std::getline(ss, item, ',');)
