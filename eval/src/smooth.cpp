@@ -91,10 +91,19 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
   if (dists.size() != n * C)
     throw Error("", "distributions", std::to_string(dists.size()) + " values for a " + std::to_string(W) + "x" +
                                          std::to_string(H) + " image of " + std::to_string(classes) + " classes");
-  features::PottsEnergy e;
+  // Working memory kept per thread from frame to frame (the energy's arrays and the max-flow graph):
+  // fresh multi-megabyte buffers per frame cost more in page faults than the cuts themselves.
+  struct Cache {
+    features::PottsEnergy e;
+    features::ExpansionSolver solver;
+    std::vector<int> labelling;
+  };
+  thread_local Cache cache;
+  features::PottsEnergy& e = cache.e;
   e.nodes = static_cast<int>(n);
   e.labels = classes;
   e.unary.resize(n * C);
+  e.edges.clear();
   const double cap = -std::log(opt.p_min);
   for (std::size_t i = 0; i < n; ++i) {
     const float* d = dists.data() + i * C;
@@ -121,8 +130,9 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
           e.edges.push_back({y * W + x, y1 * W + x1, w});
         }
   }
-  std::vector<int> labelling;
-  const features::ExpansionReport r = features::alpha_expansion(e, labelling, {.max_cycles = opt.cycles});
+  std::vector<int>& labelling = cache.labelling;
+  labelling.clear();
+  const features::ExpansionReport r = cache.solver.solve(e, labelling, {.max_cycles = opt.cycles});
   rep.energy_before = r.initial_energy;
   rep.energy_after = r.energy;
   rep.cycles = r.cycles;

@@ -13,7 +13,10 @@ namespace smseg::features {
 
 namespace {
 
-using MaxFlowGraph = maxflow::Graph<double, double, double>;
+// Float capacities: half the memory traffic of double; each move's result is checked against the
+// energy recomputed in double, so rounding can at worst reject a move, never raise the energy.
+using MaxFlowGraph = maxflow::Graph<float, float, float>;
+using ExactGraph = maxflow::Graph<double, double, double>;
 
 [[noreturn]] void maxflow_error(const char* msg) { throw Error("", "max-flow", msg ? msg : "libmaxflow failed"); }
 
@@ -44,14 +47,14 @@ void FlowGraph::validate() const {
 double max_flow(const FlowGraph& graph, std::vector<std::uint8_t>* sink_side) {
   graph.validate();
   const int n = graph.nodes();
-  MaxFlowGraph g(std::max(n, 1), std::max<int>(static_cast<int>(graph.edges.size()), 1), maxflow_error);
+  ExactGraph g(std::max(n, 1), std::max<int>(static_cast<int>(graph.edges.size()), 1), maxflow_error);
   if (n > 0) g.add_node(n);
   for (int i = 0; i < n; ++i) g.add_tweights(i, graph.source[std::size_t(i)], graph.sink[std::size_t(i)]);
   for (const auto& e : graph.edges) g.add_edge(e.i, e.j, e.forward, e.backward);
   const double flow = n > 0 ? g.maxflow() : 0.0;
   if (sink_side) {
     sink_side->assign(std::size_t(n), 0);
-    for (int i = 0; i < n; ++i) (*sink_side)[std::size_t(i)] = g.what_segment(i) == MaxFlowGraph::SINK ? 1 : 0;
+    for (int i = 0; i < n; ++i) (*sink_side)[std::size_t(i)] = g.what_segment(i) == ExactGraph::SINK ? 1 : 0;
   }
   return flow;
 }
@@ -105,25 +108,41 @@ void ExpansionOptions::validate() const {
     throw Error("", "relative_tolerance", "must be a finite number >= 0");
 }
 
-namespace {
-
-/// What one expansion move needs, kept across moves (libmaxflow's reset() keeps its memory).
+/// What expansion moves need, kept across moves and energies: libmaxflow's reset() keeps its memory
+/// (and grows it when a larger energy comes), so a solver reused frame after frame allocates nothing.
 struct MoveWorkspace {
-  explicit MoveWorkspace(const PottsEnergy& e)
-      : g(std::max(e.nodes, 1), std::max<int>(static_cast<int>(e.edges.size()), 1), maxflow_error),
-        id(static_cast<std::size_t>(e.nodes)) {}
-  MaxFlowGraph g;
-  std::vector<int> id;
+  MaxFlowGraph g{1, 1, maxflow_error};
+  void prepare(const PottsEnergy& e) {
+    id.resize(static_cast<std::size_t>(e.nodes));
+    incident.assign(static_cast<std::size_t>(e.nodes), 0.0);
+    for (const auto& ed : e.edges) {
+      incident[std::size_t(ed.i)] += ed.weight;
+      incident[std::size_t(ed.j)] += ed.weight;
+    }
+  }
+  std::vector<int> id;           // graph node, or kAlpha (already alpha) or kKept (provably keeps its label)
+  std::vector<double> incident;  // sum of the weights of each node's edges
   std::vector<double> e0, e1;  // cost of keeping the current label (source side) / taking alpha (sink side)
   std::vector<int> proposal;
 };
+
+namespace {
+
+constexpr int kAlpha = -1, kKept = -2;
 
 /// The optimal alpha-expansion move from `labelling` (one min cut), applied when it lowers `current`
 /// (the energy of `labelling`, recomputed for the proposal). Returns true when applied.
 bool expand(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, double& current, MoveWorkspace& w) {
   const int n = energy.nodes;
   int free_nodes = 0;
-  for (int i = 0; i < n; ++i) w.id[std::size_t(i)] = labelling[std::size_t(i)] == alpha ? -1 : free_nodes++;
+  for (int i = 0; i < n; ++i) {
+    const int li = labelling[std::size_t(i)];
+    // A node whose unary cost rises by more than all its edges weigh keeps its label in every optimal
+    // move (flipping it back would lower the move's energy): it needs no graph node.
+    if (li == alpha) w.id[std::size_t(i)] = kAlpha;
+    else if (energy.unary_at(i, alpha) - energy.unary_at(i, li) > w.incident[std::size_t(i)]) w.id[std::size_t(i)] = kKept;
+    else w.id[std::size_t(i)] = free_nodes++;
+  }
   if (free_nodes == 0) return false;
   w.e0.assign(std::size_t(free_nodes), 0.0);
   w.e1.assign(std::size_t(free_nodes), 0.0);
@@ -139,21 +158,27 @@ bool expand(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, d
     const int vi = w.id[std::size_t(ed.i)], vj = w.id[std::size_t(ed.j)];
     const double wt = ed.weight;
     if (wt == 0 || (vi < 0 && vj < 0)) continue;
-    if (vi < 0 || vj < 0) {  // one end already alpha: the other pays wt unless it joins alpha
-      w.e0[std::size_t(vi < 0 ? vj : vi)] += wt;
+    if (vi < 0 || vj < 0) {
+      const int fixed = vi < 0 ? ed.i : ed.j, v = vi < 0 ? vj : vi, node = vi < 0 ? ed.j : ed.i;
+      if (w.id[std::size_t(fixed)] == kAlpha) {  // the free end pays wt unless it joins alpha
+        w.e0[std::size_t(v)] += wt;
+      } else {  // the fixed end keeps a label other than alpha
+        if (labelling[std::size_t(fixed)] != labelling[std::size_t(node)]) w.e0[std::size_t(v)] += wt;
+        w.e1[std::size_t(v)] += wt;
+      }
       continue;
     }
     if (labelling[std::size_t(ed.i)] == labelling[std::size_t(ed.j)]) {
-      w.g.add_edge(vi, vj, wt, wt);  // E = wt [x_i != x_j]
+      w.g.add_edge(vi, vj, float(wt), float(wt));  // E = wt [x_i != x_j]
     } else {
       // E(0,0) = wt, E(0,1) = wt, E(1,0) = wt, E(1,1) = 0, which is wt (1 - x_j) + wt (1 - x_i) x_j
       w.e0[std::size_t(vj)] += wt;
-      w.g.add_edge(vi, vj, wt, 0);
+      w.g.add_edge(vi, vj, float(wt), 0.0f);
     }
   }
   for (int v = 0; v < free_nodes; ++v) {
     const double m = std::min(w.e0[std::size_t(v)], w.e1[std::size_t(v)]);
-    w.g.add_tweights(v, w.e1[std::size_t(v)] - m, w.e0[std::size_t(v)] - m);
+    w.g.add_tweights(v, float(w.e1[std::size_t(v)] - m), float(w.e0[std::size_t(v)] - m));
   }
   w.g.maxflow();
   w.proposal.resize(std::size_t(n));
@@ -190,26 +215,44 @@ bool expansion_move(const PottsEnergy& energy, std::vector<int>& labelling, int 
   initial_labelling(energy, labelling);
   double current = energy.energy(labelling);
   if (energy.nodes == 0) return false;
-  MoveWorkspace w(energy);
+  MoveWorkspace w;
+  w.prepare(energy);
   return expand(energy, labelling, alpha, current, w);
 }
 
+ExpansionSolver::ExpansionSolver() : w_(std::make_unique<MoveWorkspace>()) {}
+ExpansionSolver::~ExpansionSolver() = default;
+
 ExpansionReport alpha_expansion(const PottsEnergy& energy, std::vector<int>& labelling, const ExpansionOptions& opt) {
+  ExpansionSolver solver;
+  return solver.solve(energy, labelling, opt);
+}
+
+ExpansionReport ExpansionSolver::solve(const PottsEnergy& energy, std::vector<int>& labelling,
+                                       const ExpansionOptions& opt) {
   energy.validate();
   opt.validate();
   initial_labelling(energy, labelling);
   ExpansionReport rep;
   rep.initial_energy = rep.energy = energy.energy(labelling);
   if (energy.nodes == 0 || energy.labels == 1) return rep;
-  MoveWorkspace w(energy);
-  for (int cycle = 0; cycle < opt.max_cycles; ++cycle) {
+  MoveWorkspace& w = *w_;
+  w.prepare(energy);
+  // A move from a labelling already tried with the same alpha gives nothing: after L moves in a row
+  // that changed nothing, the labelling is a local minimum under expansion moves.
+  int unchanged_in_a_row = 0;
+  for (int cycle = 0; cycle < opt.max_cycles && unchanged_in_a_row < energy.labels; ++cycle) {
     const double cycle_start = rep.energy;
     bool changed = false;
-    for (int alpha = 0; alpha < energy.labels; ++alpha)
+    for (int alpha = 0; alpha < energy.labels && unchanged_in_a_row < energy.labels; ++alpha) {
       if (expand(energy, labelling, alpha, rep.energy, w)) {
         ++rep.moves;
         changed = true;
+        unchanged_in_a_row = 1;  // this alpha has been tried on the new labelling
+      } else {
+        ++unchanged_in_a_row;
       }
+    }
     ++rep.cycles;
     rep.per_cycle.push_back(rep.energy);
     if (!changed) break;

@@ -11,6 +11,7 @@
 // of the global minimum (Boykov et al. 2001, theorem 6.1).
 
 #include <cstdint>
+#include <memory>
 #include <span>
 #include <vector>
 
@@ -77,6 +78,23 @@ struct ExpansionReport {
 /// labels are expanded in order 0..L-1.
 ExpansionReport alpha_expansion(const PottsEnergy& energy, std::vector<int>& labelling,
                                 const ExpansionOptions& opt = {});
+
+struct MoveWorkspace;
+
+/// alpha_expansion with its working memory (the max-flow graph and per-node arrays) kept from one call
+/// to the next: solving frame after frame of the same size allocates nothing. Not thread-safe: one
+/// solver per thread.
+class ExpansionSolver {
+ public:
+  ExpansionSolver();
+  ~ExpansionSolver();
+  ExpansionSolver(const ExpansionSolver&) = delete;
+  ExpansionSolver& operator=(const ExpansionSolver&) = delete;
+  ExpansionReport solve(const PottsEnergy& energy, std::vector<int>& labelling, const ExpansionOptions& opt = {});
+
+ private:
+  std::unique_ptr<MoveWorkspace> w_;
+};
 
 /// One alpha-expansion move: the labelling of least energy among those where every node keeps its label
 /// or takes alpha (one min cut), applied when it lowers the energy. `labelling` empty: starts from the
