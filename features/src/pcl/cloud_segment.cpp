@@ -5,6 +5,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <fstream>
+#include <set>
+#include <sstream>
 
 #include <pcl/common/io.h>
 #include <pcl/console/print.h>
@@ -45,6 +48,34 @@ std::array<std::uint8_t, 3> label_colour(int label) {
   return palette[std::size_t(label) % palette.size()];
 }
 
+/// PCL 1.13's readers crash on some malformed files: check the header ourselves first. PCD: FIELDS,
+/// SIZE, TYPE, WIDTH, HEIGHT, POINTS (> 0) and DATA lines; PLY: the "ply" magic and an end_header.
+void check_header(const fs::path& path, bool pcd) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path.string(), "", "cannot be opened");
+  std::string line;
+  if (!pcd) {
+    if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
+    for (int n = 0; n < 200 && std::getline(in, line); ++n)
+      if (line.rfind("end_header", 0) == 0) return;
+    throw Error(path.string(), "", "not a PLY file (no end_header)");
+  }
+  std::set<std::string> seen;
+  long points = -1;
+  for (int n = 0; n < 100 && std::getline(in, line); ++n) {
+    if (line.empty() || line[0] == '#') continue;
+    std::istringstream ls(line);
+    std::string key;
+    ls >> key;
+    seen.insert(key);
+    if (key == "POINTS") ls >> points;
+    if (key == "DATA") break;
+  }
+  for (const char* k : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS", "DATA"})
+    if (!seen.count(k)) throw Error(path.string(), "", std::string("not a PCD file (no ") + k + " line in the header)");
+  if (points <= 0) throw Error(path.string(), "points", "the cloud is empty");
+}
+
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -56,6 +87,7 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
   if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
+  check_header(path, ext == ".pcd");
   pcl::PCLPointCloud2 raw;
   const auto level = pcl::console::getVerbosityLevel();
   pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
