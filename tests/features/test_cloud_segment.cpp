@@ -140,3 +140,100 @@ TEST(CloudSegment, BadSeedsAndEmptyCloudsAreErrors) {
   c.points[5].x() = NAN;
   EXPECT_THROW(centroid_mincut(c, p), Error);
 }
+
+// ---- Multi-class MRF (paper 000) ----
+
+namespace {
+
+// The best F1 per ground-truth object, the predicted labels mapped to truth through their seeds.
+std::vector<double> mrf_f1(const ColouredCloud& c, const MrfSeeds& seeds, const std::vector<int>& labels, int objects) {
+  const std::vector<int> map = seed_truth(c, seeds);
+  std::vector<int> mapped(labels.size());
+  for (std::size_t i = 0; i < labels.size(); ++i) mapped[i] = map[std::size_t(labels[i])];
+  std::vector<double> f1;
+  for (int k = 0; k <= objects; ++k) f1.push_back(f1_score(c.labels, mapped, k));
+  return f1;
+}
+
+}  // namespace
+
+TEST(CloudMrf, PlaneSeedsFindTheTableAndEachObject) {
+  TabletopCloudOptions o;
+  o.points = 12000;
+  o.objects = 3;
+  const ColouredCloud c = make_tabletop_cloud(o);
+  const MrfSeeds s = plane_seeds(c, {});
+  ASSERT_EQ(s.regions.size(), 4u);
+  const std::vector<int> truth = seed_truth(c, s);
+  EXPECT_EQ(truth[0], 0);  // the plane is the table
+  std::vector<int> objects(truth.begin() + 1, truth.end());
+  std::sort(objects.begin(), objects.end());
+  EXPECT_EQ(objects, (std::vector<int>{1, 2, 3}));
+}
+
+TEST(CloudMrf, SeparatesThreeObjectsAndTheTable) {
+  TabletopCloudOptions o;
+  o.points = 12000;
+  o.objects = 3;
+  const ColouredCloud c = make_tabletop_cloud(o);
+  const MrfSeeds s = plane_seeds(c, {});
+  MrfReport rep;
+  const std::vector<int> labels = mrf_segment(c, s, {}, &rep);
+  for (double f : mrf_f1(c, s, labels, 3)) EXPECT_GE(f, 0.9);
+  ASSERT_FALSE(rep.energies.empty());
+  EXPECT_GT(rep.beta, 0);
+}
+
+TEST(CloudMrf, SmoothnessCleansColourNoiseThatUnariesAloneGetWrong) {
+  // Heavy colour noise: the colour models alone mislabel many points; the k-NN Potts term fixes most.
+  TabletopCloudOptions o;
+  o.points = 12000;
+  o.objects = 2;
+  o.colour_noise = 70;
+  const ColouredCloud c = make_tabletop_cloud(o);
+  const MrfSeeds s = plane_seeds(c, {.colour_tolerance = 400});
+  MrfParams p;
+  p.lambda = 0;
+  const auto alone = mrf_f1(c, s, mrf_segment(c, s, p), 2);
+  p.lambda = 4;
+  const auto smooth = mrf_f1(c, s, mrf_segment(c, s, p), 2);
+  for (int k = 1; k <= 2; ++k) {
+    EXPECT_GT(smooth[std::size_t(k)], alone[std::size_t(k)] + 0.2) << "object " << k;
+    EXPECT_GE(smooth[std::size_t(k)], 0.9) << "object " << k;
+  }
+}
+
+TEST(CloudMrf, SeedFilesAndBadSeeds) {
+  TabletopCloudOptions o;
+  o.points = 6000;
+  o.objects = 2;
+  const ColouredCloud c = make_tabletop_cloud(o);
+  const fs::path f = temp("seeds.json");
+  // Object 1 at the centre (a box 0.3 m tall), object 2 on the ring at angle 0 (a sphere).
+  write_file_atomic(f, R"({"format": "smseg-seeds", "version": 1, "radius": 0.08,
+    "seeds": [{"label": 0, "position": [-0.8, 0, -0.8]}, {"label": 0, "position": [0.8, 0, 0.8]},
+              {"label": 1, "position": [0, 0.3, 0]}, {"label": 2, "position": [0.68, 0.35, 0]}]})");
+  const MrfSeeds s = file_seeds(c, f);
+  ASSERT_EQ(s.regions.size(), 3u);
+  EXPECT_EQ(seed_truth(c, s), (std::vector<int>{0, 1, 2}));
+  const auto f1 = mrf_f1(c, s, mrf_segment(c, s, {}), 2);
+  for (double v : f1) EXPECT_GE(v, 0.9);
+  // A seed in empty space, a missing label, a broken file.
+  write_file_atomic(f, R"({"format": "smseg-seeds", "version": 1, "radius": 0.05,
+    "seeds": [{"label": 0, "position": [-0.8, 0, -0.8]}, {"label": 1, "position": [5, 5, 5]}]})");
+  EXPECT_THROW(file_seeds(c, f), Error);
+  write_file_atomic(f, R"({"format": "smseg-seeds", "version": 1, "radius": 0.08,
+    "seeds": [{"label": 0, "position": [-0.8, 0, -0.8]}, {"label": 2, "position": [0, 0.3, 0]}]})");
+  EXPECT_THROW(file_seeds(c, f), Error);
+  write_file_atomic(f, R"({"format": "smseg-seeds", "version": 1, "seeds": []})");
+  EXPECT_THROW(file_seeds(c, f), Error);
+  fs::remove(f);
+  // No colours, empty clouds, one label.
+  ColouredCloud grey = c;
+  grey.colours.clear();
+  EXPECT_THROW(mrf_segment(grey, s, {}), Error);
+  EXPECT_THROW(mrf_segment(ColouredCloud{}, s, {}), Error);
+  MrfSeeds one = s;
+  one.regions.resize(1);
+  EXPECT_THROW(mrf_segment(c, one, {}), Error);
+}

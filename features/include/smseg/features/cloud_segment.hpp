@@ -2,6 +2,9 @@
 // Point-cloud segmentation by graph cuts, the other systems of our papers (../shared/papers):
 //   centroid min-cut (003, Aung & Thein): foreground / background of a cloud seeded by its centroid and
 //     a radius R, a k-nearest-neighbour graph with smoothness exp(-d / sigma), one min cut.
+//   multi-class MRF (000, "Attention-based active 3D point cloud segmentation"): one label per seeded
+//     object plus the supporting plane, a colour GMM per label, contrast-sensitive Potts over the
+//     4-nearest-neighbour graph, alpha-expansion, GMMs re-estimated until the energy settles.
 // Clouds are read and written through PCL (PCD or PLY; defined in the smseg_cloud library, which links
 // PCL); the synthetic tabletop clouds of the tests and benchmarks need no PCL.
 
@@ -97,5 +100,65 @@ struct CentroidMinCutReport {
 /// k + 1, or no point lies within R of the centroid (bad seed).
 std::vector<int> centroid_mincut(const ColouredCloud& cloud, const CentroidMinCutParams& params,
                                  CentroidMinCutReport* report = nullptr);
+
+// ---- Multi-class MRF (paper 000) ----------------------------------------------------------------
+
+/// Seeds: for each label, the points that initialise its colour model. Label 0 is the supporting plane
+/// (background) when plane seeding made it.
+struct MrfSeeds {
+  std::vector<std::vector<int>> regions;  ///< per label, point indices (each non-empty)
+  std::vector<Eigen::Vector3f> positions; ///< per label, where the seed is (region mean)
+  std::string method;                     ///< "plane" | "file"
+};
+
+/// Geometric plane seeding (000 IV-A.1): RANSAC plane (pcl::SACSegmentation, inliers within
+/// plane_distance) = label 0; the points above it (the side holding most off-plane points, farther than
+/// plane_distance) clustered by distance (cluster_tolerance; 0: 3 x the mean 4-NN distance) and colour
+/// (neighbours within colour_tolerance in RGB) with pcl::ConditionalEuclideanClustering; clusters of at
+/// least min_cluster points become labels 1.. (largest first). Error when there is no plane or no cluster.
+struct PlaneSeedParams {
+  double plane_distance = 0.01;  ///< metres
+  double cluster_tolerance = 0;  ///< metres; 0: 3 x mean 4-NN distance
+  double colour_tolerance = 60;  ///< RGB distance between neighbours of one cluster
+  int min_cluster = 50;
+  void validate() const;
+};
+MrfSeeds plane_seeds(const ColouredCloud& cloud, const PlaneSeedParams& params);
+
+/// Seeds from a JSON file {"format": "smseg-seeds", "version": 1, "radius": r,
+///   "seeds": [{"label": 0, "position": [x, y, z]}, ...]}: label l's region = the points within r of
+/// its positions; labels 0..L-1 each used. Error naming the file for a bad file or a seed with no point
+/// within r.
+MrfSeeds file_seeds(const ColouredCloud& cloud, const fs::path& path);
+
+struct MrfParams {
+  int neighbours = 4;        ///< k of the k-NN graph (000: 4)
+  int components = 5;        ///< K of each label's colour GMM (GrabCut's 5)
+  double lambda = 2.0;       ///< weight of the pairwise term, >= 0
+  int max_iterations = 10;   ///< GMM re-estimation rounds, >= 1
+  double tolerance = 1e-3;   ///< stop when the energy changes by less than this fraction
+  void validate() const;
+};
+
+struct MrfReport {
+  int labels = 0;
+  int iterations = 0;
+  double beta = 0;
+  double mean_distance = 0;
+  std::vector<double> energies;  ///< after each round's alpha-expansion
+  double seconds = 0;            ///< graph, GMMs and cuts (not seeding)
+};
+
+/// The MRF labelling (labels 0..L-1 of the seeds): unary -log sum_k pi_k N(c; mu_k, Sigma_k) of the
+/// label's RGB GMM (000 eq. 1, without the constant (2 pi)^-3/2), pairwise
+/// lambda * (dbar / dist(i, j)) * exp(-beta |c_i - c_j|^2) [x_i != x_j] on the k-NN graph (000 eq. 2;
+/// the distance normalised by the mean neighbour distance dbar so that lambda has no unit), beta =
+/// 1 / (2 <|c_i - c_j|^2>) over the graph's edges; alpha-expansion, then each GMM refitted to the points
+/// of its label, until the energy changes by less than the tolerance. Needs colours.
+std::vector<int> mrf_segment(const ColouredCloud& cloud, const MrfSeeds& seeds, const MrfParams& params,
+                             MrfReport* report = nullptr);
+
+/// Maps each predicted label to the ground-truth label most of its seed region carries (-1: none).
+std::vector<int> seed_truth(const ColouredCloud& cloud, const MrfSeeds& seeds);
 
 }  // namespace smseg::features
