@@ -1,6 +1,6 @@
 // Speed of the point-cloud segmenters (features/cloud_segment.hpp) on synthetic tabletop clouds, at the
 // sizes of paper 003's time table (36056, 68042, 177828 points) and 100k. Targets (graph-cut issue):
-// centroid min-cut on 100k points under 2 s (2 cores).
+// centroid min-cut on 100k points under 2 s; the MRF on 50k points with 5 labels under 5 s (2 cores).
 // Run: bench_cloud --benchmark_out=cloud.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
@@ -50,6 +50,36 @@ BENCHMARK(BM_CentroidMinCut)
     ->Args({36056, 1})
     ->Args({100000, 1})
     ->Args({177828, 1})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MeasureProcessCPUTime();
+
+// The multi-class MRF on a tabletop of 4 objects (5 labels with the table). Arg: points;
+// seeding 1: plane seeding timed too, 0: seeds made before the loop.
+void BM_Mrf(benchmark::State& state) {
+  const features::ColouredCloud& c = tabletop(static_cast<int>(state.range(0)), 4);
+  features::MrfSeeds seeds = features::plane_seeds(c, {});
+  features::MrfReport rep;
+  std::vector<int> labels;
+  for (auto _ : state) {
+    if (state.range(1)) seeds = features::plane_seeds(c, {});
+    labels = features::mrf_segment(c, seeds, {}, &rep);
+    benchmark::DoNotOptimize(labels.data());
+  }
+  const std::vector<int> map = features::seed_truth(c, seeds);
+  std::vector<int> mapped(labels.size());
+  for (std::size_t i = 0; i < labels.size(); ++i) mapped[i] = map[std::size_t(labels[i])];
+  double worst = 1;
+  for (int k = 0; k <= 4; ++k) worst = std::min(worst, features::f1_score(c.labels, mapped, k));
+  state.counters["labels"] = rep.labels;
+  state.counters["rounds"] = rep.iterations;
+  state.counters["min_f1"] = worst;
+  state.counters["points"] = double(c.size());
+}
+BENCHMARK(BM_Mrf)
+    ->ArgNames({"points", "seeding"})
+    ->Args({50000, 0})
+    ->Args({50000, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->MeasureProcessCPUTime();
