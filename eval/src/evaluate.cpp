@@ -309,6 +309,8 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
     fr.seconds = times.classify;
     fr.superpixel_seconds = times.regions;
     fr.smooth_seconds = times.smooth;
+    fr.boundary = boundary_counts(truth, predicted, opt.tolerance);
+    result.boundary.merge(fr.boundary);
     total_smooth += times.smooth;
     total_seconds += times.classify;
     total_regions += times.regions;
@@ -364,7 +366,8 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
                 {"pixels", total},
                 {"seconds", f.seconds},
                 {"superpixel_seconds", f.superpixel_seconds},
-                {"smooth_seconds", f.smooth_seconds}};
+                {"smooth_seconds", f.smooth_seconds},
+                {"boundary_f1", num(f.boundary.f1())}};
     if (opt.costs) rec["mean_cost"] = num(mean_cost(f.confusion, *opt.costs));
     per_frame.push_back(std::move(rec));
     if (!std::isnan(f.confusion.global_accuracy())) accs.push_back(f.confusion.global_accuracy());
@@ -404,6 +407,9 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
             {"seconds_per_frame", seconds_per_frame},
             {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
             {"smooth_seconds_per_frame", smooth_seconds_per_frame},
+            {"boundary_f1", num(boundary.f1())},
+            {"boundary_precision", num(boundary.precision())},
+            {"boundary_recall", num(boundary.recall())},
             {"params",
              {{"works", works},
               {"test_frames", opt.frames.str()},

@@ -69,7 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--trees", opt.trees, "use only the first m trees of the forest (0: all)")->capture_default_str();
   app.add_option("--tolerance", opt.tolerance,
                  "T of the boundary-tolerant accuracy: a wrong pixel within T px (Euclidean) of a true region of its "
-                 "output class counts as a near miss")
+                 "output class counts as a near miss; also the match distance of the boundary F1")
       ->capture_default_str();
   app.add_option("--costs", costs,
                  "class-to-class cost matrix, reports the mean cost per pixel: {\"format\": \"smseg-costs\", "
@@ -144,7 +144,8 @@ int main(int argc, char** argv) {
     std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
                        pct(r.confusion.global_accuracy()) + ", class-average accuracy " +
                        pct(r.confusion.class_average_accuracy()) + ", mean IoU " + pct(r.confusion.mean_iou()) +
-                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy());
+                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy()) +
+                       ", boundary F1 " + pct(r.boundary.f1());
     if (opt.costs) {
       char buf[64];
       std::snprintf(buf, sizeof buf, ", mean cost %.4f", eval::mean_cost(r.confusion, *opt.costs));

@@ -20,6 +20,7 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "smseg/eval/boundary.hpp"
 #include "smseg/eval/metrics.hpp"
 #include "smseg/eval/smooth.hpp"
 #include "smseg/features/stack.hpp"
@@ -76,6 +77,7 @@ struct FrameResult {
   double seconds = 0;            ///< classification time of the frame (not superpixels, pictures, I/O)
   double superpixel_seconds = 0; ///< superpixel segmentation time of the frame
   double smooth_seconds = 0;     ///< graph-cut smoothing time of the frame
+  BoundaryCounts boundary;       ///< boundary F1 counts at `tolerance` (boundary.hpp)
 };
 
 struct EvalResult {
@@ -85,6 +87,7 @@ struct EvalResult {
   double seconds_per_frame = 0;             ///< classification only (as the thesis times it)
   double superpixel_seconds_per_frame = 0;  ///< superpixel segmentation, apart
   double smooth_seconds_per_frame = 0;      ///< graph-cut smoothing, apart
+  BoundaryCounts boundary;                  ///< summed over the frames
 
   double tolerant_accuracy() const;  ///< (right + near misses) / pixels; NaN when empty
   /// results.json: global_accuracy, class_average_accuracy, mean_iou, boundary_tolerant_accuracy,
