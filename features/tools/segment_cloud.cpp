@@ -61,7 +61,8 @@ int main(int argc, char** argv) {
   app.add_option("--min-cluster", plane.min_cluster, "mrf plane seeds: smallest cluster that seeds an object")
       ->capture_default_str();
   app.add_option("--radius", mc.radius, "centroid-mincut: R, points within R of the centroid seed the object (required)");
-  app.add_option("--neighbours", mc.neighbours, "k of the k-nearest-neighbour graph")->capture_default_str();
+  app.add_option("--neighbours", mc.neighbours, "centroid-mincut: k of the k-nearest-neighbour graph (mrf uses 000's 4)")
+      ->capture_default_str();
   app.add_option("--sigma", mc.sigma, "smoothness scale (0: mean distance of the points to their k nearest neighbours)")
       ->capture_default_str();
   app.add_option("--lambda", mc.lambda, "centroid-mincut (maxflow): weight of the smoothness term")->capture_default_str();
