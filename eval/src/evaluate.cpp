@@ -135,6 +135,8 @@ void EvalOptions::validate() const {
   if (voting() && votes < 1) throw Error("", "--votes", "must be at least 1 (the region's size or more: every pixel votes)");
   if (trees < 0) throw Error("", "--trees", "must be 0 (every tree) or a number of trees");
   if (tolerance < 0 || tolerance > 1000) throw Error("", "--tolerance", "must be 0..1000 pixels");
+  smooth.validate();
+  if (smooth.enabled() && voting()) throw Error("", "--smooth", "smooths the per-pixel output: no --grid or --superpixels");
 }
 
 forest::Forest first_trees(const forest::Forest& forest, int m, const std::string& option) {
@@ -217,6 +219,8 @@ cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameDat
     t0 = std::chrono::steady_clock::now();
     labels = vote_regions(classifier, frame, regions, count, opt, frame_index);
     t.classify = seconds_since(t0);
+  } else if (opt.smooth.enabled()) {
+    labels = smooth_frame(classifier, frame, opt.smooth, &t.classify, &t.smooth);
   } else if (opt.grid <= 0) {
     const auto t0 = std::chrono::steady_clock::now();
     labels.create(frame.height, frame.width, CV_8UC1);
@@ -288,7 +292,7 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
   EvalResult result;
   result.confusion = Confusion(C);
   Progress progress("eval-forest", static_cast<long>(set.stacks.size()), opt.progress);
-  double total_seconds = 0, total_regions = 0;
+  double total_seconds = 0, total_regions = 0, total_smooth = 0;
   for (std::size_t i = 0; i < set.stacks.size(); ++i) {
     const auto [work_index, frame] = set.origin[i];
     const forest::FrameData& data = set.dataset.frames[i];
@@ -304,6 +308,10 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
     fr.near_misses = near_misses(truth, predicted, opt.tolerance);
     fr.seconds = times.classify;
     fr.superpixel_seconds = times.regions;
+    fr.smooth_seconds = times.smooth;
+    fr.boundary = boundary_counts(truth, predicted, opt.tolerance);
+    result.boundary.merge(fr.boundary);
+    total_smooth += times.smooth;
     total_seconds += times.classify;
     total_regions += times.regions;
     result.confusion.merge(fr.confusion);
@@ -327,6 +335,7 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
   progress.finish();
   result.seconds_per_frame = total_seconds / double(set.stacks.size());
   result.superpixel_seconds_per_frame = total_regions / double(set.stacks.size());
+  result.smooth_seconds_per_frame = total_smooth / double(set.stacks.size());
   return result;
 }
 
@@ -356,7 +365,9 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
                 {"boundary_tolerant_accuracy", num(total ? (right + double(f.near_misses)) / double(total) : NAN)},
                 {"pixels", total},
                 {"seconds", f.seconds},
-                {"superpixel_seconds", f.superpixel_seconds}};
+                {"superpixel_seconds", f.superpixel_seconds},
+                {"smooth_seconds", f.smooth_seconds},
+                {"boundary_f1", num(f.boundary.f1())}};
     if (opt.costs) rec["mean_cost"] = num(mean_cost(f.confusion, *opt.costs));
     per_frame.push_back(std::move(rec));
     if (!std::isnan(f.confusion.global_accuracy())) accs.push_back(f.confusion.global_accuracy());
@@ -395,6 +406,10 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
             {"accuracy_spread", spread},
             {"seconds_per_frame", seconds_per_frame},
             {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
+            {"smooth_seconds_per_frame", smooth_seconds_per_frame},
+            {"boundary_f1", num(boundary.f1())},
+            {"boundary_precision", num(boundary.precision())},
+            {"boundary_recall", num(boundary.recall())},
             {"params",
              {{"works", works},
               {"test_frames", opt.frames.str()},
@@ -406,6 +421,7 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
               {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
               {"tolerance", opt.tolerance},
               {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
+              {"smooth", opt.smooth.to_json()},
               {"seed", opt.seed}}},
             {"forest",
              {{"params", forest::params_to_json(forest.params)},

@@ -28,6 +28,9 @@ std::string mode_text(const smseg::eval::EvalOptions& opt) {
   if (opt.superpixels > 0)
     return "superpixels " + std::to_string(opt.superpixels) + " px V=" + std::to_string(opt.votes) + " " +
            to_string(opt.vote);
+  if (opt.smooth.enabled())
+    return "per pixel, " + smseg::eval::to_string(opt.smooth.method) + " lambda=" + std::to_string(opt.smooth.lambda) +
+           " " + std::to_string(opt.smooth.connectivity) + "-connected";
   return "per pixel";
 }
 
@@ -45,7 +48,7 @@ int main(int argc, char** argv) {
       "montage}.png. With --sweep, evaluates one point per value instead and appends one JSON line per\n"
       "point to OUT/sweep.jsonl (a rerun resumes: finished points are skipped). Void pixels never count.",
       "eval-forest"};
-  std::string forest_file, frames = "0:", out, superpixels, vote = "sum", costs;
+  std::string forest_file, frames = "0:", out, superpixels, vote = "sum", costs, smooth = "none";
   std::vector<std::string> works, sweeps;
   eval::EvalOptions opt;
   int threads = 0;
@@ -66,7 +69,7 @@ int main(int argc, char** argv) {
   app.add_option("--trees", opt.trees, "use only the first m trees of the forest (0: all)")->capture_default_str();
   app.add_option("--tolerance", opt.tolerance,
                  "T of the boundary-tolerant accuracy: a wrong pixel within T px (Euclidean) of a true region of its "
-                 "output class counts as a near miss")
+                 "output class counts as a near miss; also the match distance of the boundary F1")
       ->capture_default_str();
   app.add_option("--costs", costs,
                  "class-to-class cost matrix, reports the mean cost per pixel: {\"format\": \"smseg-costs\", "
@@ -76,6 +79,16 @@ int main(int argc, char** argv) {
                  "sweep instead of one evaluation: M=A:B (first m trees), B=A:B:S (grid size) or V=A:B "
                  "(votes); bounds inclusive; repeatable; one JSON line per point in OUT/sweep.jsonl, resumable; no "
                  "pictures or results.json");
+  app.add_option("--smooth", smooth,
+                 "none, or graphcut: the per-pixel output smoothed by alpha-expansion over the class posteriors "
+                 "(unary -log p) with a contrast-sensitive Potts term on the greyscale image (per pixel only; its "
+                 "time is reported apart)")
+      ->capture_default_str();
+  app.add_option("--lambda", opt.smooth.lambda, "weight of the graph-cut smoothness term (0: per-pixel MAP)")
+      ->capture_default_str();
+  app.add_option("--connectivity", opt.smooth.connectivity, "graph-cut grid: 4 or 8 neighbours")->capture_default_str();
+  app.add_option("--smooth-cycles", opt.smooth.cycles, "at most this many alpha-expansion cycles")
+      ->capture_default_str();
   app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
   app.add_flag("--no-pictures", no_pictures, "write results.json only");
@@ -92,6 +105,7 @@ int main(int argc, char** argv) {
     opt.progress = !quiet;
     if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
     opt.vote = eval::vote_rule_from_string(vote, "--vote");
+    opt.smooth.method = eval::smooth_method_from_string(smooth, "--smooth");
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
     if (!no_pictures && specs.empty()) opt.pictures = fs::path(out) / "frames";
@@ -130,7 +144,8 @@ int main(int argc, char** argv) {
     std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
                        pct(r.confusion.global_accuracy()) + ", class-average accuracy " +
                        pct(r.confusion.class_average_accuracy()) + ", mean IoU " + pct(r.confusion.mean_iou()) +
-                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy());
+                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy()) +
+                       ", boundary F1 " + pct(r.boundary.f1());
     if (opt.costs) {
       char buf[64];
       std::snprintf(buf, sizeof buf, ", mean cost %.4f", eval::mean_cost(r.confusion, *opt.costs));
@@ -141,6 +156,10 @@ int main(int argc, char** argv) {
     line += buf;
     if (opt.superpixels > 0) {
       std::snprintf(buf, sizeof buf, " + %.2f ms superpixels", 1000 * r.superpixel_seconds_per_frame);
+      line += buf;
+    }
+    if (opt.smooth.enabled()) {
+      std::snprintf(buf, sizeof buf, " + %.2f ms smoothing", 1000 * r.smooth_seconds_per_frame);
       line += buf;
     }
     std::cout << line << " (" << mode_text(opt) << ")\n";

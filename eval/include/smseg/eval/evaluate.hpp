@@ -20,7 +20,9 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
+#include "smseg/eval/boundary.hpp"
 #include "smseg/eval/metrics.hpp"
+#include "smseg/eval/smooth.hpp"
 #include "smseg/features/stack.hpp"
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/forest.hpp"
@@ -52,6 +54,7 @@ struct EvalOptions {
   std::string costs_file;       ///< where the costs came from (reported only)
   std::uint64_t seed = 1;       ///< where the voting pixels fall
   fs::path pictures;            ///< folder for the pictures per test frame; empty: none
+  SmoothOptions smooth;         ///< graph-cut smoothing of the per-pixel output (smooth.hpp); per pixel only
   bool progress = false;
 
   bool voting() const { return grid > 0 || superpixels > 0; }
@@ -63,6 +66,7 @@ struct EvalOptions {
 struct LabelTimes {
   double regions = 0;   ///< superpixel segmentation (0 for grid and per pixel)
   double classify = 0;  ///< drawing voters, classification and voting
+  double smooth = 0;    ///< graph-cut smoothing (0 without)
 };
 
 struct FrameResult {
@@ -72,6 +76,8 @@ struct FrameResult {
   std::int64_t near_misses = 0;  ///< wrong pixels within `tolerance` of a true region of the output class
   double seconds = 0;            ///< classification time of the frame (not superpixels, pictures, I/O)
   double superpixel_seconds = 0; ///< superpixel segmentation time of the frame
+  double smooth_seconds = 0;     ///< graph-cut smoothing time of the frame
+  BoundaryCounts boundary;       ///< boundary F1 counts at `tolerance` (boundary.hpp)
 };
 
 struct EvalResult {
@@ -80,6 +86,8 @@ struct EvalResult {
   std::int64_t near_misses = 0;
   double seconds_per_frame = 0;             ///< classification only (as the thesis times it)
   double superpixel_seconds_per_frame = 0;  ///< superpixel segmentation, apart
+  double smooth_seconds_per_frame = 0;      ///< graph-cut smoothing, apart
+  BoundaryCounts boundary;                  ///< summed over the frames
 
   double tolerant_accuracy() const;  ///< (right + near misses) / pixels; NaN when empty
   /// results.json: global_accuracy, class_average_accuracy, mean_iou, boundary_tolerant_accuracy,

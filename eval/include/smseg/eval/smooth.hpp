@@ -1,0 +1,62 @@
+#pragma once
+// Graph-cut smoothing of the forest's per-pixel output (beyond the thesis: its 4.2 complains of ragged,
+// noisy boundaries). Every pixel runs through every tree; the summed leaf distribution, normalised, is
+// the pixel's class posterior p. The labelling minimises
+//   E(l) = sum_i -log max(p_i(l_i), p_min)
+//        + lambda * sum_{i~j} exp(-beta (I_i - I_j)^2) / dist(i, j) [l_i != l_j]
+// over the 4- or 8-connected image grid (dist 1, or sqrt 2 for diagonal neighbours), a contrast-sensitive
+// Potts term (Boykov & Jolly 2001, as in GrabCut) on the frame's greyscale image I, with
+// beta = 1 / (2 <(I_i - I_j)^2>) averaged over the neighbour pairs of the frame (0 on a flat image).
+// Minimised by alpha-expansion (smseg/features/graphcut.hpp) from the per-pixel MAP labelling, so the
+// energy is never above that of the unsmoothed output; lambda = 0 gives the MAP labels.
+
+#include <span>
+#include <string>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include "smseg/forest/classify.hpp"
+
+namespace smseg::eval {
+
+enum class SmoothMethod { None, GraphCut };
+std::string to_string(SmoothMethod m);
+SmoothMethod smooth_method_from_string(const std::string& s, const std::string& option);  ///< none | graphcut
+
+struct SmoothOptions {
+  SmoothMethod method = SmoothMethod::None;
+  double lambda = 1.0;       ///< weight of the smoothness term (unary costs are in nats), >= 0
+  int connectivity = 8;      ///< 4 or 8
+  int cycles = 3;            ///< at most this many alpha-expansion cycles, >= 1
+  double p_min = 1e-3;       ///< posterior floor of the unary cost (caps it at -log p_min), in (0, 1)
+
+  bool enabled() const { return method != SmoothMethod::None; }
+  void validate() const;  ///< Error naming the option (--lambda, --connectivity, ...)
+  nlohmann::json to_json() const;
+};
+
+struct SmoothReport {
+  double beta = 0;
+  double energy_before = 0;  ///< of the per-pixel MAP labelling
+  double energy_after = 0;
+  int cycles = 0;
+  int moves = 0;
+};
+
+/// beta of the contrast term for an image (CV_8UC1 or CV_8UC3; squared colour distance for colour).
+double contrast_beta(const cv::Mat& image, int connectivity);
+
+/// Smoothed labels (CV_8UC1, image size) from per-pixel class distributions: dists holds
+/// rows x cols x classes non-negative values (any scale; a pixel's are normalised by their sum; an
+/// all-zero pixel is uniform), image is the frame (CV_8UC1 or CV_8UC3) the contrast term reads.
+cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& image, const SmoothOptions& opt,
+                      SmoothReport* report = nullptr);
+
+/// Per-pixel classification of a whole frame, then smooth_labels on its greyscale image (Error when the
+/// frame has none). classify_seconds / smooth_seconds (optional) receive the two times apart.
+cv::Mat smooth_frame(const forest::Classifier& classifier, const forest::FrameData& frame, const SmoothOptions& opt,
+                     double* classify_seconds = nullptr, double* smooth_seconds = nullptr,
+                     SmoothReport* report = nullptr);
+
+}  // namespace smseg::eval

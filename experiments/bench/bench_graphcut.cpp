@@ -1,0 +1,130 @@
+// Speed of graph-cut smoothing (eval/smooth.hpp): eval::smooth_labels on one 320x240 frame's per-pixel
+// class distributions, 4- and 8-connected, for a few lambdas; and the plain max-flow of one expansion
+// move's size. Target (graph-cut issue): smoothing a 320x240 frame under 50 ms on 2 cores.
+//
+// By default the distributions come from a forest (M = 7, K = 400) trained in the benchmark on
+// libforest's synthetic frames (4 classes, as bench_eval). To time a real forest and stack:
+//   SMSEG_BENCH_FOREST=work/forest.json SMSEG_BENCH_WORK=work SMSEG_BENCH_FRAME=110 bench_graphcut
+// Run: bench_graphcut --benchmark_out=graphcut.json --benchmark_out_format=json
+#include <benchmark/benchmark.h>
+
+#include <cstdlib>
+#include <optional>
+
+#include "smseg/eval/evaluate.hpp"
+#include "smseg/eval/smooth.hpp"
+#include "smseg/features/graphcut.hpp"
+#include "smseg/forest/synthetic.hpp"
+#include "smseg/forest/train.hpp"
+
+using namespace smseg;
+
+namespace {
+
+struct Setup {
+  forest::Forest forest;
+  forest::SyntheticData synthetic;
+  std::optional<features::StackSet> stacks;
+  forest::FrameData frame;
+  std::vector<float> dists;
+  cv::Mat gray;
+  std::string source;
+};
+
+const Setup& setup() {
+  static const Setup* s = [] {
+    auto* x = new Setup;
+    const char* forest_file = std::getenv("SMSEG_BENCH_FOREST");
+    const char* work = std::getenv("SMSEG_BENCH_WORK");
+    if (forest_file && work) {
+      x->forest = forest::load_forest(forest_file);
+      const char* frame = std::getenv("SMSEG_BENCH_FRAME");
+      const int f = frame ? std::atoi(frame) : 0;
+      x->stacks = features::open_stacks({work}, features::FrameRange{f, f + 1}, false, true, x->forest.features);
+      eval::check_forest_fits(x->forest, *x->stacks);
+      x->frame = x->stacks->dataset.frames.front();
+      x->source = std::string(work);
+    } else {
+      forest::SyntheticOptions o;
+      o.frames = 11;
+      o.seed = 7;
+      o.signal = 0.25;
+      const forest::SyntheticData train = forest::make_synthetic(o);
+      forest::TrainParams p;
+      p.K = 400;
+      p.M = 7;
+      x->forest = forest::train_forest(train.data, p);
+      o.frames = 1;
+      o.seed = 99;
+      x->synthetic = forest::make_synthetic(o);
+      x->frame = x->synthetic.data.frames.front();
+      x->source = "synthetic";
+    }
+    const forest::Classifier c(x->forest);
+    const std::size_t n = std::size_t(x->frame.width) * std::size_t(x->frame.height);
+    std::vector<std::uint8_t> labels(n);
+    x->dists.resize(n * std::size_t(c.num_classes()));
+    c.classify_frame(x->frame, labels, x->dists);
+    x->gray = cv::Mat(x->frame.height, x->frame.width, CV_8UC1, const_cast<std::uint8_t*>(x->frame.gray)).clone();
+    return x;
+  }();
+  return *s;
+}
+
+// Args: connectivity, lambda x 10
+void BM_SmoothFrame(benchmark::State& state) {
+  const Setup& s = setup();
+  eval::SmoothOptions opt;
+  opt.method = eval::SmoothMethod::GraphCut;
+  opt.connectivity = static_cast<int>(state.range(0));
+  opt.lambda = double(state.range(1)) / 10.0;
+  eval::SmoothReport rep;
+  for (auto _ : state) {
+    cv::Mat out = eval::smooth_labels(s.dists, static_cast<int>(s.forest.classes.size()), s.gray, opt, &rep);
+    benchmark::DoNotOptimize(out.data);
+  }
+  state.counters["cycles"] = rep.cycles;
+  state.counters["moves"] = rep.moves;
+  state.counters["energy_drop"] = rep.energy_before - rep.energy_after;
+  state.counters["classes"] = double(s.forest.classes.size());
+  state.counters["width"] = s.frame.width;
+  state.counters["height"] = s.frame.height;
+  state.SetLabel(s.source);
+}
+BENCHMARK(BM_SmoothFrame)
+    ->ArgNames({"conn", "lambda10"})
+    ->Args({4, 5})
+    ->Args({4, 10})
+    ->Args({4, 20})
+    ->Args({8, 5})
+    ->Args({8, 10})
+    ->Args({8, 20})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// One binary max-flow on a 320x240 4-connected grid with random terminal capacities (the size of one
+// expansion move).
+void BM_GridMaxFlow(benchmark::State& state) {
+  const int W = 320, H = 240;
+  features::FlowGraph g;
+  std::uint64_t k = 1;
+  auto next = [&k] {
+    k = k * 6364136223846793005ull + 1442695040888963407ull;
+    return double(k >> 40) / double(1ull << 24);
+  };
+  for (int i = 0; i < W * H; ++i) {
+    g.source.push_back(3 * next());
+    g.sink.push_back(3 * next());
+  }
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      if (x + 1 < W) g.edges.push_back({y * W + x, y * W + x + 1, 1.0, 1.0});
+      if (y + 1 < H) g.edges.push_back({y * W + x, (y + 1) * W + x, 1.0, 1.0});
+    }
+  for (auto _ : state) benchmark::DoNotOptimize(features::max_flow(g));
+}
+BENCHMARK(BM_GridMaxFlow)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
+
+BENCHMARK_MAIN();
