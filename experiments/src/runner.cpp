@@ -141,20 +141,25 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
   fs::create_directories(options.out);
 
-  // The config this folder belongs to.
+  // The config this folder belongs to. Only what decides the results must match; titles, descriptions
+  // and figures may change (the snapshot then takes them, for export-notebooks).
   const fs::path snapshot = options.out / "config.json";
+  const auto results_part = [](json c) {
+    for (const char* k : {"title", "description", "figures"}) c.erase(k);
+    return c;
+  };
+  const json record = {{"format", kRunFormat},         {"version", 1},         {"name", ex.name},
+                       {"config_file", ex.file.string()}, {"quick", ex.quick}, {"config", ex.config}};
   if (fs::exists(snapshot)) {
     const json old = read_json(snapshot);
-    if (old.value("config", json()) != ex.config || old.value("quick", !ex.quick) != ex.quick)
+    if (!old.is_object() || old.value("format", "") != kRunFormat)
+      throw Error(snapshot.string(), "format", "is not a run-experiment results folder's config.json");
+    if (results_part(old.value("config", json())) != results_part(ex.config) || old.value("quick", !ex.quick) != ex.quick)
       throw Error(snapshot.string(), "config",
                   "this results folder was made with another config (or with/without --quick); write to another -o");
+    if (old != record) write_json_atomic(snapshot, record);
   } else {
-    write_json_atomic(snapshot, {{"format", kRunFormat},
-                                 {"version", 1},
-                                 {"name", ex.name},
-                                 {"config_file", ex.file.string()},
-                                 {"quick", ex.quick},
-                                 {"config", ex.config}});
+    write_json_atomic(snapshot, record);
   }
 
   // Points already done.

@@ -159,6 +159,14 @@ TEST_F(Run, ResumesWithNoPointLostOrRepeated) {
   EXPECT_EQ(fourth.done_before, 4);
   EXPECT_EQ(records(jsonl).size(), 4u);
 
+  // A new title or new figures change no result: accepted, and the folder's config.json takes them.
+  json retitled = tiny_config();
+  retitled["title"] = "New title";
+  retitled["figures"] = json::array({{{"id", "a"}, {"x", "K"}}});
+  const ex::Experiment re = ex::load_experiment(write_config(retitled, "retitled.json"), false);
+  EXPECT_EQ(ex::run_experiment(re, o).run, 0);
+  EXPECT_EQ(smseg::read_json(o.out / "config.json")["config"]["title"], "New title");
+
   // Another config into the same folder is refused, naming the folder's config.json.
   const ex::Experiment other = ex::load_experiment(write_config(tiny_config(60), "other.json"), false);
   try {
