@@ -353,8 +353,16 @@ std::string Point::describe() const {
   std::string s;
   for (const auto& k : swept) {
     if (k == "label") continue;
-    const auto& v = json.contains(k) ? json.at(k) : nlohmann::json(nullptr);
-    s += (s.empty() ? "" : " ") + k + "=" + (v.is_string() ? v.get<std::string>() : v.dump());
+    const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+    std::string v;
+    if (json.contains(k)) {
+      v = text(json.at(k));
+    } else {  // stereo, motion, causal: per side
+      const auto& a = json.at("train_" + k);
+      const auto& b = json.at("test_" + k);
+      v = a == b ? text(a) : text(a) + "/" + text(b);
+    }
+    s += (s.empty() ? "" : " ") + k + "=" + v;
   }
   if (!label.empty()) s = label + (s.empty() ? "" : " " + s);
   return s.empty() ? "point " + std::to_string(index) : s;
