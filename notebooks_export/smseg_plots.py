@@ -128,8 +128,10 @@ def surface_figure(records, spec):
         ax.set_title(_title(spec), fontsize=10)
         fig.tight_layout()
         return fig
-    fig = plt.figure(figsize=(7, 5.2))
+    fig = plt.figure(figsize=(7, 5.6))
     ax = fig.add_subplot(projection="3d")
+    fig.subplots_adjust(left=0.0, right=0.94, bottom=0.02, top=0.95)
+    ax.view_init(elev=25, azim=-125)
     X = [[x for x in xs] for _ in ys]
     Y = [[y for _ in xs] for y in ys]
     Z = [[(sum(cells[(x, y)]) / len(cells[(x, y)])) if (x, y) in cells else math.nan for x in xs] for y in ys]
