@@ -57,7 +57,9 @@ def _number(v):
 
 
 def _title(spec):
-    return "Figure %s: %s" % (spec["id"], spec.get("title", "")) if "id" in spec else spec.get("title", "")
+    import textwrap
+    text = "Figure %s: %s" % (spec["id"], spec.get("title", "")) if "id" in spec else spec.get("title", "")
+    return textwrap.fill(text, 72)
 
 
 def _no_data(ax, spec):
