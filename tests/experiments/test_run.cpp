@@ -206,6 +206,23 @@ TEST_F(Run, ToolKilledMidRunResumes) {
   EXPECT_EQ(indices.size(), 4u);
 }
 
+TEST_F(Run, SameRecordsWhateverTheThreadCount) {
+  const fs::path cfg = write_config(tiny_config(), "tiny.json");
+  const std::string tool = (fs::path(SMSEG_BIN_DIR) / "run-experiment").string();
+  for (const char* threads : {"1", "2"})
+    ASSERT_EQ(std::system((tool + " -q --threads " + threads + " --cache " + (dir / "cache").string() + " " +
+                           cfg.string() + " -o " + (dir / "results" / (std::string("threads") + threads)).string())
+                              .c_str()),
+              0);
+  const auto a = records(dir / "results" / "threads1" / "experiment.jsonl");
+  const auto b = records(dir / "results" / "threads2" / "experiment.jsonl");
+  ASSERT_EQ(a.size(), 4u);
+  ASSERT_EQ(b.size(), 4u);
+  for (std::size_t i = 0; i < a.size(); ++i)
+    for (const char* key : {"point", "confusion", "tree_nodes", "nodes_per_feature", "windows", "per_frame_accuracy"})
+      EXPECT_EQ(a[i][key], b[i][key]) << i << " " << key;
+}
+
 TEST_F(Run, ToolAnswersBadInputInOneLine) {
   const std::string tool = (fs::path(SMSEG_BIN_DIR) / "run-experiment").string();
   json bad = tiny_config();
