@@ -206,6 +206,36 @@ TEST_F(Run, ToolKilledMidRunResumes) {
   EXPECT_EQ(indices.size(), 4u);
 }
 
+TEST_F(Run, PreparedSequencesAndWorkFoldersPlugIn) {
+  // The synthetic run first, then the same data named as a sequence folder and as a work folder (the
+  // way a CamVid import plugs in): the same stacks give the same forest and the same scores.
+  const ex::Experiment e = ex::load_experiment(write_config(tiny_config(), "tiny.json"), false);
+  auto o = options("plug-synthetic");
+  o.max_points = 1;
+  ex::run_experiment(e, o);
+  const json want = records(o.out / "experiment.jsonl").at(0);
+  fs::path seq, work;
+  for (const auto& d : fs::directory_iterator(dir / "cache" / "sequences")) seq = d.path();
+  for (const auto& d : fs::directory_iterator(dir / "cache" / "work")) work = d.path();
+  ASSERT_FALSE(seq.empty());
+  ASSERT_FALSE(work.empty());
+  for (const char* kind : {"path", "work"}) {
+    json j = tiny_config();
+    j["sequences"]["c"] = {{kind, (std::string(kind) == "path" ? seq : work).string()}};
+    const ex::Experiment p = ex::load_experiment(write_config(j, std::string(kind) + ".json"), false);
+    auto po = options(std::string("plug-") + kind);
+    po.cache = dir / (std::string("cache-") + kind);
+    po.max_points = 1;
+    ex::run_experiment(p, po);
+    const json got = records(po.out / "experiment.jsonl").at(0);
+    EXPECT_EQ(got["confusion"], want["confusion"]) << kind;
+    EXPECT_EQ(got["tree_nodes"], want["tree_nodes"]) << kind;
+    // A prepared work folder keeps its own front end: the point does not claim one.
+    if (std::string(kind) == "work") EXPECT_TRUE(got["point"]["train_stereo"].is_null());
+    else EXPECT_EQ(got["point"]["train_stereo"], "bm");
+  }
+}
+
 TEST_F(Run, SameRecordsWhateverTheThreadCount) {
   const fs::path cfg = write_config(tiny_config(), "tiny.json");
   const std::string tool = (fs::path(SMSEG_BIN_DIR) / "run-experiment").string();
