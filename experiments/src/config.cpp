@@ -353,6 +353,7 @@ std::string Point::describe() const {
   std::string s;
   for (const auto& k : swept) {
     if (k == "label") continue;
+    if (!label.empty() && std::find(case_keys.begin(), case_keys.end(), k) != case_keys.end()) continue;
     const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
     std::string v;
     if (json.contains(k)) {
@@ -456,7 +457,7 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
   for (;;) {
     Raw raw(file);
     for (const auto& [k, val] : fixed) raw.set(k, val, "fixed." + k);
-    std::vector<std::string> swept;
+    std::vector<std::string> swept, case_keys;
     for (std::size_t d = 0; d < dims.size(); ++d) {
       const json& val = dims[d].values[at[d]];
       const std::string idx = "[" + std::to_string(at[d]) + "]";
@@ -464,6 +465,7 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
         for (const auto& [k, cv] : val.items()) {
           raw.set(k, cv, "sweep.cases" + idx + "." + k);
           if (std::find(swept.begin(), swept.end(), k) == swept.end()) swept.push_back(k);
+          case_keys.push_back(k);
         }
       } else {
         raw.set(dims[d].key, val, "sweep." + dims[d].key + idx);
@@ -473,6 +475,7 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
     Point p = build_point(raw, ex);
     p.index = static_cast<int>(ex.points.size());
     p.swept = swept;
+    p.case_keys = case_keys;
     if (!seen.insert(p.json.dump()).second)
       throw Error(file.string(), "sweep", "two points have the same parameters (" + p.describe() + ")");
     ex.points.push_back(std::move(p));

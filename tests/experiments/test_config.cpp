@@ -84,6 +84,9 @@ TEST(ExperimentConfig, CasesSetSeveralParametersAndSidesHaveTheirOwnFrontEnd) {
   EXPECT_EQ(ex.points[0].json["test_stereo"], "bm");
   EXPECT_TRUE(ex.points[1].train_front_end.causal);
   EXPECT_TRUE(ex.points[1].test_front_end.causal);
+  EXPECT_EQ(ex.points[0].describe(), "C on L");  // a case is named by its label
+  j["sweep"]["K"] = {100, 200};
+  EXPECT_EQ(experiment_from_json(j, kFile, false).points[1].describe(), "C on L K=200");
 }
 
 TEST(ExperimentConfig, BadInputIsOneErrorNamingTheFileAndTheField) {

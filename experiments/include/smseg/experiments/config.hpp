@@ -71,6 +71,7 @@ struct Point {
   int index = 0;                        ///< position in the experiment's order
   nlohmann::json json;                  ///< canonical parameters (every default filled in): its identity
   std::vector<std::string> swept;       ///< the names of the parameters the sweep set (for display)
+  std::vector<std::string> case_keys;   ///< those of them a case set (its label names them in display)
   std::string label;
   std::vector<std::string> train, test;  ///< sequence names
   features::FrameRange train_frames, test_frames;
