@@ -1,0 +1,501 @@
+#include "smseg/experiments/config.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <set>
+#include <utility>
+
+#include "smseg/features/point_features.hpp"
+#include "smseg/io.hpp"
+
+namespace smseg::experiments {
+
+using nlohmann::json;
+
+namespace {
+
+// Every parameter of a point, in nesting order: sweeps over earlier parameters are outer loops, so
+// that points sharing a forest (same data and training parameters) follow each other.
+const std::vector<std::string>& known_params() {
+  static const std::vector<std::string> names{
+      "train", "test", "train_frames", "test_frames", "features",
+      "stereo", "train_stereo", "test_stereo", "motion", "train_motion", "test_motion",
+      "causal", "train_causal", "test_causal",
+      "K", "Ks", "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score",
+      "grid", "superpixels", "votes", "vote", "trees", "tolerance", "eval_seed", "label"};
+  return names;
+}
+
+int param_rank(const std::string& name) {
+  const auto& k = known_params();
+  return static_cast<int>(std::find(k.begin(), k.end(), name) - k.begin());
+}
+
+std::string join(const std::vector<std::string>& v) {
+  std::string s;
+  for (const auto& x : v) s += (s.empty() ? "" : ", ") + x;
+  return s;
+}
+
+/// One point's raw values with where each came from, and typed accessors whose errors name that place.
+class Raw {
+ public:
+  Raw(fs::path file) : file_(std::move(file)) {}
+
+  void set(const std::string& key, const json& value, const std::string& where) {
+    if (param_rank(key) == static_cast<int>(known_params().size()))
+      throw Error(file_.string(), where, "unknown parameter \"" + key + "\" (known: " + join(known_params()) + ")");
+    const auto it = values_.find(key);
+    if (it != values_.end())
+      throw Error(file_.string(), where, "\"" + key + "\" is also set at " + it->second.second + " (set it once)");
+    values_[key] = {value, where};
+  }
+  bool has(const std::string& key) const { return values_.count(key) > 0; }
+  std::string where(const std::string& key) const {
+    const auto it = values_.find(key);
+    return it == values_.end() ? "fixed." + key : it->second.second;
+  }
+  [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
+    throw Error(file_.string(), where(key), reason);
+  }
+  const json* get(const std::string& key) const {
+    const auto it = values_.find(key);
+    return it == values_.end() || it->second.first.is_null() ? nullptr : &it->second.first;
+  }
+  int integer(const std::string& key, int def) const {
+    const json* v = get(key);
+    if (!v) return def;
+    if (!v->is_number_integer()) fail(key, "expected a whole number, found " + v->dump());
+    const auto x = v->get<std::int64_t>();
+    if (x < -1000000000 || x > 1000000000) fail(key, "out of range: " + v->dump());
+    return static_cast<int>(x);
+  }
+  std::string str(const std::string& key, const std::string& def) const {
+    const json* v = get(key);
+    if (!v) return def;
+    if (!v->is_string()) fail(key, "expected a string, found " + v->dump());
+    return v->get<std::string>();
+  }
+  std::string choice(const std::string& key, const std::string& def, const std::vector<std::string>& allowed) const {
+    const std::string s = str(key, def);
+    if (std::find(allowed.begin(), allowed.end(), s) == allowed.end())
+      fail(key, "\"" + s + "\" is not one of " + join(allowed));
+    return s;
+  }
+  bool boolean(const std::string& key, bool def) const {
+    const json* v = get(key);
+    if (!v) return def;
+    if (!v->is_boolean()) fail(key, "expected true or false, found " + v->dump());
+    return v->get<bool>();
+  }
+  std::vector<std::string> names(const std::string& key) const {
+    const json* v = get(key);
+    if (!v) return {};
+    std::vector<std::string> out;
+    if (v->is_string()) {
+      out.push_back(v->get<std::string>());
+    } else if (v->is_array()) {
+      for (const auto& e : *v) {
+        if (!e.is_string()) fail(key, "expected a name or a list of names, found " + v->dump());
+        out.push_back(e.get<std::string>());
+      }
+    } else {
+      fail(key, "expected a name or a list of names, found " + v->dump());
+    }
+    return out;
+  }
+
+ private:
+  fs::path file_;
+  std::map<std::string, std::pair<json, std::string>> values_;
+};
+
+/// The values of one swept parameter: a list, or an inclusive integer range {"from", "to", "step"}.
+std::vector<json> sweep_values(const JsonView& v, const std::string& key) {
+  std::vector<json> out;
+  if (v.json().is_array()) {
+    for (const auto& e : v.json()) out.push_back(e);
+  } else if (v.json().is_object()) {
+    for (const auto& [k, _] : v.json().items())
+      if (k != "from" && k != "to" && k != "step") v.fail("unknown member \"" + k + "\" (a range is {from, to, step})");
+    const std::int64_t from = v.integer("from"), to = v.integer("to");
+    const std::int64_t step = v.has("step") ? v.integer("step") : 1;
+    if (step < 1) v.fail("must be at least 1", "step");
+    if (to < from) v.fail("is below \"from\"", "to");
+    if ((to - from) / step > 100000) v.fail("too many values", "to");
+    for (std::int64_t x = from; x <= to; x += step) out.push_back(x);
+  } else {
+    v.fail("expected a list of values or a range {\"from\": A, \"to\": B, \"step\": S}");
+  }
+  if (out.empty()) v.fail("sweeps over no value");
+  (void)key;
+  return out;
+}
+
+SequenceSource parse_source(const JsonView& v, const fs::path& base) {
+  if (!v.json().is_object()) v.fail("expected {\"synthetic\": {...}}, {\"path\": DIR} or {\"work\": DIR}");
+  if (v.json().size() != 1) v.fail("give exactly one of \"synthetic\", \"path\", \"work\"");
+  SequenceSource s;
+  const auto resolve = [&](const std::string& p) { return fs::path(p).is_absolute() ? fs::path(p) : base / p; };
+  if (v.has("path")) {
+    s.kind = SequenceSource::Kind::Path;
+    s.path = fs::weakly_canonical(resolve(v.str("path")));
+  } else if (v.has("work")) {
+    s.kind = SequenceSource::Kind::Work;
+    s.path = fs::weakly_canonical(resolve(v.str("work")));
+  } else if (v.has("synthetic")) {
+    s.kind = SequenceSource::Kind::Synthetic;
+    const JsonView o = v.at("synthetic");
+    if (!o.json().is_object()) o.fail("expected an object of make-sequence options");
+    auto& so = s.synth;
+    for (const auto& [k, _] : o.json().items()) {
+      static const std::set<std::string> known{"scene", "seed", "frames", "width", "height", "label_every", "fps",
+                                               "baseline", "camera_height", "hfov_deg", "speed", "noise_sigma"};
+      if (!known.count(k)) o.fail("unknown option \"" + k + "\"", k);
+    }
+    if (o.has("scene")) so.scene = o.str("scene");
+    if (o.has("seed")) {
+      const auto seed = o.integer("seed");
+      if (seed < 0) o.fail("must be >= 0", "seed");
+      so.seed = static_cast<std::uint64_t>(seed);
+    }
+    const auto small_int = [&](const char* key, int& out) {
+      if (!o.has(key)) return;
+      const auto x = o.integer(key);
+      if (x < -1000000 || x > 1000000) o.fail("out of range", key);
+      out = static_cast<int>(x);
+    };
+    small_int("frames", so.frames);
+    small_int("width", so.width);
+    small_int("height", so.height);
+    small_int("label_every", so.label_every);
+    if (o.has("fps")) so.fps = o.num("fps");
+    if (o.has("baseline")) so.baseline = o.num("baseline");
+    if (o.has("camera_height")) so.camera_height = o.num("camera_height");
+    if (o.has("hfov_deg")) so.hfov_deg = o.num("hfov_deg");
+    if (o.has("speed")) so.speed = o.num("speed");
+    if (o.has("noise_sigma")) so.noise_sigma = o.num("noise_sigma");
+    try {
+      so.validate();
+    } catch (const Error& e) {
+      o.fail(e.reason(), e.field());
+    }
+  } else {
+    v.fail("give one of \"synthetic\", \"path\", \"work\"");
+  }
+  return s;
+}
+
+/// Maps an Error from a library validator (field "K", "--grid", "windows.mode" ...) onto the config.
+[[noreturn]] void rethrow_as_param(const Error& e, const Raw& raw) {
+  std::string field = e.field();
+  if (field.rfind("--", 0) == 0) field = field.substr(2);
+  const std::string head = field.substr(0, field.find('.'));
+  for (const auto& k : known_params())
+    if (k == head || k == field) raw.fail(k, e.reason());
+  if (head == "windows" || head == "thesis_dy_share") raw.fail("windows", e.reason());
+  raw.fail(head, (field.empty() ? "" : field + ": ") + e.reason());
+}
+
+Point build_point(const Raw& raw, const Experiment& ex) {
+  Point p;
+  p.label = raw.str("label", "");
+  p.train = raw.names("train");
+  if (p.train.empty()) raw.fail("train", "name the training sequence(s) (a name or a list from \"sequences\")");
+  p.test = raw.has("test") ? raw.names("test") : p.train;
+  if (p.test.empty()) raw.fail("test", "name the test sequence(s)");
+  for (const auto* side : {&p.train, &p.test})
+    for (const auto& n : *side)
+      if (!ex.sequences.count(n)) {
+        std::vector<std::string> have;
+        for (const auto& [k, _] : ex.sequences) have.push_back(k);
+        raw.fail(side == &p.train ? "train" : "test", "no sequence named \"" + n + "\" (the config has: " + join(have) + ")");
+      }
+  try {
+    p.train_frames = features::FrameRange::parse(raw.str("train_frames", "0:101"), "train_frames");
+    p.test_frames = features::FrameRange::parse(raw.str("test_frames", "110:"), "test_frames");
+  } catch (const Error& e) {
+    rethrow_as_param(e, raw);
+  }
+  p.features = raw.names("features");
+  for (const auto& f : p.features) {
+    const auto& known = features::structure_feature_names();
+    bool all_extracted = true;
+    for (const auto& n : p.train) all_extracted &= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
+    if (all_extracted && std::find(known.begin(), known.end(), f) == known.end())
+      raw.fail("features", "\"" + f + "\" is not a feature of the stacks (" + join(known) + ")");
+  }
+
+  // Front end, per side: train_X / test_X override X.
+  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, motions{"stereo", "sfm"};
+  const auto side_fe = [&](const std::string& side) {
+    FrontEnd fe;
+    const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
+    const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
+    const std::string c = raw.has(side + "_causal") ? side + "_causal" : "causal";
+    fe.stereo = raw.choice(s, "bm", stereo_methods);
+    fe.motion = raw.choice(m, "stereo", motions);
+    fe.causal = raw.boolean(c, false);
+    if (!motion_available(fe.motion))
+      raw.fail(m, "the SfM front end (\"motion\": \"sfm\") is not available in this build: extract_features has no "
+                  "monocular SfM option yet; use \"stereo\", or name prepared work folders ({\"work\": DIR})");
+    return fe;
+  };
+  p.train_front_end = side_fe("train");
+  p.test_front_end = side_fe("test");
+
+  auto& tp = p.train_params;
+  tp.K = raw.integer("K", tp.K);
+  tp.Ks = raw.integer("Ks", tp.Ks);
+  tp.Kt = raw.integer("Kt", tp.Kt);
+  tp.M = raw.integer("M", tp.M);
+  tp.n_min = raw.integer("n_min", tp.n_min);
+  const int seed = raw.integer("seed", 1);
+  if (seed < 0) raw.fail("seed", "must be >= 0");
+  tp.seed = static_cast<std::uint64_t>(seed);
+  tp.textons = raw.boolean("textons", false);
+  try {
+    tp.windows.mode = forest::window_sampling_from_string(raw.str("windows", "uniform"), "windows");
+    tp.balance = forest::balance_from_string(raw.str("balance", "none"), "balance");
+    tp.score = forest::score_from_string(raw.str("score", "wehenkel-pavella"), "score");
+    if (tp.windows.mode != forest::WindowSampling::Learned) tp.validate("config");
+    else {
+      forest::TrainParams check = tp;  // learned histograms come from the pilot forest at run time
+      check.windows.mode = forest::WindowSampling::Uniform;
+      check.validate("config");
+    }
+  } catch (const Error& e) {
+    rethrow_as_param(e, raw);
+  }
+
+  auto& eo = p.eval;
+  eo.frames = p.test_frames;
+  eo.grid = raw.integer("grid", 0);
+  eo.votes = raw.integer("votes", eo.votes);
+  eo.trees = raw.integer("trees", 0);
+  eo.tolerance = raw.integer("tolerance", eo.tolerance);
+  const int eval_seed = raw.integer("eval_seed", 1);
+  if (eval_seed < 0) raw.fail("eval_seed", "must be >= 0");
+  eo.seed = static_cast<std::uint64_t>(eval_seed);
+  json superpixels = "none";
+  try {
+    eo.vote = eval::vote_rule_from_string(raw.str("vote", "sum"), "vote");
+    if (const json* sp = raw.get("superpixels")) {
+      if (sp->is_string() && sp->get<std::string>() == "none") {
+        eo.superpixels = 0;
+      } else if (sp->is_string()) {
+        eo.superpixels = eval::superpixels_from_string(sp->get<std::string>(), "superpixels");
+        superpixels = *sp;
+      } else if (sp->is_number_integer()) {
+        eo.superpixels = eval::superpixels_from_string(std::to_string(sp->get<std::int64_t>()), "superpixels");
+        superpixels = eo.superpixels;
+      } else {
+        raw.fail("superpixels", "expected \"none\", \"small\", \"large\" or a region size in pixels");
+      }
+    }
+    eo.validate();
+  } catch (const Error& e) {
+    rethrow_as_param(e, raw);
+  }
+  if (eo.trees > tp.M) raw.fail("trees", std::to_string(eo.trees) + " trees asked, the forest has M = " + std::to_string(tp.M));
+
+  const auto side_json = [&](const std::vector<std::string>& names, const FrontEnd& fe, const char* key) -> json {
+    bool extracted = false;
+    for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
+    if (!extracted) return nullptr;  // prepared work folders: their own front end
+    return key == std::string("stereo") ? json(fe.stereo) : key == std::string("motion") ? json(fe.motion) : json(fe.causal);
+  };
+  p.json = {{"train", p.train},
+            {"test", p.test},
+            {"train_frames", p.train_frames.str()},
+            {"test_frames", p.test_frames.str()},
+            {"features", p.features},
+            {"train_stereo", side_json(p.train, p.train_front_end, "stereo")},
+            {"test_stereo", side_json(p.test, p.test_front_end, "stereo")},
+            {"train_motion", side_json(p.train, p.train_front_end, "motion")},
+            {"test_motion", side_json(p.test, p.test_front_end, "motion")},
+            {"train_causal", side_json(p.train, p.train_front_end, "causal")},
+            {"test_causal", side_json(p.test, p.test_front_end, "causal")},
+            {"K", tp.K},
+            {"Ks", tp.ks()},
+            {"Kt", tp.kt()},
+            {"M", tp.M},
+            {"n_min", tp.n_min},
+            {"seed", tp.seed},
+            {"windows", forest::to_string(tp.windows.mode)},
+            {"balance", forest::to_string(tp.balance)},
+            {"textons", tp.textons},
+            {"score", forest::to_string(tp.score)},
+            {"grid", eo.grid},
+            {"superpixels", superpixels},
+            {"votes", eo.votes},
+            {"vote", eval::to_string(eo.vote)},
+            {"trees", eo.trees > 0 ? eo.trees : tp.M},
+            {"tolerance", eo.tolerance},
+            {"eval_seed", eo.seed},
+            {"label", p.label}};
+  return p;
+}
+
+}  // namespace
+
+json FrontEnd::to_json() const { return {{"stereo", stereo}, {"motion", motion}, {"causal", causal}}; }
+
+json Point::training_key() const {
+  nlohmann::json k;
+  for (const char* key : {"train", "train_frames", "features", "train_stereo", "train_motion", "train_causal", "K", "Ks",
+                          "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score"})
+    k[key] = json.at(key);
+  return k;
+}
+
+std::string Point::describe() const {
+  std::string s;
+  for (const auto& k : swept) {
+    if (k == "label") continue;
+    if (!label.empty() && std::find(case_keys.begin(), case_keys.end(), k) != case_keys.end()) continue;
+    const auto text = [](const nlohmann::json& v) { return v.is_string() ? v.get<std::string>() : v.dump(); };
+    std::string v;
+    if (json.contains(k)) {
+      v = text(json.at(k));
+    } else {  // stereo, motion, causal: per side
+      const auto& a = json.at("train_" + k);
+      const auto& b = json.at("test_" + k);
+      v = a == b ? text(a) : text(a) + "/" + text(b);
+    }
+    s += (s.empty() ? "" : " ") + k + "=" + v;
+  }
+  if (!label.empty()) s = label + (s.empty() ? "" : " " + s);
+  return s.empty() ? "point " + std::to_string(index) : s;
+}
+
+bool motion_available(const std::string& motion) { return motion == "stereo"; }
+
+std::string json_hash(const json& j) {
+  const std::string s = j.dump();
+  std::uint64_t h = 1469598103934665603ULL;
+  for (unsigned char c : s) {
+    h ^= c;
+    h *= 1099511628211ULL;
+  }
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
+  return buf;
+}
+
+Experiment experiment_from_json(const json& original, const fs::path& file, bool quick) {
+  Experiment ex;
+  ex.file = file;
+  ex.quick = quick;
+  {
+    const JsonView top(original, file);
+    if (!original.is_object()) top.fail("expected a JSON object (an experiment config)");
+    check_format(top, kExperimentFormat, {kExperimentVersion});
+  }
+  json j = original;
+  if (quick) {
+    if (!j.contains("quick") || !j["quick"].is_object())
+      JsonView(original, file).fail("this config has no \"quick\" form (an object merged over it)", "quick");
+    j.merge_patch(original["quick"]);
+  }
+  j.erase("quick");
+  ex.config = j;
+  const JsonView v(ex.config, file);
+  static const std::set<std::string> top_keys{"format", "version", "name", "title", "description", "sequences",
+                                              "fixed", "sweep", "figures"};
+  for (const auto& [k, _] : ex.config.items())
+    if (!top_keys.count(k)) v.fail("unknown member \"" + k + "\"", k);
+  ex.name = v.str("name");
+  if (ex.name.empty() || ex.name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789_-") != std::string::npos)
+    v.fail("must be a non-empty name of a-z, 0-9, '-' and '_'", "name");
+  ex.title = v.has("title") ? v.str("title") : ex.name;
+  ex.description = v.has("description") ? v.str("description") : "";
+  if (v.has("figures") && !v.at("figures").json().is_array()) v.fail("expected a list of figures", "figures");
+
+  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  const JsonView seqs = v.at("sequences");
+  if (!seqs.json().is_object() || seqs.json().empty()) seqs.fail("expected an object naming at least one sequence");
+  for (const auto& [name, _] : seqs.json().items()) ex.sequences[name] = parse_source(seqs.at(name), base);
+
+  // The base values, then the sweep dimensions in nesting order.
+  std::vector<std::pair<std::string, json>> fixed;
+  if (auto f = v.maybe("fixed")) {
+    if (!f->json().is_object()) f->fail("expected an object of parameters");
+    for (const auto& [k, val] : f->json().items()) fixed.emplace_back(k, val);
+  }
+  struct Dim {
+    std::string key;  // parameter, or "cases"
+    std::vector<json> values;
+  };
+  std::vector<Dim> dims;
+  if (auto s = v.maybe("sweep")) {
+    if (!s->json().is_object()) s->fail("expected an object of swept parameters");
+    for (const auto& [k, _] : s->json().items()) {
+      const JsonView d = s->at(k);
+      if (k == "cases") {
+        if (!d.json().is_array() || d.json().empty()) d.fail("expected a non-empty list of parameter objects");
+        Dim dim{"cases", {}};
+        for (std::size_t i = 0; i < d.size(); ++i) {
+          if (!d.at(i).json().is_object()) d.at(i).fail("expected an object of parameters");
+          dim.values.push_back(d.at(i).json());
+        }
+        dims.push_back(std::move(dim));
+      } else {
+        if (param_rank(k) == static_cast<int>(known_params().size()))
+          d.fail("unknown parameter \"" + k + "\" (known: " + join(known_params()) + ")");
+        dims.push_back({k, sweep_values(d, k)});
+      }
+    }
+  }
+  std::stable_sort(dims.begin(), dims.end(), [](const Dim& a, const Dim& b) {
+    const int ra = a.key == "cases" ? -1 : param_rank(a.key), rb = b.key == "cases" ? -1 : param_rank(b.key);
+    return ra < rb;
+  });
+
+  std::vector<std::size_t> at(dims.size(), 0);
+  std::set<std::string> seen;
+  for (;;) {
+    Raw raw(file);
+    for (const auto& [k, val] : fixed) raw.set(k, val, "fixed." + k);
+    std::vector<std::string> swept, case_keys;
+    for (std::size_t d = 0; d < dims.size(); ++d) {
+      const json& val = dims[d].values[at[d]];
+      const std::string idx = "[" + std::to_string(at[d]) + "]";
+      if (dims[d].key == "cases") {
+        for (const auto& [k, cv] : val.items()) {
+          raw.set(k, cv, "sweep.cases" + idx + "." + k);
+          if (std::find(swept.begin(), swept.end(), k) == swept.end()) swept.push_back(k);
+          case_keys.push_back(k);
+        }
+      } else {
+        raw.set(dims[d].key, val, "sweep." + dims[d].key + idx);
+        swept.push_back(dims[d].key);
+      }
+    }
+    Point p = build_point(raw, ex);
+    p.index = static_cast<int>(ex.points.size());
+    p.swept = swept;
+    p.case_keys = case_keys;
+    if (!seen.insert(p.json.dump()).second)
+      throw Error(file.string(), "sweep", "two points have the same parameters (" + p.describe() + ")");
+    ex.points.push_back(std::move(p));
+    if (ex.points.size() > 100000) v.fail("more than 100000 points", "sweep");
+    // Next combination (last dimension fastest).
+    bool done = true;
+    for (std::size_t d = dims.size(); d-- > 0;) {
+      if (++at[d] < dims[d].values.size()) {
+        done = false;
+        break;
+      }
+      at[d] = 0;
+    }
+    if (done) break;
+  }
+  return ex;
+}
+
+Experiment load_experiment(const fs::path& file, bool quick) {
+  return experiment_from_json(read_json(file), file, quick);
+}
+
+}  // namespace smseg::experiments

@@ -1,0 +1,309 @@
+#include "smseg/experiments/runner.hpp"
+
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <fcntl.h>
+#include <iostream>
+#include <set>
+#include <sys/file.h>
+#include <unistd.h>
+
+#include "smseg/eval/sweep.hpp"
+#include "smseg/features/extract.hpp"
+#include "smseg/features/tracks_io.hpp"
+#include "smseg/forest/train.hpp"
+#include "smseg/io.hpp"
+#include "smseg/progress.hpp"
+
+namespace smseg::experiments {
+
+using nlohmann::json;
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+/// An exclusive advisory lock on a file, held while in scope.
+class FileLock {
+ public:
+  explicit FileLock(const fs::path& path) {
+    fs::create_directories(path.parent_path());
+    fd_ = ::open(path.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path.string(), "", std::string("cannot be opened as a lock: ") + std::strerror(errno));
+    while (::flock(fd_, LOCK_EX) != 0) {
+      if (errno == EINTR) continue;
+      const int e = errno;
+      ::close(fd_);
+      throw Error(path.string(), "", std::string("cannot be locked: ") + std::strerror(e));
+    }
+  }
+  ~FileLock() {
+    ::flock(fd_, LOCK_UN);
+    ::close(fd_);
+  }
+  FileLock(const FileLock&) = delete;
+  FileLock& operator=(const FileLock&) = delete;
+
+ private:
+  int fd_ = -1;
+};
+
+json synth_json(const features::synth::SynthOptions& o) {
+  return {{"scene", o.scene},   {"seed", o.seed},         {"frames", o.frames},
+          {"width", o.width},   {"height", o.height},     {"label_every", o.label_every},
+          {"fps", o.fps},       {"baseline", o.baseline}, {"camera_height", o.camera_height},
+          {"hfov_deg", o.hfov_deg}, {"speed", o.speed},   {"noise_sigma", o.noise_sigma}};
+}
+
+features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
+  if (!motion_available(fe.motion))
+    throw Error("", "motion", "the \"" + fe.motion + "\" front end is not available in this build");
+  features::ExtractOptions o;
+  o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
+  o.features.causal = fe.causal;
+  o.progress = progress;
+  return o;
+}
+
+std::string safe_name(const std::string& s) {
+  std::string out;
+  for (char c : s) out += (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_') ? c : '_';
+  return out.empty() ? "seq" : out;
+}
+
+json num(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
+
+}  // namespace
+
+fs::path default_cache(const fs::path& out) {
+  const fs::path abs = fs::absolute(out).lexically_normal();
+  const fs::path parent = abs.has_filename() ? abs.parent_path() : abs.parent_path().parent_path();
+  return parent / "cache";
+}
+
+fs::path prepare_sequence(const std::string& name, const SequenceSource& source, const fs::path& cache, bool progress) {
+  switch (source.kind) {
+    case SequenceSource::Kind::Path:
+      return source.path;
+    case SequenceSource::Kind::Work:
+      throw Error("", name, "is a prepared work folder, not a sequence");
+    case SequenceSource::Kind::Synthetic:
+      break;
+  }
+  const json key = synth_json(source.synth);
+  const fs::path dir = cache / "sequences" / (safe_name(source.synth.scene) + "-" + json_hash(key));
+  if (fs::exists(dir / features::kManifestName)) return dir;
+  if (progress) std::cerr << "run-experiment: generating sequence \"" << name << "\" (" << key.dump() << ") in " << dir.string() << "\n";
+  features::synth::SynthOptions o = source.synth;
+  o.progress = progress;
+  features::synth::make_sequence(o, dir);  // writes sequence.json last
+  return dir;
+}
+
+fs::path prepare_work(const std::string& name, const SequenceSource& source, const FrontEnd& fe, const fs::path& cache,
+                      bool progress) {
+  if (source.kind == SequenceSource::Kind::Work) {
+    features::load_stack_manifest(source.path);  // validates it
+    return source.path;
+  }
+  FileLock lock(cache / "lock");
+  const fs::path seq_dir = prepare_sequence(name, source, cache, progress);
+  const features::Sequence seq = features::load_sequence(seq_dir);
+  const features::ExtractOptions eo = extract_options(fe, progress);
+  const json key = {{"sequence", fs::weakly_canonical(seq_dir).string()},
+                    {"front_end", features::front_end_options_to_json(eo.front_end)},
+                    {"features", {{"causal", eo.features.causal}, {"future_frames", eo.features.future_frames}}}};
+  const fs::path work = cache / "work" / (safe_name(seq.name) + "-" + json_hash(key));
+  const fs::path done = work / "complete.json";
+  if (fs::exists(done)) {
+    const json rec = read_json(done);
+    if (rec.value("key", json()) == key) return work;
+  }
+  if (progress)
+    std::cerr << "run-experiment: extracting \"" << name << "\" (stereo " << fe.stereo << ", motion " << fe.motion
+              << (fe.causal ? ", causal" : "") << ") into " << work.string() << "\n";
+  const features::ExtractReport r = features::extract_features(seq, work, eo);
+  write_json_atomic(done, {{"format", "smseg-experiment-cache"},
+                           {"version", 1},
+                           {"key", key},
+                           {"front_end_seconds", r.front_end_seconds},
+                           {"valid_points_per_frame", r.summary.valid_points_per_frame_mean}});
+  return work;
+}
+
+RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  if (options.out.empty()) throw Error("", "--out", "name the results folder");
+  const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
+  fs::create_directories(options.out);
+
+  // The config this folder belongs to. Only what decides the results must match; titles, descriptions
+  // and figures may change (the snapshot then takes them, for export-notebooks).
+  const fs::path snapshot = options.out / "config.json";
+  const auto results_part = [](json c) {
+    for (const char* k : {"title", "description", "figures"}) c.erase(k);
+    return c;
+  };
+  const json record = {{"format", kRunFormat},         {"version", 1},         {"name", ex.name},
+                       {"config_file", ex.file.string()}, {"quick", ex.quick}, {"config", ex.config}};
+  if (fs::exists(snapshot)) {
+    const json old = read_json(snapshot);
+    if (!old.is_object() || old.value("format", "") != kRunFormat)
+      throw Error(snapshot.string(), "format", "is not a run-experiment results folder's config.json");
+    if (results_part(old.value("config", json())) != results_part(ex.config) || old.value("quick", !ex.quick) != ex.quick)
+      throw Error(snapshot.string(), "config",
+                  "this results folder was made with another config (or with/without --quick); write to another -o");
+    if (old != record) write_json_atomic(snapshot, record);
+  } else {
+    write_json_atomic(snapshot, record);
+  }
+
+  // Points already done.
+  const fs::path jsonl = options.out / "experiment.jsonl";
+  std::set<std::string> done;
+  {
+    int line = 0;
+    for (const auto& rec : eval::read_jsonl(jsonl)) {
+      ++line;
+      if (rec.value("format", "") != kRecordFormat || !rec.contains("point"))
+        throw Error(jsonl.string(), "line " + std::to_string(line), "is not a run-experiment record");
+      done.insert(rec["point"].dump());
+    }
+  }
+  std::vector<const Point*> todo;
+  RunReport report;
+  report.total = static_cast<int>(ex.points.size());
+  for (const auto& p : ex.points) {
+    if (done.count(p.json.dump())) ++report.done_before;
+    else todo.push_back(&p);
+  }
+  if (report.done_before != static_cast<int>(done.size()))
+    throw Error(jsonl.string(), "point", "holds points that are not in this config");
+  if (options.max_points > 0 && static_cast<int>(todo.size()) > options.max_points) todo.resize(std::size_t(options.max_points));
+  if (todo.empty()) {
+    report.seconds = seconds_since(t_start);
+    return report;
+  }
+
+  // Data: every (sequence, front end) the remaining points need.
+  std::map<std::string, fs::path> works;  // key: name + front end
+  const auto work_of = [&](const std::string& name, const FrontEnd& fe) -> const fs::path& {
+    const std::string key = name + "|" + fe.to_json().dump();
+    auto it = works.find(key);
+    if (it == works.end()) it = works.emplace(key, prepare_work(name, ex.sequences.at(name), fe, cache, options.progress)).first;
+    return it->second;
+  };
+  for (const Point* p : todo) {
+    for (const auto& n : p->train) work_of(n, p->train_front_end);
+    for (const auto& n : p->test) work_of(n, p->test_front_end);
+  }
+
+  Progress progress("run-experiment " + ex.name, static_cast<long>(todo.size()), options.progress);
+  std::string forest_key;
+  forest::Forest forest;
+  double pilot_seconds = 0;
+  std::size_t train_frames = 0;
+  for (const Point* p : todo) {
+    std::vector<fs::path> train_works, test_works;
+    for (const auto& n : p->train) train_works.push_back(work_of(n, p->train_front_end));
+    for (const auto& n : p->test) test_works.push_back(work_of(n, p->test_front_end));
+
+    json tkey = p->training_key();
+    std::vector<std::string> tw;
+    for (const auto& w : train_works) tw.push_back(w.string());
+    tkey["works"] = tw;
+    if (tkey.dump() != forest_key) {
+      forest_key.clear();
+      const features::StackSet set = features::open_stacks(train_works, p->train_frames, true, true, p->features);
+      forest::TrainParams tp = p->train_params;
+      tp.memory_mb = options.memory_mb;
+      tp.progress = false;
+      pilot_seconds = 0;
+      if (tp.windows.mode == forest::WindowSampling::Learned) {
+        forest::TrainParams pilot = tp;
+        pilot.windows.mode = forest::WindowSampling::Uniform;
+        pilot.seed = tp.seed + 1;
+        const forest::Forest pf = forest::train_forest(set.dataset, pilot);
+        pilot_seconds = pf.stats.seconds;
+        tp.windows.learned = forest::learned_windows({pf});
+      }
+      forest = forest::train_forest(set.dataset, tp);
+      forest_key = tkey.dump();
+      train_frames = set.dataset.frames.size();
+    }
+
+    eval::EvalOptions eo = p->eval;
+    eo.progress = false;
+    eo.pictures.clear();
+    const auto t_eval = std::chrono::steady_clock::now();
+    const eval::EvalResult r = eval::evaluate(forest, test_works, eo);
+    const double eval_seconds = seconds_since(t_eval);
+    std::vector<std::string> tws;
+    for (const auto& w : test_works) tws.push_back(w.string());
+    const json full = r.to_json(forest, eo, tws);
+
+    forest::Forest used = eo.trees > 0 ? eval::first_trees(forest, eo.trees, "trees") : forest;
+    used.compute_stats();
+    json tree_nodes = json::array();
+    double nodes = 0, leaves = 0, depth = 0;
+    for (const auto& t : used.stats.trees) {
+      tree_nodes.push_back(t.nodes);
+      nodes += t.nodes;
+      leaves += t.leaves;
+      depth += t.depth;
+    }
+    const double n_trees = std::max<double>(1, double(used.stats.trees.size()));
+    json per_feature = json::object();
+    for (int a = 0; a < used.num_attributes(); ++a)
+      per_feature[used.attribute_name(a)] =
+          a < static_cast<int>(used.stats.nodes_per_feature.size()) ? used.stats.nodes_per_feature[std::size_t(a)] : 0;
+    json per_frame = json::array();
+    for (const auto& f : r.frames) per_frame.push_back(num(f.confusion.global_accuracy()));
+    const json& spread = full["accuracy_spread"];
+
+    json rec = {{"format", kRecordFormat},
+                {"version", 1},
+                {"experiment", ex.name},
+                {"index", p->index},
+                {"point", p->json},
+                {"swept", p->swept},
+                {"label", p->label},
+                {"global_accuracy", full["global_accuracy"]},
+                {"class_average_accuracy", full["class_average_accuracy"]},
+                {"mean_iou", full["mean_iou"]},
+                {"boundary_tolerant_accuracy", full["boundary_tolerant_accuracy"]},
+                {"accuracy_spread", spread},
+                {"accuracy_variance", spread.is_object() ? json(std::pow(spread["std"].get<double>(), 2)) : json(nullptr)},
+                {"per_frame_accuracy", per_frame},
+                {"per_class", full["per_class"]},
+                {"classes", forest.classes},
+                {"confusion", full["confusion"]["counts"]},
+                {"test_frames", r.frames.size()},
+                {"seconds_per_frame", r.seconds_per_frame},
+                {"superpixel_seconds_per_frame", r.superpixel_seconds_per_frame},
+                {"eval_seconds", eval_seconds},
+                {"train_seconds", forest.stats.seconds},
+                {"pilot_seconds", pilot_seconds},
+                {"train_frames", train_frames},
+                {"trees", used.trees.size()},
+                {"nodes_per_tree", nodes / n_trees},
+                {"leaves_per_tree", leaves / n_trees},
+                {"depth_per_tree", depth / n_trees},
+                {"tree_nodes", tree_nodes},
+                {"nodes_per_feature", per_feature},
+                {"windows", forest::histograms_to_json(used.stats.windows)}};
+    eval::append_jsonl(jsonl, rec);
+    ++report.run;
+    if (options.on_point) options.on_point(*p, rec);
+    progress.tick();
+  }
+  progress.finish();
+  report.seconds = seconds_since(t_start);
+  return report;
+}
+
+}  // namespace smseg::experiments

@@ -1,0 +1,113 @@
+// export-notebooks on a quick result set: a notebook per experiment that Debian's jupyter-nbconvert
+// executes, PNG figures, and an index linking them; bad input answered in one line.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <fstream>
+
+#include "smseg/io.hpp"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+namespace {
+
+struct Outcome {
+  int status = -1;
+  std::string out;
+};
+
+Outcome run(const std::string& cmd) {
+  Outcome r;
+  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  while (std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
+  const int st = ::pclose(p);
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string tool(const std::string& name) { return (fs::path(SMSEG_BIN_DIR) / name).string(); }
+
+bool is_png(const fs::path& p) {
+  if (!fs::exists(p)) return false;
+  const std::string s = smseg::read_file(p);
+  return s.size() > 1000 && s.compare(0, 8, "\x89PNG\r\n\x1a\n") == 0;
+}
+
+class Notebooks : public ::testing::Test {
+ protected:
+  static fs::path dir;
+  static void SetUpTestSuite() {
+    dir = fs::temp_directory_path() / ("smseg_notebooks_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir); }
+};
+fs::path Notebooks::dir;
+
+}  // namespace
+
+TEST_F(Notebooks, QuickResultsBecomeNotebooksThatExecute) {
+  // Quick results of experiments that use every kind of figure (lines, dict metrics, confusion,
+  // surface, window histograms, series).
+  const fs::path configs = fs::path(SMSEG_SOURCE_DIR) / "experiments" / "thesis";
+  for (const char* name : {"k-sweep", "grid", "windows"}) {
+    const Outcome r = run(tool("run-experiment") + " -q --quick --cache " + (dir / "cache").string() + " " +
+                          (configs / (std::string(name) + ".json")).string() + " -o " + (dir / "results" / name).string());
+    ASSERT_EQ(r.status, 0) << name << ": " << r.out;
+  }
+  const fs::path nb = dir / "notebooks";
+  Outcome r = run(tool("export-notebooks") + " " + (dir / "results").string() + " -o " + nb.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* name : {"k-sweep", "grid", "windows"}) {
+    const fs::path ipynb = nb / (std::string(name) + ".ipynb");
+    const json j = smseg::read_json(ipynb);
+    EXPECT_EQ(j["nbformat"], 4);
+    const json cfg = smseg::read_json(configs / (std::string(name) + ".json"));
+    for (const auto& fig : cfg["figures"]) {
+      const fs::path png = nb / name / ("fig-" + fig["id"].get<std::string>() + ".png");
+      EXPECT_TRUE(is_png(png)) << png;
+    }
+    // Debian's nbconvert runs it; every figure cell leaves a picture in its output.
+    const fs::path executed = dir / (std::string(name) + ".executed.ipynb");
+    r = run("jupyter nbconvert --to notebook --execute --ExecutePreprocessor.timeout=300 " + ipynb.string() +
+            " --output " + executed.string());
+    ASSERT_EQ(r.status, 0) << r.out;
+    const json done = smseg::read_json(executed);
+    int pictures = 0;
+    bool printed_points = false;
+    for (const auto& cell : done["cells"]) {
+      if (cell["cell_type"] != "code") continue;
+      for (const auto& o : cell["outputs"]) {
+        EXPECT_NE(o["output_type"], "error") << o.dump().substr(0, 2000);
+        if (o.contains("data") && o["data"].contains("image/png")) ++pictures;
+        if (o["output_type"] == "stream" && o["text"].dump().find("points") != std::string::npos) printed_points = true;
+      }
+    }
+    EXPECT_EQ(pictures, static_cast<int>(cfg["figures"].size())) << name;
+    EXPECT_TRUE(printed_points) << name;
+  }
+  const std::string index = smseg::read_file(nb / "index.html");
+  for (const char* link : {"k-sweep.ipynb", "grid.ipynb", "windows.ipynb", "k-sweep/fig-4.4a.png", "grid/fig-4.16.png"})
+    EXPECT_NE(index.find(link), std::string::npos) << link;
+  EXPECT_TRUE(fs::exists(nb / "index.md"));
+}
+
+TEST_F(Notebooks, BadInputIsOneLine) {
+  fs::create_directories(dir / "empty");
+  Outcome r = run(tool("export-notebooks") + " " + (dir / "empty").string() + " -o " + (dir / "nb-empty").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  EXPECT_NE(r.out.find("no run-experiment results"), std::string::npos) << r.out;
+  // A results folder whose config.json is not one.
+  fs::create_directories(dir / "broken" / "x");
+  smseg::write_file_atomic(dir / "broken" / "x" / "config.json", "{\"format\": \"smseg-forest\", \"version\": 1}\n");
+  r = run(tool("export-notebooks") + " " + (dir / "broken").string() + " -o " + (dir / "nb-broken").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+  EXPECT_NE(r.out.find("config.json"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("smseg-experiment-run"), std::string::npos) << r.out;
+}
