@@ -8,6 +8,7 @@ SMSEG_PACKAGES=(
   build-essential cmake pkg-config
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
+  libceres-dev
 )
 
 missing=()
