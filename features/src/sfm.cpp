@@ -680,17 +680,43 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
       o2.push_back(obj[k]);
       i2.push_back(img[k]);
     }
-    cv::solvePnPRefineLM(o2, i2, K, cv::noArray(), rvec, tvec);
-    cv::Mat R;
-    cv::Rodrigues(rvec, R);
-    cv::cv2eigen(R, out.R);
-    cv::cv2eigen(tvec, out.t);
-    if (!out.R.allFinite() || !out.t.allFinite()) return false;
-    // The refined pose must still explain the RANSAC inliers (a diverged refinement does not).
-    int confirmed = 0;
-    for (int k : inl)
-      confirmed += reprojection_error(out, Eigen::Vector3d(obj[k].x, obj[k].y, obj[k].z),
-                                      cv::Point2f(static_cast<float>(img[k].x), static_cast<float>(img[k].y)), in) <= thr;
+    // Candidates: the RANSAC pose (OpenCV re-estimates it by EPnP on all inliers, which can come out
+    // wrong, mirrored, with many far points as on CamVid), and Levenberg-Marquardt refinements on the
+    // inliers started from it and from the guess (the previous frame's pose). The one explaining the
+    // most RANSAC inliers within the threshold is kept.
+    auto cv_pose = [](const cv::Mat& rv, const cv::Mat& tv, CamPose& P) {
+      cv::Mat R;
+      cv::Rodrigues(rv, R);
+      cv::cv2eigen(R, P.R);
+      cv::cv2eigen(tv, P.t);
+      return P.R.allFinite() && P.t.allFinite();
+    };
+    auto explained = [&](const CamPose& P) {
+      int c = 0;
+      for (int k : inl)
+        c += reprojection_error(P, Eigen::Vector3d(obj[k].x, obj[k].y, obj[k].z),
+                                cv::Point2f(static_cast<float>(img[k].x), static_cast<float>(img[k].y)), in) <= thr;
+      return c;
+    };
+    int confirmed = -1;
+    auto consider = [&](const cv::Mat& rv, const cv::Mat& tv) {
+      CamPose P;
+      if (!cv_pose(rv, tv, P)) return;
+      const int c = explained(P);
+      if (c > confirmed) {
+        confirmed = c;
+        out = P;
+      }
+    };
+    consider(rvec, tvec);
+    cv::Mat rv = rvec.clone(), tv = tvec.clone();
+    cv::solvePnPRefineLM(o2, i2, K, cv::noArray(), rv, tv);
+    consider(rv, tv);
+    cv::Mat rg, tg;
+    cv::Rodrigues(Rg, rg);
+    cv::eigen2cv(guess.t, tg);
+    cv::solvePnPRefineLM(o2, i2, K, cv::noArray(), rg, tg);
+    consider(rg, tg);
     if (confirmed < std::max(o.min_pnp_points, static_cast<int>(0.8 * static_cast<double>(inl.size())))) return false;
     pnp_inliers[t] = confirmed;
     return true;
