@@ -23,14 +23,17 @@
 //      at least init_motion_px; relative pose from the essential matrix (findEssentialMat RANSAC +
 //      recoverPose), triangulation of the common tracks, accepted when the median triangulation angle is
 //      at least init_min_angle_deg (else the next frame is tried).
-//   5. Every later frame: pose from 2D-3D matches (solvePnPRansac, EPnP inside, then Levenberg-Marquardt
-//      refinement on the inliers). A frame becomes a key frame when the median motion of its tracks since
+//   5. Every later frame: pose from 2D-3D matches (solvePnPRansac, EPnP inside; of its pose and the
+//      Levenberg-Marquardt refinements on the inliers started from it and from the previous frame's
+//      pose, the one explaining most inliers: OpenCV's final EPnP on all inliers can come out mirrored
+//      with many far points, as on CamVid). A frame becomes a key frame when the median motion of its tracks since
 //      the last key frame exceeds keyframe_motion_px; at key frames new tracks are triangulated between
 //      their first posed observation and the key frame (angle >= min_triangulation_angle_deg, positive
 //      depth, reprojection error below reprojection_threshold_px in both views) and a local bundle
 //      adjustment refines the last ba_window key frames and their points (the two oldest key frames of
 //      the window held fixed: the gauge, scale included). If PnP fails, the frame is bridged by the
-//      essential matrix to the previous frame, its translation scaled to the previous step's length.
+//      essential matrix to the previous frame, its translation as long as the last step that moved.
+//      Bundle adjustment is bundle_adjust (Ceres, below).
 //   6. At the end, an optional global bundle adjustment over every key frame (the first two fixed),
 //      then motion-only refinement of the other frames; tracks that still have no 3D point are
 //      triangulated from their widest-angle pair of posed observations; observations reprojecting
