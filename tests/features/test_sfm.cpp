@@ -218,25 +218,38 @@ TEST(Sfm, OptionsAreValidatedWithTheirNames) {
 
 class SfmCorridor : public ::testing::Test {
  protected:
+  // ctest runs every test in its own process: rendering the corridor in each (~3 s of CPU, much more
+  // on a loaded machine) is shared through a cache folder in the temporary directory, written under a
+  // private name and renamed into place (so a concurrent test never sees it half written) and only
+  // read afterwards. Each process writes its own files into its scratch folder.
   static void SetUpTestSuite() {
-    dir_ = std::filesystem::temp_directory_path() / ("smseg_test_sfm_" + std::to_string(::getpid()));
-    synth::SynthOptions so;
-    so.frames = 60;
-    so.seed = 1;
-    seq_ = new Sequence(synth::make_sequence(so, dir_));
+    const fs::path tmp = fs::temp_directory_path();
+    scratch_ = tmp / ("smseg_test_sfm_" + std::to_string(::getpid()));
+    fs::create_directories(scratch_);
+    const fs::path cache = tmp / "smseg_test_sfm_corridor_60x320x240_seed1_v1";
+    if (!fs::exists(cache / kManifestName)) {
+      synth::SynthOptions so;
+      so.frames = 60;
+      so.seed = 1;
+      const fs::path staging = scratch_ / "corridor";
+      synth::make_sequence(so, staging);
+      std::error_code ec;
+      fs::rename(staging, cache, ec);  // fails when another process got there first: theirs is used
+    }
+    seq_ = new Sequence(load_sequence(cache));
   }
   static void TearDownTestSuite() {
     delete seq_;
     seq_ = nullptr;
     std::error_code ec;
-    std::filesystem::remove_all(dir_, ec);
+    fs::remove_all(scratch_, ec);
   }
   static SfmOptions options() {
     SfmOptions o;
     o.progress = false;
     return o;
   }
-  static inline std::filesystem::path dir_;
+  static inline fs::path scratch_;
   static inline Sequence* seq_ = nullptr;
 };
 
@@ -342,7 +355,7 @@ TEST_F(SfmCorridor, OutputDoesNotDependOnTheThreadCount) {
 
 TEST_F(SfmCorridor, TexturelessFramesAreBridgedAndAllTexturelessGivesTheDocumentedDegradedResult) {
   // A uniform grey image: no keypoint, nothing to track.
-  const fs::path blank = dir_ / "blank.png";
+  const fs::path blank = scratch_ / "blank.png";
   cv::imwrite(blank.string(), cv::Mat(seq_->size, CV_8UC3, cv::Scalar::all(128)));
   Sequence s = *seq_;
   s.labelled_frames.clear();
@@ -380,7 +393,7 @@ TEST_F(SfmCorridor, ExtractFeaturesRunsMonoSequencesThroughSfmAndRecordsItsOptio
   s.kind = SequenceKind::Mono;
   s.labelled_frames = {0, 10, 20, 30};
   for (auto& f : s.frames) f.right.clear();
-  const fs::path work = dir_ / "work_mono";
+  const fs::path work = scratch_ / "work_mono";
   ExtractOptions eo;
   eo.progress = false;
   eo.frames = FrameRange::parse("0:2", "--frames");
