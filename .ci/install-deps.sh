@@ -9,6 +9,7 @@ SMSEG_PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
+  libceres-dev
 )
 
 missing=()

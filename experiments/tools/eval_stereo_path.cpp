@@ -1,7 +1,9 @@
-// eval-stereo-path: accuracy of the stereo front end's output (WORK/tracks.json) against a synthetic
-// sequence's ground truth: absolute trajectory error (rigid and similarity alignment) as metres and as
-// a share of the path length, relative pose error per frame pair, and the relative depth error of the
-// tracked points. (The brief named it eval-trajectory; that name is taken by the monocular SfM tool.)
+// eval-stereo-path: accuracy of a front end's output (WORK/tracks.json, from the stereo front end or
+// from monocular structure from motion, `extract-features --motion sfm`) against a synthetic sequence's
+// ground truth: absolute trajectory error (rigid and similarity alignment) as metres and as a share of
+// the path length, relative pose error per frame pair, and the relative depth error of the tracked
+// points. For SfM work folders it also repeats what the SfM reported (focal length and its source,
+// reprojection RMS, key frames, posed / still / bridged frames).
 #include <cstdio>
 #include <iostream>
 
@@ -43,7 +45,7 @@ cv::Mat plot(const std::vector<Pose>& est, const std::vector<Pose>& gt, int size
 }  // namespace
 
 int main(int argc, char** argv) {
-  CLI::App app{"Accuracy of the stereo front end against a synthetic sequence's ground truth: absolute\n"
+  CLI::App app{"Accuracy of the front end (stereo or monocular SfM) against a synthetic sequence's ground truth: absolute\n"
                "trajectory error (camera centres, rigid and similarity Umeyama alignment) in metres and as a\n"
                "share of the ground-truth path length, relative pose error per frame pair, and the median\n"
                "relative depth error of the tracked points (WORK/tracks.json) against the ground-truth depth.",
@@ -86,6 +88,11 @@ int main(int argc, char** argv) {
                 "(%ld of %ld observations with ground truth)\n",
                 100 * depth.median_relative, 100 * depth.mean_relative, 100 * depth.p90_relative,
                 100 * depth.median_signed_relative, depth.evaluated, depth.observations);
+    if (const auto& m = r.summary.sfm)
+      std::printf("sfm: focal %.1f px (%s), key frames %d, posed %d / still %d / bridged %d frames, reprojection RMS "
+                  "%.3f px, scale %.4g m/unit\n",
+                  m->focal, m->focal_source.c_str(), m->keyframes, m->posed_frames, m->still_frames, m->bridged_frames,
+                  m->reprojection_rms_px, m->scale);
     if (!out.empty()) {
       Json j{{"format", "smseg-stereo-path-eval"},
              {"version", 1},
@@ -108,6 +115,7 @@ int main(int argc, char** argv) {
                {"p90_relative", depth.p90_relative},
                {"median_signed_relative", depth.median_signed_relative}}},
              {"per_frame_error_m", rigid.errors}};
+      if (r.summary.sfm) j["sfm"] = summary_to_json(r.summary)["sfm"];
       write_json_atomic(out, j);
     }
     if (!plot_path.empty()) cv::imwrite(plot_path, plot(r.poses, gt, 700));

@@ -19,9 +19,28 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
+bool uses_sfm(const Sequence& seq, const ExtractOptions& o) {
+  return o.motion == MotionMethod::Sfm || (o.motion == MotionMethod::Auto && seq.kind == SequenceKind::Mono);
+}
+
+// The SfM options as run: the camera height from the extract options when not set.
+SfmOptions effective_sfm(const ExtractOptions& o) {
+  SfmOptions s = o.sfm;
+  if (!s.camera_height) s.camera_height = o.front_end.camera_height;
+  s.progress = o.progress;
+  return s;
+}
+
 Json options_json(const Sequence& seq, const ExtractOptions& o) {
-  Json fe = front_end_options_to_json(o.front_end);
-  if (!o.front_end.camera_height && seq.camera_height) fe["camera_height"] = *seq.camera_height;
+  Json fe;
+  if (uses_sfm(seq, o)) {
+    const SfmOptions s = effective_sfm(o);
+    fe = {{"method", "sfm"}, {"sfm", sfm_options_to_json(s)}};
+    if (s.camera_height) fe["camera_height"] = *s.camera_height;
+  } else {
+    fe = front_end_options_to_json(o.front_end);
+  }
+  if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
   return {{"front_end", fe}, {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
 }
 
@@ -73,6 +92,22 @@ std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, c
 
 }  // namespace
 
+MotionMethod parse_motion_method(const std::string& name, const std::string& field) {
+  if (name == "auto") return MotionMethod::Auto;
+  if (name == "stereo") return MotionMethod::Stereo;
+  if (name == "sfm") return MotionMethod::Sfm;
+  throw Error("", field, "expected auto, stereo or sfm, got '" + name + "'");
+}
+
+const char* motion_method_name(MotionMethod m) {
+  switch (m) {
+    case MotionMethod::Auto: return "auto";
+    case MotionMethod::Stereo: return "stereo";
+    case MotionMethod::Sfm: return "sfm";
+  }
+  return "?";
+}
+
 PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count) {
   PointCloudVideo v;
   v.poses.assign(frame_count, Pose{});
@@ -117,9 +152,13 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
 
 ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
   opt.features.validate();
-  if (seq.kind != SequenceKind::Stereo)
+  const bool sfm = uses_sfm(seq, opt);
+  if (sfm)
+    effective_sfm(opt).validate();
+  else if (seq.kind != SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind",
-                "extract-features needs a stereo sequence (the monocular structure-from-motion path is not built yet)");
+                "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
+                "--motion sfm or auto)");
   for (int f : opt.preview)
     if (f < 0 || f >= seq.frame_count())
       throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
@@ -156,7 +195,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const auto t0 = std::chrono::steady_clock::now();
   FrontEndOptions fe_opt = opt.front_end;
   fe_opt.progress = opt.progress;
-  const FrontEndResult fe = run_stereo_front_end(seq, fe_opt);
+  const FrontEndResult fe = sfm ? run_mono_front_end(seq, effective_sfm(opt)) : run_stereo_front_end(seq, fe_opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);

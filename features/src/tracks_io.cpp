@@ -121,7 +121,7 @@ Json summary_to_json(const FrontEndSummary& s) {
                                {"share_of_points", share(c.removed_inconsistent_obs, after3)}}},
       {"kept_observations", c.kept_obs},
       {"kept_tracks", c.kept_tracks}};
-  return Json{{"frames", s.frames},
+  Json out{{"frames", s.frames},
               {"keypoints", s.keypoints},
               {"filters", filters},
               {"valid_points_per_frame", {{"mean", s.valid_points_per_frame_mean}, {"min", s.valid_points_per_frame_min}}},
@@ -136,6 +136,26 @@ Json summary_to_json(const FrontEndSummary& s) {
                                      {"tracks", s.seconds.tracks},
                                      {"motion", s.seconds.motion}}},
               {"seconds_total_wall", s.seconds.total_wall}};
+  if (s.sfm) {
+    const SfmSummary& m = *s.sfm;
+    out["sfm"] = {{"tracker", m.tracker},
+                  {"focal_px", m.focal},
+                  {"focal_source", m.focal_source},
+                  {"focal_pairs", m.focal_pairs},
+                  {"init_pair", {m.init_frame_a, m.init_frame_b}},
+                  {"keyframes", m.keyframes},
+                  {"posed_frames", m.posed_frames},
+                  {"still_frames", m.still_frames},
+                  {"bridged_frames", m.bridged_frames},
+                  {"points_3d", m.points_3d},
+                  {"observations", m.observations},
+                  {"reprojection_rms_px", m.reprojection_rms_px},
+                  {"scale_m_per_unit", m.scale},
+                  {"ground_inliers", m.ground_inliers},
+                  {"ground_candidates", m.ground_candidates},
+                  {"seconds_per_frame", {{"sfm", m.seconds_sfm}, {"bundle_adjustment", m.seconds_ba}}}};
+  }
+  return out;
 }
 
 FrontEndSummary summary_from_json(const JsonView& j) {
@@ -175,6 +195,29 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   s.seconds.tracks = t.num("tracks");
   s.seconds.motion = t.num("motion");
   s.seconds.total_wall = j.num("seconds_total_wall");
+  if (const auto m = j.maybe("sfm")) {
+    SfmSummary f;
+    f.tracker = m->str("tracker");
+    f.focal = m->num("focal_px");
+    f.focal_source = m->str("focal_source");
+    f.focal_pairs = static_cast<int>(m->integer("focal_pairs"));
+    const auto init = integers(m->at("init_pair"), 2);
+    f.init_frame_a = static_cast<int>(init[0]);
+    f.init_frame_b = static_cast<int>(init[1]);
+    f.keyframes = static_cast<int>(m->integer("keyframes"));
+    f.posed_frames = static_cast<int>(m->integer("posed_frames"));
+    f.still_frames = static_cast<int>(m->integer("still_frames"));
+    f.bridged_frames = static_cast<int>(m->integer("bridged_frames"));
+    f.points_3d = m->integer("points_3d");
+    f.observations = m->integer("observations");
+    f.reprojection_rms_px = m->num("reprojection_rms_px");
+    f.scale = m->num("scale_m_per_unit");
+    f.ground_inliers = static_cast<int>(m->integer("ground_inliers"));
+    f.ground_candidates = static_cast<int>(m->integer("ground_candidates"));
+    f.seconds_sfm = m->at("seconds_per_frame").num("sfm");
+    f.seconds_ba = m->at("seconds_per_frame").num("bundle_adjustment");
+    s.sfm = f;
+  }
   return s;
 }
 
