@@ -236,9 +236,6 @@ Point build_point(const Raw& raw, const Experiment& ex) {
     fe.stereo = raw.choice(s, "bm", stereo_methods);
     fe.motion = raw.choice(m, "stereo", motions);
     fe.causal = raw.boolean(c, false);
-    if (!motion_available(fe.motion))
-      raw.fail(m, "the SfM front end (\"motion\": \"sfm\") is not available in this build: extract_features has no "
-                  "monocular SfM option yet; use \"stereo\", or name prepared work folders ({\"work\": DIR})");
     return fe;
   };
   p.train_front_end = side_fe("train");
@@ -369,7 +366,7 @@ std::string Point::describe() const {
   return s.empty() ? "point " + std::to_string(index) : s;
 }
 
-bool motion_available(const std::string& motion) { return motion == "stereo"; }
+bool motion_available(const std::string& motion) { return motion == "stereo" || motion == "sfm"; }
 
 std::string json_hash(const json& j) {
   const std::string s = j.dump();

@@ -12,6 +12,7 @@
 
 #include "smseg/eval/sweep.hpp"
 #include "smseg/features/extract.hpp"
+#include "smseg/features/sfm.hpp"
 #include "smseg/features/tracks_io.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/io.hpp"
@@ -64,6 +65,7 @@ features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
     throw Error("", "motion", "the \"" + fe.motion + "\" front end is not available in this build");
   features::ExtractOptions o;
   o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
+  o.motion = features::parse_motion_method(fe.motion, "motion");
   o.features.causal = fe.causal;
   o.progress = progress;
   return o;
@@ -116,6 +118,8 @@ fs::path prepare_work(const std::string& name, const SequenceSource& source, con
   const features::ExtractOptions eo = extract_options(fe, progress);
   const json key = {{"sequence", fs::weakly_canonical(seq_dir).string()},
                     {"front_end", features::front_end_options_to_json(eo.front_end)},
+                    {"motion", fe.motion},
+                    {"sfm", fe.motion == "sfm" ? features::sfm_options_to_json(eo.sfm) : json(nullptr)},
                     {"features", {{"causal", eo.features.causal}, {"future_frames", eo.features.future_frames}}}};
   const fs::path work = cache / "work" / (safe_name(seq.name) + "-" + json_hash(key));
   const fs::path done = work / "complete.json";

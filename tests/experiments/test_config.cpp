@@ -113,7 +113,7 @@ TEST(ExperimentConfig, BadInputIsOneErrorNamingTheFileAndTheField) {
       {R"({"fixed": {"superpixels": "small"}})", "fixed.superpixels", "grid"},
       {R"({"fixed": {"trees": 9}})", "fixed.trees", "M = 3"},
       {R"({"fixed": {"stereo": "triclops"}})", "fixed.stereo", "bm, sgbm"},
-      {R"({"fixed": {"motion": "sfm"}})", "fixed.motion", "SfM"},
+      {R"({"fixed": {"motion": "lidar"}})", "fixed.motion", "stereo, sfm"},
       {R"({"fixed": {"windows": "gaussian"}})", "fixed.windows", ""},
       {R"({"fixed": {"features": ["fH", "fZ"]}})", "fixed.features", "fZ"},
       {R"({"fixed": {"K": 400}})", "sweep.K[0]", "also set at fixed.K"},
@@ -145,17 +145,6 @@ TEST(ExperimentConfig, ThesisConfigsLoadInFullAndQuickForm) {
     if (e.path().extension() != ".json") continue;
     ++configs;
     for (bool quick : {false, true}) {
-      if (e.path().stem() == "sfm-vs-stereo") {
-        // Until the SfM front end exists the config is refused, naming the swept value.
-        try {
-          smseg::experiments::load_experiment(e.path(), quick);
-          ADD_FAILURE() << "sfm-vs-stereo ran without an SfM front end";
-        } catch (const smseg::Error& err) {
-          EXPECT_EQ(err.field(), "sweep.motion[1]") << err.what();
-          EXPECT_NE(std::string(err.reason()).find("SfM"), std::string::npos);
-        }
-        continue;
-      }
       const Experiment ex = smseg::experiments::load_experiment(e.path(), quick);
       EXPECT_EQ(ex.name, e.path().stem().string());
       EXPECT_FALSE(ex.points.empty());

@@ -57,12 +57,6 @@ TEST(ThesisQuick, EveryConfigRunsInItsQuickForm) {
     const std::string name = f.stem().string();
     const fs::path out = dir / "results" / name;
     const Outcome r = run(tool + " -q --quick --cache " + (dir / "cache").string() + " " + f.string() + " -o " + out.string());
-    if (name == "sfm-vs-stereo") {  // refused until the SfM front end exists: one line, nothing run
-      EXPECT_EQ(r.status, 1) << r.out;
-      EXPECT_NE(r.out.find("SfM"), std::string::npos) << r.out;
-      EXPECT_FALSE(fs::exists(out / "experiment.jsonl"));
-      continue;
-    }
     ASSERT_EQ(r.status, 0) << name << ": " << r.out;
     const auto ex = smseg::experiments::load_experiment(f, true);
     const auto recs = records(out / "experiment.jsonl");
