@@ -34,6 +34,8 @@ Classifier::Classifier(const Forest& forest)
     throw Error("", "image", "expected a width and height of 1..32767 pixels");
   if (forest.trees.empty()) throw Error("", "trees", "the forest has no tree");
   const int num_attr = forest.num_attributes();
+  inner_x0_ = 0;
+  inner_x1_ = width_ - 1;
   for (const Tree& tree : forest.trees) {
     const auto base = static_cast<std::int32_t>(nodes_.size());
     roots_.push_back(base);
@@ -61,6 +63,8 @@ Classifier::Classifier(const Forest& forest)
           p.x1 = static_cast<std::int16_t>(r.x1);
           p.y0 = static_cast<std::int16_t>(r.y0);
           p.y1 = static_cast<std::int16_t>(r.y1);
+          inner_x0_ = std::max(inner_x0_, -r.x0);
+          inner_x1_ = std::min(inner_x1_, width_ - r.x1);
         } else {
           p.x0 = static_cast<std::int16_t>(nd.win.dx);
           p.y0 = static_cast<std::int16_t>(nd.win.dy);
@@ -173,7 +177,6 @@ inline double clamped_sum(const WindowTest& w, std::uint64_t k) {
   const double* bot = w.sat + tb;
   return (bot[xb] - top[xb]) - (bot[xa] - top[xa]);
 }
-[[gnu::noinline]] double clamped_sum_outlined(const WindowTest& w, std::uint64_t k) { return clamped_sum(w, k); }
 
 // Address of sat[off] as an integer (off may point before the table; it is only read after adding
 // a pixel's cell that brings it back inside).
@@ -185,44 +188,50 @@ inline double read(std::uintptr_t base, std::int32_t cell) {
 }
 
 // Routes keys [b, e) of p by float(window sum) < thr: left-goers compacted in place from p + b,
-// right-goers to tmp; returns the number of left-goers. Pixels whose window rows lie inside the
-// image (the caller checks that for the whole set: rows_inside) and whose columns do too take four
-// reads at fixed offsets from their own cell; the others clamp.
-std::uint32_t route_window(const WindowTest& w, bool rows_inside, float thr, std::uint64_t* p,
-                           std::uint32_t b, std::uint32_t e, std::uint64_t* tmp) {
+// right-goers to tmp; returns the number of left-goers. Keys [b, m) are pixels whose columns keep
+// every window of the forest inside the image; when the set's rows do too (rows_inside), they take
+// four reads at fixed offsets from their own cell, no clipping. The others clamp their corners.
+std::uint32_t route_window(const WindowTest& w, bool rows_inside, float thr, std::uint64_t* p, std::uint32_t b,
+                           std::uint32_t m, std::uint32_t e, std::uint64_t* tmp) {
   std::uint64_t* pl = p + b;
   std::uint64_t* pr = tmp;
   const std::uint64_t* q = p + b;
-  const std::uint64_t* const end = p + e;
-  const std::int32_t lo = std::max(0, -w.x0), hi = std::min(w.W - 1, w.W - w.x1);
-  if (rows_inside && hi >= lo) {
-    const std::uint32_t span = static_cast<std::uint32_t>(hi - lo);
+  if (rows_inside) {
     const std::uintptr_t tl = at(w.sat, w.r0 + w.x0), tr = at(w.sat, w.r0 + w.x1);
     const std::uintptr_t bl = at(w.sat, w.r1 + w.x0), br = at(w.sat, w.r1 + w.x1);
-    for (; q != end; ++q) {
+    for (const std::uint64_t* const mid = p + m; q != mid; ++q) {
       const std::uint64_t k = *q;
-      double v;
-      if (static_cast<std::uint32_t>(key_x(k) - lo) <= span) [[likely]] {
-        const std::int32_t c = key_cell(k);
-        v = (read(br, c) - read(tr, c)) - (read(bl, c) - read(tl, c));
-      } else {
-        v = clamped_sum_outlined(w, k);
-      }
+      const std::int32_t c = key_cell(k);
+      const double v = (read(br, c) - read(tr, c)) - (read(bl, c) - read(tl, c));
       const std::size_t go_left = static_cast<float>(v) < thr ? 1u : 0u;
       *pl = k;
       *pr = k;
       pl += go_left;
       pr += go_left ^ 1u;
     }
-  } else {
+  }
+  const std::uint64_t* const end = p + e;
+  if (rows_inside) {  // the other pixels: only the columns need clamping
+    const std::uintptr_t top = at(w.sat, w.r0), bot = at(w.sat, w.r1);
     for (; q != end; ++q) {
       const std::uint64_t k = *q;
-      const std::size_t go_left = static_cast<float>(clamped_sum(w, k)) < thr ? 1u : 0u;
+      const std::int32_t x = key_x(k), row = key_cell(k) - x;
+      const std::int32_t xa = row + std::min(std::max(x + w.x0, 0), w.W), xb = row + std::min(std::max(x + w.x1, 0), w.W);
+      const double v = (read(bot, xb) - read(top, xb)) - (read(bot, xa) - read(top, xa));
+      const std::size_t go_left = static_cast<float>(v) < thr ? 1u : 0u;
       *pl = k;
       *pr = k;
       pl += go_left;
       pr += go_left ^ 1u;
     }
+  }
+  for (; q != end; ++q) {
+    const std::uint64_t k = *q;
+    const std::size_t go_left = static_cast<float>(clamped_sum(w, k)) < thr ? 1u : 0u;
+    *pl = k;
+    *pr = k;
+    pl += go_left;
+    pr += go_left ^ 1u;
   }
   return static_cast<std::uint32_t>(pl - (p + b));
 }
@@ -238,11 +247,20 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
   s.keys.resize(n);
   s.tmp.resize(n);
   s.leaf.resize(n * M);
+  // Pixels whose columns keep every window inside the image first, the others after them, each
+  // group in the given order; stable partitions keep the two groups apart at every node.
   std::int32_t ymin = H, ymax = -1;
+  std::size_t mid = 0;
+  const std::uint32_t span = static_cast<std::uint32_t>(inner_x1_ - inner_x0_);
+  const auto inner = [&](std::uint64_t k) { return static_cast<std::uint32_t>(key_x(k) - inner_x0_) <= span; };
   for (std::size_t i = 0; i < n; ++i) {
-    s.init[i] = make_key(s.xs[i], s.ys[i], S, i);
     ymin = std::min(ymin, s.ys[i]);
     ymax = std::max(ymax, s.ys[i]);
+    mid += inner_x1_ >= inner_x0_ && static_cast<std::uint32_t>(s.xs[i] - inner_x0_) <= span;
+  }
+  for (std::size_t i = 0, a = 0, b = mid; i < n; ++i) {
+    const std::uint64_t k = make_key(s.xs[i], s.ys[i], S, i);
+    s.init[inner_x1_ >= inner_x0_ && inner(k) ? a++ : b++] = k;
   }
   const double* const* sats = frame.sats.data();
   for (std::size_t t = 0; t < M; ++t) {
@@ -271,7 +289,10 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
       };
       if (nd.feature < F) {
         const WindowTest w{sats[nd.feature], nd.x0, nd.x1, nd.y0 * S, nd.y1 * S, W, HS};
-        const std::uint32_t left = route_window(w, ymin + nd.y0 >= 0 && ymax + nd.y1 <= H, thr, p, it.begin, it.end, tmp);
+        // The inner group's end in this range: the first key outside it (binary search).
+        const std::uint32_t m = inner_x1_ < inner_x0_ ? it.begin
+                                : static_cast<std::uint32_t>(std::partition_point(p + it.begin, p + it.end, inner) - p);
+        const std::uint32_t left = route_window(w, ymin + nd.y0 >= 0 && ymax + nd.y1 <= H, thr, p, it.begin, m, it.end, tmp);
         l = it.begin + left;
         r = (it.end - it.begin) - left;
       } else {
@@ -291,8 +312,9 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
   float acc[kMaxClasses + 4];
   const float* probs = leaf_probs_.data();
   for (std::size_t i = 0; i < n; ++i) {
-    for (std::size_t c = 0; c < Cp; ++c) acc[c] = 0.0f;
-    for (std::size_t t = 0; t < M; ++t) {
+    const float* q0 = probs + static_cast<std::size_t>(s.leaf[i]) * Cp;
+    for (std::size_t c = 0; c < Cp; ++c) acc[c] = q0[c];  // = 0.0f + q0[c]
+    for (std::size_t t = 1; t < M; ++t) {
       const float* q = probs + static_cast<std::size_t>(s.leaf[t * n + i]) * Cp;
       for (std::size_t c = 0; c < Cp; ++c) acc[c] += q[c];
     }

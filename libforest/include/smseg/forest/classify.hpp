@@ -76,6 +76,7 @@ class Classifier {
   bool textons_ = false;
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;
+  int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image
   int padded_classes_ = 0;         // num_classes_ rounded up to a multiple of 4 (zeros after)
   std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * padded_classes_ + c]
 };
