@@ -187,19 +187,19 @@ inline double read(std::uintptr_t base, std::int32_t cell) {
   return *reinterpret_cast<const double*>(base + static_cast<std::uintptr_t>(static_cast<std::intptr_t>(cell)) * sizeof(double));
 }
 
-// Routes keys [b, e) of p by float(window sum) < thr: left-goers compacted in place from p + b,
-// right-goers to tmp; returns the number of left-goers. Keys [b, m) are pixels whose columns keep
+// Routes keys [b, e) of src by float(window sum) < thr: left-goers compacted to p + b (src may be
+// p: in place), right-goers to tmp; returns the number of left-goers. Keys [b, m) are pixels whose columns keep
 // every window of the forest inside the image; when the set's rows do too (rows_inside), they take
 // four reads at fixed offsets from their own cell, no clipping. The others clamp their corners.
-std::uint32_t route_window(const WindowTest& w, bool rows_inside, float thr, std::uint64_t* p, std::uint32_t b,
-                           std::uint32_t m, std::uint32_t e, std::uint64_t* tmp) {
+std::uint32_t route_window(const WindowTest& w, bool rows_inside, float thr, const std::uint64_t* src,
+                           std::uint64_t* p, std::uint32_t b, std::uint32_t m, std::uint32_t e, std::uint64_t* tmp) {
   std::uint64_t* pl = p + b;
   std::uint64_t* pr = tmp;
-  const std::uint64_t* q = p + b;
+  const std::uint64_t* q = src + b;
   if (rows_inside) {
     const std::uintptr_t tl = at(w.sat, w.r0 + w.x0), tr = at(w.sat, w.r0 + w.x1);
     const std::uintptr_t bl = at(w.sat, w.r1 + w.x0), br = at(w.sat, w.r1 + w.x1);
-    for (const std::uint64_t* const mid = p + m; q != mid; ++q) {
+    for (const std::uint64_t* const mid = src + m; q != mid; ++q) {
       const std::uint64_t k = *q;
       const std::int32_t c = key_cell(k);
       const double v = (read(br, c) - read(tr, c)) - (read(bl, c) - read(tl, c));
@@ -210,7 +210,7 @@ std::uint32_t route_window(const WindowTest& w, bool rows_inside, float thr, std
       pr += go_left ^ 1u;
     }
   }
-  const std::uint64_t* const end = p + e;
+  const std::uint64_t* const end = src + e;
   if (rows_inside) {  // the other pixels: only the columns need clamping
     const std::uintptr_t top = at(w.sat, w.r0), bot = at(w.sat, w.r1);
     for (; q != end; ++q) {
@@ -267,19 +267,19 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
     std::uint64_t* p = s.keys.data();
     std::uint64_t* tmp = s.tmp.data();
     std::int32_t* leaf = s.leaf.data() + t * n;
-    std::copy(s.init.begin(), s.init.end(), p);
     s.stack.assign(1, Item{roots_[t], 0, static_cast<std::uint32_t>(n)});
     while (!s.stack.empty()) {
       const Item it = s.stack.back();
       s.stack.pop_back();
       const PackedNode& nd = nodes_[static_cast<std::size_t>(it.node)];
+      const std::uint64_t* src = it.node == roots_[t] ? s.init.data() : p;  // the root reads the set as given
       if (nd.feature < 0) {
-        for (std::uint32_t i = it.begin; i < it.end; ++i) leaf[key_id(p[i])] = nd.left;
+        for (std::uint32_t i = it.begin; i < it.end; ++i) leaf[key_id(src[i])] = nd.left;
         continue;
       }
       std::uint32_t l = it.begin, r = 0;
       const float thr = nd.threshold;
-      // Stable partition: left-goers compacted in place (l <= i), right-goers to tmp, then appended.
+      // Stable partition: left-goers compacted to p (l <= i), right-goers to tmp, then appended.
       const auto route = [&](std::uint64_t k, float v) {
         const std::uint32_t go_left = v < thr ? 1u : 0u;
         p[l] = k;
@@ -291,14 +291,14 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
         const WindowTest w{sats[nd.feature], nd.x0, nd.x1, nd.y0 * S, nd.y1 * S, W, HS};
         // The inner group's end in this range: the first key outside it (binary search).
         const std::uint32_t m = inner_x1_ < inner_x0_ ? it.begin
-                                : static_cast<std::uint32_t>(std::partition_point(p + it.begin, p + it.end, inner) - p);
-        const std::uint32_t left = route_window(w, ymin + nd.y0 >= 0 && ymax + nd.y1 <= H, thr, p, it.begin, m, it.end, tmp);
+                                : static_cast<std::uint32_t>(std::partition_point(src + it.begin, src + it.end, inner) - src);
+        const std::uint32_t left = route_window(w, ymin + nd.y0 >= 0 && ymax + nd.y1 <= H, thr, src, p, it.begin, m, it.end, tmp);
         l = it.begin + left;
         r = (it.end - it.begin) - left;
       } else {
         const int test = nd.feature - F;
         for (std::uint32_t i = it.begin; i < it.end; ++i) {
-          const std::uint64_t k = p[i];
+          const std::uint64_t k = src[i];
           const std::uint32_t id = key_id(k);
           route(k, texton_value(frame.gray, W, H, s.xs[id], s.ys[id], nd.x0, nd.y0, test));
         }
