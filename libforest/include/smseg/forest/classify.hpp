@@ -63,8 +63,8 @@ class Classifier {
     std::vector<std::int32_t> leaf;            // leaf row per tree and pixel: leaf[t * n + i]
     std::vector<Item> stack;
   };
-  static constexpr int kBlockRows = 8;    // whole frames: at most this many image rows per set
-  static constexpr int kSetPixels = 2560;  // ... and about this many pixels
+  static constexpr int kBlockRows = 4;    // whole frames: at most this many image rows per set
+  static constexpr int kSetPixels = 1280;  // ... and about this many pixels
   /// Breadth-wise evaluation of a set of pixels (s.xs, s.ys, n of them): each tree routes the whole
   /// set node by node (stable partitions keep the pixels in memory order, so table reads stream; the
   /// window corners are clamped branch-free), recording each pixel's leaf; then the leaf
