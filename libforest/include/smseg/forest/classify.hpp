@@ -66,10 +66,12 @@ class Classifier {
   static constexpr int kBlockRows = 4;    // whole frames: at most this many image rows per set
   static constexpr int kSetPixels = 1280;  // ... and about this many pixels
   /// Breadth-wise evaluation of a set of pixels (s.xs, s.ys, n of them): each tree routes the whole
-  /// set node by node (stable partitions keep the pixels in memory order, so table reads stream; the
-  /// window corners are clamped branch-free), recording each pixel's leaf; then the leaf
-  /// distributions are summed tree by tree (the same float sums as posterior()) and give the labels.
-  /// Out: labels[i], dists[i * C + c] (optional).
+  /// set node by node as 64-bit keys (table cell, column, index; stable partitions keep the pixels in
+  /// memory order, so table reads stream). Pixels in the columns where every window of the forest
+  /// stays inside the image come first and, when the set's rows keep the node's window inside too,
+  /// read four cells at fixed offsets with no clipping; the others clamp branch-free. Each pixel's
+  /// leaf is recorded per tree; then the leaf distributions are summed tree by tree (the same float
+  /// sums as posterior()) and give the labels. Out: labels[i], dists[i * C + c] (optional).
   void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::uint8_t* labels, float* dists) const;
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
