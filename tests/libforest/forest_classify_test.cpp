@@ -13,10 +13,10 @@ using namespace forest_test;
 
 namespace {
 
-SyntheticData frames(int n, std::uint64_t seed, bool random_labels) {
+SyntheticData frames(int n, std::uint64_t seed, bool random_labels, int width = 72, int height = 52) {
   SyntheticOptions o;
-  o.width = 72;
-  o.height = 52;
+  o.width = width;
+  o.height = height;
   o.frames = n;
   o.features = 3;
   o.seed = seed;
@@ -28,7 +28,9 @@ SyntheticData frames(int n, std::uint64_t seed, bool random_labels) {
 
 // A forest of random structure: random windows (often partly outside the image), attributes and
 // thresholds near the values actually met, random leaf counts.
-Forest random_forest(const SyntheticData& s, std::uint64_t seed, bool textons) {
+// max_size caps window widths and heights (0: the bounds), so that some columns and rows keep every
+// window inside the image (the classifier's unclipped path) while others do not.
+Forest random_forest(const SyntheticData& s, std::uint64_t seed, bool textons, int max_size = 0) {
   Rng rng(seed);
   Forest f;
   f.width = s.data.width;
@@ -46,7 +48,8 @@ Forest random_forest(const SyntheticData& s, std::uint64_t seed, bool textons) {
         n.feature = rng.uniform_int(0, f.num_attributes() - 1);
         const bool texton = n.feature >= static_cast<int>(f.features.size());
         n.win = Window{rng.uniform_int(-b.max_dx, b.max_dx), rng.uniform_int(-b.max_dy, b.max_dy),
-                       texton ? 1 : rng.uniform_int(1, b.max_w), texton ? 1 : rng.uniform_int(1, b.max_h)};
+                       texton ? 1 : rng.uniform_int(1, max_size ? std::min(max_size, b.max_w) : b.max_w),
+                       texton ? 1 : rng.uniform_int(1, max_size ? std::min(max_size, b.max_h) : b.max_h)};
         // Threshold: the value at a random pixel, sometimes nudged, so that ties are exercised.
         const float v = brute_value(s, 0, n.feature, n.win, rng.uniform_int(0, f.width - 1), rng.uniform_int(0, f.height - 1));
         // Just above a value: float(v) < t holds, though t rounds to v in float.
@@ -111,6 +114,15 @@ TEST(Classifier, WholeFrameEqualsThePerPixelReferenceOnTrainedForests) {
 TEST(Classifier, WholeFrameEqualsThePerPixelReferenceOnRandomForests) {
   const SyntheticData s = frames(2, 3, false);
   for (std::uint64_t seed = 1; seed <= 4; ++seed) expect_matches_reference(random_forest(s, seed, seed % 2 == 0), s);
+}
+
+TEST(Classifier, WholeFrameEqualsTheReferenceNearEveryBorder) {
+  // Wider and taller frames than the sets the classifier routes together (several row blocks, rows
+  // at the top and bottom whose windows leave the image, an inner band of columns), random forests
+  // with small windows (wide inner band) and with windows up to the bounds (narrow or none).
+  const SyntheticData s = frames(1, 9, false, 150, 91);
+  for (std::uint64_t seed = 11; seed <= 14; ++seed)
+    expect_matches_reference(random_forest(s, seed, seed % 2 == 0, seed <= 12 ? 3 : 0), s);
 }
 
 TEST(Classifier, PixelListsAndSinglePixelsAgreeWithWholeFrames) {

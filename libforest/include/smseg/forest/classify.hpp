@@ -52,17 +52,35 @@ class Classifier {
   };
   template <bool kTextons>
   int run(const FrameData& frame, int x, int y, float* acc) const;
-  /// Breadth-wise evaluation of a set of pixels: each tree routes the whole set node by node
-  /// (stable partitions keep the pixels in memory order, so table reads stream), then the summed
-  /// distributions give the labels. xs, ys: coordinates; out labels[i], dists[i * C + c] (optional).
-  void classify_set(const FrameData& frame, const std::int32_t* xs, const std::int32_t* ys, std::size_t n,
-                    std::uint8_t* labels, float* dists) const;
+  struct Item {
+    std::int32_t node;
+    std::uint32_t begin, end;
+  };
+  /// Per-task buffers, reused from one pixel set to the next (no allocation per set).
+  struct Scratch {
+    std::vector<std::int32_t> xs, ys;          // the set's pixels
+    std::vector<std::uint64_t> init, keys, tmp;  // routing keys (see classify_set)
+    std::vector<std::int32_t> leaf;            // leaf row per tree and pixel: leaf[t * n + i]
+    std::vector<Item> stack;
+  };
+  static constexpr int kBlockRows = 4;    // whole frames: at most this many image rows per set
+  static constexpr int kSetPixels = 1280;  // ... and about this many pixels
+  /// Breadth-wise evaluation of a set of pixels (s.xs, s.ys, n of them): each tree routes the whole
+  /// set node by node as 64-bit keys (table cell, column, index; stable partitions keep the pixels in
+  /// memory order, so table reads stream). Pixels in the columns where every window of the forest
+  /// stays inside the image come first and, when the set's rows keep the node's window inside too,
+  /// read four cells at fixed offsets with no clipping; the others clamp branch-free. Each pixel's
+  /// leaf is recorded per tree; then the leaf distributions are summed tree by tree (the same float
+  /// sums as posterior()) and give the labels. Out: labels[i], dists[i * C + c] (optional).
+  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::uint8_t* labels, float* dists) const;
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;
-  std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * num_classes_ + c]
+  int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image
+  int padded_classes_ = 0;         // num_classes_ rounded up to a multiple of 4 (zeros after)
+  std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * padded_classes_ + c]
 };
 
 }  // namespace smseg::forest
