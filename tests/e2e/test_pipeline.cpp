@@ -9,32 +9,16 @@
 #include <string>
 #include <vector>
 
+#include "run_tool.hpp"
 #include "smseg/io.hpp"
 
 namespace fs = std::filesystem;
 
 namespace {
 
-const fs::path kBin = SMSEG_BIN_DIR;
-
-struct Outcome {
-  int status = -1;
-  std::string out;  // stdout and stderr together
-};
-
-Outcome run(const std::string& args) {
-  const std::string cmd = args + " 2>&1";
-  Outcome r;
-  FILE* p = ::popen(cmd.c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-
-std::string tool(const std::string& name) { return (kBin / name).string(); }
+using smseg::test::Outcome;
+using smseg::test::run;
+using smseg::test::tool;
 
 class Pipeline : public ::testing::Test {
  protected:

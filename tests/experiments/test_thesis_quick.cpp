@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "run_tool.hpp"
 #include "smseg/experiments/config.hpp"
 #include "smseg/io.hpp"
 
@@ -16,21 +17,9 @@ using nlohmann::json;
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string out;
-};
-
-Outcome run(const std::string& cmd) {
-  Outcome r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using smseg::test::Outcome;
+using smseg::test::run;
+using smseg::test::tool;
 
 std::vector<json> records(const fs::path& jsonl) {
   std::vector<json> out;

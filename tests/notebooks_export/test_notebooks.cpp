@@ -5,6 +5,7 @@
 #include <array>
 #include <fstream>
 
+#include "run_tool.hpp"
 #include "smseg/io.hpp"
 
 namespace fs = std::filesystem;
@@ -12,23 +13,9 @@ using nlohmann::json;
 
 namespace {
 
-struct Outcome {
-  int status = -1;
-  std::string out;
-};
-
-Outcome run(const std::string& cmd) {
-  Outcome r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  while (std::fgets(buf.data(), buf.size(), p)) r.out += buf.data();
-  const int st = ::pclose(p);
-  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-
-std::string tool(const std::string& name) { return (fs::path(SMSEG_BIN_DIR) / name).string(); }
+using smseg::test::Outcome;
+using smseg::test::run;
+using smseg::test::tool;
 
 bool is_png(const fs::path& p) {
   if (!fs::exists(p)) return false;
