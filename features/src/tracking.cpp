@@ -217,10 +217,11 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
       c.unlabelled_obs += static_cast<long>(tr.size());
       if (opt.require_label) continue;
     }
-    if (!consistent) {  // filter 4: inconsistent labels
+    if (!consistent) {  // filter 4: inconsistent labels (counted always, removed for training)
       ++c.removed_inconsistent_tracks;
       c.removed_inconsistent_obs += static_cast<long>(tr.size());
-      continue;
+      if (opt.require_label) continue;
+      label = -1;  // no class of its own
     }
     tr.label = label;
     ++c.kept_tracks;
@@ -228,6 +229,7 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
     kept.push_back(std::move(tr));
   }
   c.unlabelled_removed = opt.require_label;
+  c.inconsistent_removed = opt.require_label;
   if (after_disparity) *after_disparity = std::move(after1);
   return kept;
 }

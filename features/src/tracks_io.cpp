@@ -118,6 +118,7 @@ Json summary_to_json(const FrontEndSummary& s) {
                       {"share_of_points", share(c.unlabelled_obs, after2)}}},
       {"inconsistent_labels", {{"removed_observations", c.removed_inconsistent_obs},
                                {"removed_tracks", c.removed_inconsistent_tracks},
+                               {"removed", c.inconsistent_removed},
                                {"share_of_points", share(c.removed_inconsistent_obs, after3)}}},
       {"kept_observations", c.kept_obs},
       {"kept_tracks", c.kept_tracks}};
@@ -175,6 +176,10 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   c.unlabelled_removed = f.at("unlabelled").boolean("removed");
   c.removed_inconsistent_obs = f.at("inconsistent_labels").integer("removed_observations");
   c.removed_inconsistent_tracks = f.at("inconsistent_labels").integer("removed_tracks");
+  {
+    const JsonView inc = f.at("inconsistent_labels");
+    c.inconsistent_removed = inc.has("removed") ? inc.boolean("removed") : true;  // version 1 files before the flag
+  }
   c.kept_obs = f.integer("kept_observations");
   c.kept_tracks = f.integer("kept_tracks");
   s.valid_points_per_frame_mean = j.at("valid_points_per_frame").num("mean");

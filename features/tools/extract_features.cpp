@@ -53,7 +53,9 @@ int main(int argc, char** argv) {
   app.add_option("--min-track-frames", opt.front_end.filters.min_frames, "a track must live in this many frames")
       ->capture_default_str();
   app.add_flag("--require-label", opt.front_end.filters.require_label,
-               "drop tracks that never pass through a labelled frame (the thesis's training filter)");
+               "training only: drop tracks that never pass through a labelled frame and tracks whose labels\n"
+               "disagree (the thesis's training filters; they read the ground truth, so never use them on\n"
+               "frames you score)");
   bool no_refine = false;
   app.add_flag("--no-refine", no_refine,
                "motion from RANSAC + Arun SVD alone (the thesis method), without the reprojection refinement");

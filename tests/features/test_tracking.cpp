@@ -113,14 +113,16 @@ TEST(Tracking, EachFilterCountsWhatItRemoved) {
   EXPECT_EQ(c.removed_short_obs, 1);
   EXPECT_EQ(c.unlabelled_tracks, 1);  // counted, not removed without require_label
   EXPECT_FALSE(c.unlabelled_removed);
-  EXPECT_EQ(c.removed_inconsistent_tracks, 1);
+  EXPECT_EQ(c.removed_inconsistent_tracks, 1);  // counted, not removed without require_label
   EXPECT_EQ(c.removed_inconsistent_obs, 4);
-  EXPECT_EQ(c.kept_tracks, 2);
-  EXPECT_EQ(c.kept_obs, 8);
-  ASSERT_EQ(kept.size(), 2u);
+  EXPECT_FALSE(c.inconsistent_removed);
+  EXPECT_EQ(c.kept_tracks, 3);
+  EXPECT_EQ(c.kept_obs, 12);
+  ASSERT_EQ(kept.size(), 3u);
   EXPECT_EQ(kept[0].label, 2);
   EXPECT_EQ(kept[0].labels, (std::vector<int>{-1, 2, -1, 2}));
   EXPECT_EQ(kept[1].label, -1);
+  EXPECT_EQ(kept[2].label, -1);  // inconsistent: kept without a class of its own
   EXPECT_EQ(after1.size(), 4u);
   EXPECT_EQ(after1[1].frames, (std::vector<int>{2}));
 
@@ -129,6 +131,7 @@ TEST(Tracking, EachFilterCountsWhatItRemoved) {
   const auto kept_t = build_tracks(f, m, training, c);
   EXPECT_EQ(c.unlabelled_tracks, 1);
   EXPECT_TRUE(c.unlabelled_removed);
+  EXPECT_TRUE(c.inconsistent_removed);
   EXPECT_EQ(c.kept_tracks, 1);
   ASSERT_EQ(kept_t.size(), 1u);
   EXPECT_EQ(kept_t[0].label, 2);

@@ -9,7 +9,10 @@
 //   2. too short: tracks seen in fewer than `min_frames` frames (default 2) are dropped;
 //   3. unlabelled (training only, `require_label`): tracks that never pass through a labelled frame
 //      at a non-void pixel are dropped; without `require_label` they are only counted;
-//   4. inconsistent labels: tracks whose non-void labels disagree between labelled frames are dropped.
+//   4. inconsistent labels (training only, `require_label`): tracks whose non-void labels disagree
+//      between labelled frames are dropped; without `require_label` they are only counted (and have no
+//      class). Filters 3 and 4 read the ground-truth labels: applied to frames that are then scored,
+//      they would leak the answer into the features, so by default they only count.
 // Disparity and label are read at the keypoint's nearest pixel.
 
 #include <array>
@@ -43,7 +46,7 @@ struct TrackingOptions {
 
 struct TrackFilterOptions {
   int min_frames = 2;          ///< a track must live in at least this many frames
-  bool require_label = false;  ///< training: drop tracks that never pass through a labelled frame
+  bool require_label = false;  ///< training only: drop tracks never labelled and tracks with inconsistent labels
   void validate() const;
 };
 
@@ -98,6 +101,7 @@ struct FilterCounts {
   long removed_short_obs = 0, removed_short_tracks = 0;
   long unlabelled_obs = 0, unlabelled_tracks = 0;  ///< counted always; removed only with require_label
   bool unlabelled_removed = false;
+  bool inconsistent_removed = false;  ///< filter 4 dropped what it counted (require_label)
   long removed_inconsistent_obs = 0, removed_inconsistent_tracks = 0;
   long kept_obs = 0, kept_tracks = 0;
 };
