@@ -24,6 +24,7 @@
 #include "smseg/features/cloud_segment.hpp"
 #include "smseg/features/graphcut.hpp"
 #include "knn_graph.hpp"
+#include "pcl_write.hpp"
 
 namespace smseg::features {
 
@@ -117,8 +118,7 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
 }
 
 void write_labelled_cloud(const fs::path& path, const ColouredCloud& cloud, std::span<const int> labels) {
-  const std::string ext = path.extension().string();
-  if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
+  pcl_write::check_extension(path);
   if (labels.size() != cloud.size()) throw Error(path.string(), "labels", "one label per point expected");
   pcl::PointCloud<pcl::PointXYZRGBL> pc;
   pc.reserve(cloud.size());
@@ -136,22 +136,7 @@ void write_labelled_cloud(const fs::path& path, const ColouredCloud& cloud, std:
   }
   pc.width = static_cast<std::uint32_t>(pc.size());
   pc.height = 1;
-  std::error_code ec;
-  if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
-  static std::atomic<unsigned> counter{0};
-  fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ext;
-  const int rc =
-      ext == ".pcd" ? pcl::io::savePCDFileBinary(tmp.string(), pc) : pcl::io::savePLYFileBinary(tmp.string(), pc);
-  if (rc != 0) {
-    fs::remove(tmp, ec);
-    throw Error(path.string(), "", "PCL could not write the point cloud");
-  }
-  fs::rename(tmp, path, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path.string(), "", "cannot be replaced: " + ec.message());
-  }
+  pcl_write::save_atomic(path, pc);
 }
 
 KnnGraph knn_graph(const ColouredCloud& cloud, int k) {
