@@ -81,6 +81,15 @@ void check_frame(const Sequence& seq, int frame) {
 
 }  // namespace
 
+int Sequence::range_end(int first, int last) const {
+  const int end = last < 0 ? frame_count() : last;
+  if (first >= frame_count() || end > frame_count())
+    throw Error(manifest.string(), "frames",
+                "frame range " + std::to_string(first) + ".." + std::to_string(end) + " is outside the sequence's " +
+                    std::to_string(frame_count()) + " frames");
+  return end;
+}
+
 bool Sequence::is_labelled(int frame) const {
   return std::binary_search(labelled_frames.begin(), labelled_frames.end(), frame);
 }

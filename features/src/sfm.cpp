@@ -382,11 +382,7 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
                 "monocular SfM takes its metric scale from the camera height (give it in the manifest or as an "
                 "option)");
   const int first = o.first_frame;
-  const int last = o.last_frame < 0 ? seq.frame_count() : o.last_frame;
-  if (first >= seq.frame_count() || last > seq.frame_count())
-    throw Error(manifest, "frames",
-                "frame range " + std::to_string(first) + ".." + std::to_string(last) + " is outside the sequence's " +
-                    std::to_string(seq.frame_count()) + " frames");
+  const int last = seq.range_end(first, o.last_frame);
   const int n = last - first;
   const int norm = descriptor_norm(o.tracking.detector);
   SfmReport rep;

@@ -74,6 +74,9 @@ struct Sequence {
 
   int frame_count() const { return static_cast<int>(frames.size()); }
   bool is_labelled(int frame) const;
+  /// The end of the processed range [first, last) with last = -1 meaning the end of the sequence;
+  /// Error(manifest, "frames") when the range does not lie inside the sequence.
+  int range_end(int first, int last) const;
   fs::path resolve(const fs::path& p) const { return p.is_absolute() ? p : root / p; }
 
   /// Images; each throws Error naming the file for a missing/unreadable file or a wrong size.
