@@ -4,9 +4,12 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <memory>
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 #include "smseg/features/motion.hpp"
 #include "smseg/progress.hpp"
@@ -25,6 +28,9 @@ constexpr int kChunk = 32;  // frames whose descriptors are held at once
 void FrontEndOptions::validate() const {
   stereo.validate();
   tracking.validate();
+  klt.validate("front_end");
+  if (tracker == FrameTracker::Descriptors && tracking.detector == KeypointMethod::Gftt)
+    throw Error("", "tracking.detector", "gftt corners have no descriptors: use them with the klt tracker");
   filters.validate();
   motion.validate();
   refine.validate();
@@ -60,39 +66,84 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   Progress progress("front end", n, o.progress);
   std::atomic<int> done{0};
 
+  // Per frame, in parallel: the left image, its disparity (timed), the keypoints (timed) and the labels.
+  struct FrameInput {
+    cv::Mat left, disparity, labels;
+    FrameKeypoints keypoints;
+  };
+  auto load_frame = [&](int i) {
+    const int f = first + i;
+    FrameInput in;
+    auto t0 = Clock::now();
+    in.left = seq.load_left_gray(f);
+    if (o.stereo.method == StereoMethod::Given) {
+      in.disparity = frame_disparity(seq, f, o.stereo);
+    } else {
+      try {
+        in.disparity = compute_disparity(in.left, seq.load_right_gray(f), o.stereo);
+      } catch (const Error& e) {
+        if (!e.file().empty()) throw;
+        throw Error(manifest, "frames[" + std::to_string(f) + "]", e.what());
+      }
+    }
+    t_disp[i] = since(t0);
+    t0 = Clock::now();
+    in.keypoints = detect_keypoints(in.left, o.tracking);
+    if (seq.is_labelled(f)) in.labels = seq.load_labels(f);
+    t_kp[i] = since(t0);
+    progress.tick();
+    if (o.on_frame) o.on_frame(++done, n);
+    return in;
+  };
+
+  if (o.tracker == FrameTracker::Klt) {
+    // A pipeline: frames loaded, matched in stereo and detected in parallel, then followed by KLT in
+    // order (each frame's points are those followed from the previous frame plus new ones). At most
+    // `tokens` frames are in flight.
+    int next = 0;
+    cv::Mat prev_img;
+    std::vector<cv::Point2f> prev_px;
+    const int tokens = 4 * std::max(1, tbb::this_task_arena::max_concurrency());
+    tbb::parallel_pipeline(
+        static_cast<std::size_t>(tokens),
+        tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
+                                    [&](tbb::flow_control& fc) {
+                                      if (next >= n) fc.stop();
+                                      return next++;
+                                    }) &
+            tbb::make_filter<int, std::pair<int, std::shared_ptr<FrameInput>>>(
+                tbb::filter_mode::parallel,
+                [&](int i) { return std::make_pair(i, std::make_shared<FrameInput>(load_frame(i))); }) &
+            tbb::make_filter<std::pair<int, std::shared_ptr<FrameInput>>, void>(
+                tbb::filter_mode::serial_in_order, [&](const std::pair<int, std::shared_ptr<FrameInput>>& item) {
+                  const auto& [i, in] = item;
+                  const auto t0 = Clock::now();
+                  std::vector<cv::Point2f> detected;
+                  detected.reserve(in->keypoints.keypoints.size());
+                  for (const auto& k : in->keypoints.keypoints) detected.push_back(k.pt);
+                  std::vector<cv::DMatch> m;
+                  prev_px = klt_step(prev_img, prev_px, in->left, detected, o.tracking.max_keypoints, o.klt, m);
+                  obs[i] = observe_points(prev_px, in->disparity, in->labels, seq.calibration);
+                  prev_img = in->left;
+                  if (i > 0) {
+                    matches[i - 1] = std::move(m);
+                    t_match[i - 1] = since(t0);
+                  }
+                }));
+  }
+
   cv::Mat prev_desc;  // descriptors of the last frame of the previous chunk
-  std::vector<cv::Point2f> prev_px;
-  for (int c0 = 0; c0 < n; c0 += kChunk) {
+  for (int c0 = 0; o.tracker == FrameTracker::Descriptors && c0 < n; c0 += kChunk) {
     const int c1 = std::min(n, c0 + kChunk);
     std::vector<cv::Mat> desc(c1 - c0);
     tbb::parallel_for(tbb::blocked_range<int>(c0, c1, 1), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i < r.end(); ++i) {
-        const int f = first + i;
-        auto t0 = Clock::now();
-        const cv::Mat left = seq.load_left_gray(f);
-        cv::Mat disparity;
-        if (o.stereo.method == StereoMethod::Given) {
-          disparity = frame_disparity(seq, f, o.stereo);
-        } else {
-          try {
-            disparity = compute_disparity(left, seq.load_right_gray(f), o.stereo);
-          } catch (const Error& e) {
-            if (!e.file().empty()) throw;
-            throw Error(manifest, "frames[" + std::to_string(f) + "]", e.what());
-          }
-        }
-        t_disp[i] = since(t0);
-        t0 = Clock::now();
-        FrameKeypoints kp = detect_keypoints(left, o.tracking);
-        const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
-        obs[i] = observe_keypoints(kp.keypoints, disparity, labels, seq.calibration);
-        desc[i - c0] = kp.descriptors;
-        t_kp[i] = since(t0);
-        progress.tick();
-        if (o.on_frame) o.on_frame(++done, n);
+        FrameInput in = load_frame(i);
+        obs[i] = observe_keypoints(in.keypoints.keypoints, in.disparity, in.labels, seq.calibration);
+        desc[i - c0] = in.keypoints.descriptors;
       }
     });
-    // Matching: the pair joining the previous chunk, then the pairs inside this chunk.
+    // Descriptors. Matching: the pair joining the previous chunk, then the pairs inside this chunk.
     auto match_pair = [&](int t, const cv::Mat& a, const cv::Mat& b) {
       const auto t0 = Clock::now();
       std::vector<cv::DMatch> m = match_symmetric(a, b, norm);

@@ -271,14 +271,15 @@ SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {
 
 Json sfm_options_to_json(const SfmOptions& o) {
   Json j{{"tracker", sfm_tracker_name(o.tracker)},
-         {"klt_window", o.klt_window},
-         {"klt_max_backward_px", o.klt_max_backward_px},
-         {"klt_min_distance_px", o.klt_min_distance_px},
+         {"klt_window", o.klt.window},
+         {"klt_max_backward_px", o.klt.max_backward_px},
+         {"klt_min_distance_px", o.klt.min_distance_px},
          {"tracking",
           {{"detector", keypoint_method_name(o.tracking.detector)},
            {"max_keypoints", o.tracking.max_keypoints},
            {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
            {"akaze_threshold", o.tracking.akaze_threshold},
+           {"gftt_quality", o.tracking.gftt_quality},
            {"max_descriptor_distance", o.tracking.max_descriptor_distance},
            {"max_pixel_motion", o.tracking.max_pixel_motion}}},
          {"filters", {{"min_frames", o.filters.min_frames}, {"require_label", o.filters.require_label}}},
@@ -343,9 +344,7 @@ void SfmOptions::validate() const {
   if (first_frame < 0) throw Error("", "sfm.first_frame", "must be >= 0");
   if (last_frame != -1 && last_frame <= first_frame)
     throw Error("", "sfm.last_frame", "must be -1 (to the end) or greater than first_frame");
-  if (klt_window < 5 || klt_window > 101) throw Error("", "sfm.klt_window", "must be in 5..101");
-  if (!(klt_max_backward_px > 0)) throw Error("", "sfm.klt_max_backward_px", "must be positive");
-  if (!(klt_min_distance_px >= 0)) throw Error("", "sfm.klt_min_distance_px", "must be >= 0");
+  klt.validate("sfm");
   if (!(match_radius_px >= 0)) throw Error("", "sfm.match_radius_px", "must be >= 0 (0 = whole image)");
   if (!(lowe_ratio >= 0 && lowe_ratio < 1)) throw Error("", "sfm.lowe_ratio", "must be in [0, 1) (0 = off)");
   positive(fundamental_threshold_px, "fundamental_threshold_px");
@@ -376,6 +375,10 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
   options.validate();
   const SfmOptions o = resolve_tracker(options, seq);
   const std::string manifest = seq.manifest.string();
+  if (o.tracker == SfmTracker::Descriptors && o.tracking.detector == KeypointMethod::Gftt)
+    throw Error(manifest, "tracking.detector",
+                "gftt corners have no descriptors, and this sequence's frames call for descriptor matching; use "
+                "--tracker klt or another detector");
   const std::optional<double> height = o.camera_height ? o.camera_height : seq.camera_height;
   if (!height)
     throw Error(manifest, "camera_height",
@@ -410,53 +413,13 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
       progress.finish();
     }
     Progress progress("sfm tracking", n, o.progress);
-    const cv::Size win(o.klt_window, o.klt_window);
-    const cv::TermCriteria crit(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 0.01);
-    const double min_dist2 = o.klt_min_distance_px * o.klt_min_distance_px;
-    const cv::Rect2f inside(0, 0, static_cast<float>(seq.size.width - 1), static_cast<float>(seq.size.height - 1));
     cv::Mat prev_img;
     for (int t = 0; t < n; ++t) {
       const cv::Mat img = seq.load_left_gray(first + t);
       const auto t0 = Clock::now();
       std::vector<cv::DMatch> m;
-      if (t > 0 && !px[t - 1].empty()) {
-        std::vector<cv::Point2f> fwd, back;
-        std::vector<std::uint8_t> st1, st2;
-        std::vector<float> err;
-        cv::calcOpticalFlowPyrLK(prev_img, img, px[t - 1], fwd, st1, err, win, 3, crit);
-        cv::calcOpticalFlowPyrLK(img, prev_img, fwd, back, st2, err, win, 3, crit);
-        for (std::size_t i = 0; i < fwd.size(); ++i) {
-          if (!st1[i] || !st2[i] || !inside.contains(fwd[i])) continue;
-          if (cv::norm(back[i] - px[t - 1][i]) > o.klt_max_backward_px) continue;
-          m.emplace_back(static_cast<int>(i), static_cast<int>(px[t].size()), 0.f);
-          px[t].push_back(fwd[i]);
-        }
-      }
-      // New keypoints where no tracked one is near, strongest first, up to max_keypoints.
-      const float cell = static_cast<float>(std::max(1.0, o.klt_min_distance_px));
-      std::map<std::pair<int, int>, std::vector<cv::Point2f>> grid;
-      auto key = [&](const cv::Point2f& p) {
-        return std::pair<int, int>(static_cast<int>(p.x / cell), static_cast<int>(p.y / cell));
-      };
-      for (const auto& p : px[t]) grid[key(p)].push_back(p);
-      for (const auto& p : detected[t]) {
-        if (static_cast<int>(px[t].size()) >= o.tracking.max_keypoints) break;
-        const auto [gx, gy] = key(p);
-        bool near = false;
-        for (int dx = -1; dx <= 1 && !near; ++dx)
-          for (int dy = -1; dy <= 1 && !near; ++dy) {
-            const auto it = grid.find({gx + dx, gy + dy});
-            if (it == grid.end()) continue;
-            for (const auto& q : it->second)
-              if ((p - q).dot(p - q) < min_dist2) {
-                near = true;
-                break;
-              }
-          }
-        if (near) continue;
-        px[t].push_back(p);
-        grid[key(p)].push_back(p);
-      }
+      px[t] = klt_step(prev_img, t > 0 ? px[t - 1] : std::vector<cv::Point2f>(), img, detected[t],
+                       o.tracking.max_keypoints, o.klt, m);
       if (t > 0) {
         pairs[t - 1] = verify_pair(m, px[t - 1], px[t], o);
         matches[t - 1] = std::move(m);

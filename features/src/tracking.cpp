@@ -9,6 +9,7 @@
 
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
+#include <opencv2/video/tracking.hpp>
 
 namespace smseg::features {
 
@@ -16,7 +17,8 @@ KeypointMethod parse_keypoint_method(const std::string& name, const std::string&
   if (name == "sift") return KeypointMethod::Sift;
   if (name == "orb") return KeypointMethod::Orb;
   if (name == "akaze") return KeypointMethod::Akaze;
-  throw Error("", field, "unknown keypoint detector '" + name + "' (expected sift, orb or akaze)");
+  if (name == "gftt") return KeypointMethod::Gftt;
+  throw Error("", field, "unknown keypoint detector '" + name + "' (expected sift, orb, akaze or gftt)");
 }
 
 const char* keypoint_method_name(KeypointMethod m) {
@@ -24,8 +26,23 @@ const char* keypoint_method_name(KeypointMethod m) {
     case KeypointMethod::Sift: return "sift";
     case KeypointMethod::Orb: return "orb";
     case KeypointMethod::Akaze: return "akaze";
+    case KeypointMethod::Gftt: return "gftt";
   }
   return "?";
+}
+
+FrameTracker parse_frame_tracker(const std::string& name, const std::string& field) {
+  if (name == "descriptors") return FrameTracker::Descriptors;
+  if (name == "klt") return FrameTracker::Klt;
+  throw Error("", field, "unknown tracker '" + name + "' (expected descriptors or klt)");
+}
+
+const char* frame_tracker_name(FrameTracker t) { return t == FrameTracker::Klt ? "klt" : "descriptors"; }
+
+void KltOptions::validate(const std::string& prefix) const {
+  if (window < 5 || window > 101) throw Error("", prefix + ".klt_window", "must be in 5..101");
+  if (!(max_backward_px > 0)) throw Error("", prefix + ".klt_max_backward_px", "must be positive");
+  if (!(min_distance_px >= 0)) throw Error("", prefix + ".klt_min_distance_px", "must be >= 0");
 }
 
 void TrackingOptions::validate() const {
@@ -34,6 +51,7 @@ void TrackingOptions::validate() const {
   if (!(sift_contrast_threshold > 0 && sift_contrast_threshold < 1))
     throw Error("", "tracking.sift_contrast_threshold", "must be in (0, 1)");
   if (!(akaze_threshold > 0 && akaze_threshold < 1)) throw Error("", "tracking.akaze_threshold", "must be in (0, 1)");
+  if (!(gftt_quality > 0 && gftt_quality < 1)) throw Error("", "tracking.gftt_quality", "must be in (0, 1)");
   if (!(max_descriptor_distance >= 0)) throw Error("", "tracking.max_descriptor_distance", "must be >= 0 (0 = off)");
   if (!(max_pixel_motion >= 0)) throw Error("", "tracking.max_pixel_motion", "must be >= 0 (0 = off)");
 }
@@ -54,10 +72,14 @@ FrameKeypoints detect_keypoints(const cv::Mat& gray, const TrackingOptions& o) {
     case KeypointMethod::Akaze:
       det = cv::AKAZE::create(cv::AKAZE::DESCRIPTOR_MLDB, 0, 3, static_cast<float>(o.akaze_threshold));
       break;
+    case KeypointMethod::Gftt: det = cv::GFTTDetector::create(o.max_keypoints, o.gftt_quality, 4.0, 3); break;
   }
   std::vector<cv::KeyPoint> kps;
   cv::Mat desc;
-  det->detectAndCompute(gray, cv::noArray(), kps, desc);
+  if (o.detector == KeypointMethod::Gftt)
+    det->detect(gray, kps);  // positions only
+  else
+    det->detectAndCompute(gray, cv::noArray(), kps, desc);
   // Strongest first, ties by position, capped: deterministic whatever the detector's own order.
   std::vector<int> order(kps.size());
   std::iota(order.begin(), order.end(), 0);
@@ -70,12 +92,70 @@ FrameKeypoints detect_keypoints(const cv::Mat& gray, const TrackingOptions& o) {
   if (static_cast<int>(order.size()) > o.max_keypoints) order.resize(o.max_keypoints);
   FrameKeypoints out;
   out.keypoints.reserve(order.size());
-  if (!order.empty()) out.descriptors.create(static_cast<int>(order.size()), desc.cols, desc.type());
+  if (!order.empty() && !desc.empty()) out.descriptors.create(static_cast<int>(order.size()), desc.cols, desc.type());
   for (std::size_t i = 0; i < order.size(); ++i) {
     out.keypoints.push_back(kps[order[i]]);
-    desc.row(order[i]).copyTo(out.descriptors.row(static_cast<int>(i)));
+    if (!desc.empty()) desc.row(order[i]).copyTo(out.descriptors.row(static_cast<int>(i)));
   }
   return out;
+}
+
+std::vector<cv::Point2f> klt_step(const cv::Mat& prev_img, const std::vector<cv::Point2f>& prev_px, const cv::Mat& img,
+                                  const std::vector<cv::Point2f>& detected, int max_points, const KltOptions& o,
+                                  std::vector<cv::DMatch>& matches) {
+  matches.clear();
+  std::vector<cv::Point2f> px;
+  if (img.empty() || img.type() != CV_8UC1) throw Error("", "image", "KLT tracking needs a CV_8UC1 image");
+  if (!prev_px.empty()) {
+    if (prev_img.size() != img.size() || prev_img.type() != img.type())
+      throw Error("", "image", "KLT tracking needs two images of one size and type");
+    const cv::Size win(o.window, o.window);
+    const cv::TermCriteria crit(cv::TermCriteria::COUNT + cv::TermCriteria::EPS, 30, 0.01);
+    const cv::Rect2f inside(0, 0, static_cast<float>(img.cols - 1), static_cast<float>(img.rows - 1));
+    std::vector<cv::Point2f> fwd, back;
+    std::vector<std::uint8_t> st1, st2;
+    std::vector<float> err;
+    cv::calcOpticalFlowPyrLK(prev_img, img, prev_px, fwd, st1, err, win, 3, crit);
+    cv::calcOpticalFlowPyrLK(img, prev_img, fwd, back, st2, err, win, 3, crit);
+    for (std::size_t i = 0; i < fwd.size(); ++i) {
+      if (!st1[i] || !st2[i] || !inside.contains(fwd[i])) continue;
+      if (cv::norm(back[i] - prev_px[i]) > o.max_backward_px) continue;
+      matches.emplace_back(static_cast<int>(i), static_cast<int>(px.size()), 0.f);
+      px.push_back(fwd[i]);
+    }
+  }
+  // New points where no kept one is near: a grid of min_distance cells, neighbours checked in 3x3 cells.
+  const float cell = static_cast<float>(std::max(1.0, o.min_distance_px));
+  const float min_dist2 = static_cast<float>(o.min_distance_px * o.min_distance_px);
+  const int gw = static_cast<int>(img.cols / cell) + 2, gh = static_cast<int>(img.rows / cell) + 2;
+  std::vector<std::vector<cv::Point2f>> grid(static_cast<std::size_t>(gw) * gh);
+  auto cell_of = [&](const cv::Point2f& p) {
+    return std::pair<int, int>(std::clamp(static_cast<int>(p.x / cell), 0, gw - 1),
+                               std::clamp(static_cast<int>(p.y / cell), 0, gh - 1));
+  };
+  for (const auto& p : px) {
+    const auto [gx, gy] = cell_of(p);
+    grid[static_cast<std::size_t>(gy) * gw + gx].push_back(p);
+  }
+  for (const auto& p : detected) {
+    if (static_cast<int>(px.size()) >= max_points) break;
+    const auto [gx, gy] = cell_of(p);
+    bool near = false;
+    for (int dy = -1; dy <= 1 && !near; ++dy)
+      for (int dx = -1; dx <= 1 && !near; ++dx) {
+        const int x = gx + dx, y = gy + dy;
+        if (x < 0 || y < 0 || x >= gw || y >= gh) continue;
+        for (const auto& q : grid[static_cast<std::size_t>(y) * gw + x])
+          if ((p - q).dot(p - q) < min_dist2) {
+            near = true;
+            break;
+          }
+      }
+    if (near) continue;
+    px.push_back(p);
+    grid[static_cast<std::size_t>(gy) * gw + gx].push_back(p);
+  }
+  return px;
 }
 
 std::vector<cv::DMatch> match_symmetric(const cv::Mat& a, const cv::Mat& b, int norm) {
@@ -114,17 +194,25 @@ Eigen::Vector3d backproject(double x, double y, double d, double fx, double fy, 
 
 FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& kps, const cv::Mat& disparity,
                                     const cv::Mat& labels, const Calibration& calib) {
+  std::vector<cv::Point2f> pixels;
+  pixels.reserve(kps.size());
+  for (const auto& k : kps) pixels.push_back(k.pt);
+  return observe_points(pixels, disparity, labels, calib);
+}
+
+FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
+                                 const Calibration& calib) {
   if (disparity.type() != CV_32FC1) throw Error("", "disparity", "expected CV_32FC1");
   if (!calib.fx || !calib.baseline) throw Error("", "calibration", "stereo needs fx and the baseline");
   const double fx = *calib.fx, fy = calib.fy.value_or(fx), B = *calib.baseline;
   FrameObservations f;
-  const std::size_t n = kps.size();
+  const std::size_t n = pixels.size();
   f.pixels.resize(n);
   f.disparities.resize(n);
   f.points.assign(n, Eigen::Vector3d::Zero());
   f.labels.assign(n, -1);
   for (std::size_t i = 0; i < n; ++i) {
-    const cv::Point2f p = kps[i].pt;
+    const cv::Point2f p = pixels[i];
     f.pixels[i] = p;
     const int x = std::clamp(static_cast<int>(std::lround(p.x)), 0, disparity.cols - 1);
     const int y = std::clamp(static_cast<int>(std::lround(p.y)), 0, disparity.rows - 1);

@@ -73,8 +73,12 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                    {"max_keypoints", o.tracking.max_keypoints},
                    {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
                    {"akaze_threshold", o.tracking.akaze_threshold},
+                   {"gftt_quality", o.tracking.gftt_quality},
                    {"max_descriptor_distance", o.tracking.max_descriptor_distance},
                    {"max_pixel_motion", o.tracking.max_pixel_motion}};
+  j["tracker"] = frame_tracker_name(o.tracker);
+  if (o.tracker == FrameTracker::Klt)
+    j["klt"] = {{"window", o.klt.window}, {"max_backward_px", o.klt.max_backward_px}, {"min_distance_px", o.klt.min_distance_px}};
   j["filters"] = {{"min_frames", o.filters.min_frames}, {"require_label", o.filters.require_label}};
   j["motion"] = {{"max_iterations", o.motion.max_iterations},
                  {"confidence", o.motion.confidence},

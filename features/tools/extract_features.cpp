@@ -15,7 +15,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Run the front end of a sequence and write its feature stacks (thesis 3.2.2, 3.2.3, 3.2.6).\n"
       "Stereo (default for stereo sequences): disparity (block matching with a left-right check by\n"
-      "default), keypoints matched frame to frame (symmetric nearest neighbours), tracks and their\n"
+      "default), keypoints matched frame to frame (symmetric nearest neighbours; or followed by KLT with\n"
+      "--tracker klt), tracks and their\n"
       "filters, camera motion (Arun SVD in RANSAC). Monocular structure from motion (always for mono\n"
       "sequences, --motion sfm for the left images of a stereo one): KLT or descriptor tracks, focal\n"
       "length from --focal, the manifest or self-calibration, essential-matrix initialisation, PnP, key\n"
@@ -46,10 +47,14 @@ int main(int argc, char** argv) {
   app.add_option("--num-disparities", opt.front_end.stereo.num_disparities, "disparity search range, multiple of 16")
       ->capture_default_str();
   app.add_option("--block-size", opt.front_end.stereo.block_size, "matching window side (odd)")->capture_default_str();
-  app.add_option("--keypoints", detector, "keypoint detector: sift | orb | akaze")->capture_default_str();
+  app.add_option("--keypoints", detector,
+                 "keypoint detector: sift | orb | akaze | gftt (Shi-Tomasi corners, no descriptors: --tracker klt only)")->capture_default_str();
   app.add_option("--max-keypoints", opt.front_end.tracking.max_keypoints,
                  "strongest keypoints kept per frame (default: " + std::to_string(opt.front_end.tracking.max_keypoints) +
                      " stereo, " + std::to_string(sfm_defaults.tracking.max_keypoints) + " sfm)");
+  app.add_option("--gftt-quality", opt.front_end.tracking.gftt_quality,
+                 "gftt: corners weaker than this share of the strongest are dropped")
+      ->capture_default_str();
   app.add_option("--min-track-frames", opt.front_end.filters.min_frames, "a track must live in this many frames")
       ->capture_default_str();
   app.add_flag("--require-label", opt.front_end.filters.require_label,
@@ -64,9 +69,11 @@ int main(int argc, char** argv) {
                  "sfm: focal length in pixels (default: the manifest's fx, else estimated by self-calibration, "
                  "else the image width)");
   app.add_option("--tracker", tracker,
-                 "sfm: auto (descriptors with whole-image matching and Lowe ratio 0.8 when frames are more than "
-                 "0.25 s apart, else klt) | klt (Lucas-Kanade frame to frame, for video) | descriptors (keypoints "
-                 "matched by descriptor, for wide baselines such as CamVid's 1 Hz runs)")
+                 "how keypoints are followed from frame to frame: descriptors (symmetric nearest-neighbour "
+                 "matching of the keypoints' descriptors; sfm: for wide baselines such as CamVid's 1 Hz runs) | klt "
+                 "(pyramidal Lucas-Kanade from each point, forward-backward checked, new keypoints filling gaps; "
+                 "for video) | auto (stereo: descriptors, the thesis's matching; sfm: descriptors with whole-image "
+                 "matching and Lowe ratio 0.8 when frames are more than 0.25 s apart, else klt)")
       ->capture_default_str();
   app.add_option("--match-radius", opt.sfm.match_radius_px,
                  "sfm, descriptors: match candidates within this many pixels; 0 = the whole image (wide baselines)")
@@ -98,9 +105,11 @@ int main(int argc, char** argv) {
     opt.front_end.tracking.detector = parse_keypoint_method(detector, "--keypoints");
     opt.motion = parse_motion_method(motion, "--motion");
     opt.sfm.tracking.detector = opt.front_end.tracking.detector;
+    opt.sfm.tracking.gftt_quality = opt.front_end.tracking.gftt_quality;
     if (app.count("--max-keypoints")) opt.sfm.tracking.max_keypoints = opt.front_end.tracking.max_keypoints;
     opt.sfm.filters = opt.front_end.filters;
     opt.sfm.tracker = parse_sfm_tracker(tracker, "--tracker");
+    opt.front_end.tracker = tracker == "auto" ? FrameTracker::Descriptors : parse_frame_tracker(tracker, "--tracker");
     if (app.count("--camera-height")) {
       if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
       opt.front_end.camera_height = camera_height;

@@ -178,6 +178,57 @@ TEST(Tracking, KeypointsMatchAcrossAShiftedImage) {
   EXPECT_TRUE(detect_keypoints(cv::Mat(240, 320, CV_8UC1, cv::Scalar(90)), TrackingOptions{}).keypoints.empty());
 }
 
+TEST(Tracking, GfttGivesCornersWithoutDescriptors) {
+  const cv::Mat a = shifted(texture(400, 300, 11), 320, 240, 0, 0);
+  TrackingOptions o;
+  o.detector = KeypointMethod::Gftt;
+  o.max_keypoints = 300;
+  const FrameKeypoints k = detect_keypoints(a, o);
+  EXPECT_EQ(k.keypoints.size(), 300u);
+  EXPECT_TRUE(k.descriptors.empty());
+  for (std::size_t i = 1; i < k.keypoints.size(); ++i) EXPECT_GE(k.keypoints[i - 1].response, k.keypoints[i].response);
+  EXPECT_EQ(parse_keypoint_method("gftt"), KeypointMethod::Gftt);
+  EXPECT_THROW(parse_keypoint_method("surf"), Error);
+  o.gftt_quality = 0;
+  EXPECT_THROW(o.validate(), Error);
+}
+
+TEST(Tracking, KltStepFollowsAShiftedImageAndFillsGaps) {
+  const cv::Mat tex = texture(400, 300, 11);
+  const cv::Mat a = shifted(tex, 320, 240, 0, 0), b = shifted(tex, 320, 240, 2.5, -1.5);  // b(x) = a(x + (2.5, -1.5))
+  TrackingOptions o;
+  o.detector = KeypointMethod::Gftt;
+  o.max_keypoints = 400;
+  std::vector<cv::Point2f> da, db;
+  for (const auto& k : detect_keypoints(a, o).keypoints) da.push_back(k.pt);
+  for (const auto& k : detect_keypoints(b, o).keypoints) db.push_back(k.pt);
+  const KltOptions klt;
+  std::vector<cv::DMatch> m;
+  const std::vector<cv::Point2f> pa = klt_step(cv::Mat(), {}, a, da, 300, klt, m);
+  EXPECT_TRUE(m.empty());
+  ASSERT_EQ(pa.size(), 300u);  // the first frame: detected points, spaced, up to max_points
+  const std::vector<cv::Point2f> pb = klt_step(a, pa, b, db, 350, klt, m);
+  ASSERT_GT(m.size(), 250u);
+  int right = 0;
+  for (std::size_t i = 0; i < m.size(); ++i) {
+    EXPECT_EQ(m[i].trainIdx, static_cast<int>(i));  // tracked points come first, in order
+    const cv::Point2f v = pb[m[i].trainIdx] - pa[m[i].queryIdx];
+    right += std::hypot(v.x + 2.5, v.y - 1.5) < 0.2;
+  }
+  EXPECT_GT(right, 0.95 * m.size());
+  EXPECT_LE(pb.size(), 350u);
+  EXPECT_GT(pb.size(), m.size());  // gaps filled by new corners
+  // New points keep the minimum distance from every other point of the frame.
+  for (std::size_t i = m.size(); i < pb.size(); ++i)
+    for (std::size_t j = 0; j < i; ++j) EXPECT_GE(cv::norm(pb[i] - pb[j]), klt.min_distance_px - 1e-4) << i << " " << j;
+  // A blank next image loses every point (nothing to follow) and gains none.
+  const std::vector<cv::Point2f> blank = klt_step(b, pb, cv::Mat(240, 320, CV_8UC1, cv::Scalar(100)), {}, 350, klt, m);
+  EXPECT_LT(m.size(), pb.size() / 10);
+  KltOptions bad;
+  bad.window = 3;
+  EXPECT_THROW(bad.validate("front_end"), Error);
+}
+
 // ---------------------------------------------------------------------------------------------
 // The front end on a synthetic stereo video: a fronto-parallel textured wall at Z = 3 m, camera
 // sliding 3 cm to the right per frame (fx = 300 px: 3 px per frame; disparity 300 * 0.1 / 3 = 10 px).
@@ -328,6 +379,36 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   j["poses"].erase(1);
   write_json_atomic(s.dir / "bad_poses.json", j);
   EXPECT_THROW(read_tracks(s.dir / "bad_poses.json"), Error);
+  fs::remove_all(s.dir);
+}
+
+TEST(FrontEnd, KltTrackerRecoversTheSlidingCameraWithLongTracks) {
+  const Synthetic s = make_wall_video("slide_klt", 8);
+  FrontEndOptions o = quiet();
+  o.tracker = FrameTracker::Klt;
+  o.tracking.detector = KeypointMethod::Gftt;
+  const FrontEndResult r = run_stereo_front_end(s.seq, o);
+  ASSERT_EQ(r.poses.size(), 8u);
+  EXPECT_EQ(r.summary.bad_pairs, 0);
+  EXPECT_GT(r.summary.valid_points_per_frame_min, 100);
+  EXPECT_GT(r.summary.inlier_ratio_mean, 0.9);
+  for (int f = 0; f < 8; ++f) EXPECT_NEAR(r.poses[f].t[0], -0.03 * f, 0.005) << "frame " << f;
+  // KLT follows points across the whole video, unlike pairwise matching's short chains.
+  EXPECT_GT(r.summary.track_length_mean, 4.0);
+  for (const auto& tr : r.tracks)
+    for (std::size_t k = 1; k < tr.size(); ++k)
+      EXPECT_NEAR(tr.pixels[k].x - tr.pixels[k - 1].x, -3.0 * (tr.frames[k] - tr.frames[k - 1]), 0.3);
+  // Deterministic whatever the thread count (the pipeline keeps the frame order).
+  const FrontEndResult r1 = [&] {
+    tbb::global_control one(tbb::global_control::max_allowed_parallelism, 1);
+    return run_stereo_front_end(s.seq, o);
+  }();
+  ASSERT_EQ(r1.tracks.size(), r.tracks.size());
+  for (std::size_t i = 0; i < r.tracks.size(); ++i) EXPECT_EQ(r1.tracks[i].pixels, r.tracks[i].pixels);
+  for (int f = 0; f < 8; ++f) EXPECT_EQ(r1.poses[f].t, r.poses[f].t);
+  // gftt corners have no descriptors: with the descriptor tracker that is a clear option error.
+  o.tracker = FrameTracker::Descriptors;
+  EXPECT_THROW(run_stereo_front_end(s.seq, o), Error);
   fs::remove_all(s.dir);
 }
 

@@ -162,6 +162,8 @@ std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, 
 struct FrontEndOptions {
   StereoOptions stereo;
   TrackingOptions tracking;
+  FrameTracker tracker = FrameTracker::Descriptors;  ///< descriptors (the thesis) or klt
+  KltOptions klt;                                    ///< used by the klt tracker
   TrackFilterOptions filters;
   RansacOptions motion;
   RefineOptions refine;                 ///< motion refinement by reprojection error (enabled by default)

@@ -87,9 +87,7 @@ enum class SfmTracker {
 
 struct SfmOptions {
   SfmTracker tracker = SfmTracker::Auto;
-  int klt_window = 21;                  ///< KLT window side, pixels
-  double klt_max_backward_px = 0.5;     ///< forward-backward disagreement that drops a KLT match
-  double klt_min_distance_px = 6;       ///< a new keypoint this close to a tracked one is not added
+  KltOptions klt;                       ///< KLT window, forward-backward check, spacing of new keypoints
   TrackingOptions tracking = sfm_default_tracking();
   TrackFilterOptions filters;
   std::optional<double> focal;          ///< pixels; overrides the manifest and the estimate

@@ -28,9 +28,10 @@
 
 namespace smseg::features {
 
-enum class KeypointMethod { Sift, Orb, Akaze };
+/// Gftt: Shi-Tomasi corners (OpenCV's GFTTDetector), positions only, no descriptors: for KLT tracking.
+enum class KeypointMethod { Sift, Orb, Akaze, Gftt };
 
-/// "sift" | "orb" | "akaze"; anything else is an Error naming `field`.
+/// "sift" | "orb" | "akaze" | "gftt"; anything else is an Error naming `field`.
 KeypointMethod parse_keypoint_method(const std::string& name, const std::string& field = "tracking.detector");
 const char* keypoint_method_name(KeypointMethod m);
 
@@ -39,10 +40,36 @@ struct TrackingOptions {
   int max_keypoints = 800;                ///< strongest keypoints kept per frame (>= 1)
   double sift_contrast_threshold = 0.02;  ///< SIFT: lower than OpenCV's 0.04 for more points, as the thesis did for SURF
   double akaze_threshold = 0.0005;        ///< AKAZE detector response threshold
+  double gftt_quality = 0.001;            ///< GFTT: corners weaker than this share of the strongest are dropped (OpenCV suggests 0.01; 0.001 keeps the corners of weakly textured walls)
   double max_descriptor_distance = 0;     ///< matches farther apart in descriptor space are dropped (0 = off)
   double max_pixel_motion = 0;            ///< matches moving farther in the image (pixels) are dropped (0 = off)
   void validate() const;                  ///< Error("", "tracking.<field>", reason)
 };
+
+/// How keypoints are followed from one frame to the next.
+enum class FrameTracker {
+  Descriptors,  ///< keypoints detected in every frame, symmetric nearest-neighbour descriptor matches (the thesis)
+  Klt           ///< pyramidal Lucas-Kanade from each point, forward-backward checked; new keypoints fill gaps
+};
+FrameTracker parse_frame_tracker(const std::string& name, const std::string& field);  ///< descriptors | klt
+const char* frame_tracker_name(FrameTracker t);
+
+struct KltOptions {
+  int window = 21;               ///< KLT window side, pixels (5..101)
+  double max_backward_px = 0.5;  ///< forward-backward disagreement that drops a KLT match
+  double min_distance_px = 6;    ///< a new keypoint this close to a tracked one is not added
+  void validate(const std::string& prefix) const;  ///< Error("", prefix + ".klt_<field>", reason)
+};
+
+/// One KLT step: follows prev_px from prev_img into img (3-level pyramidal Lucas-Kanade), keeps the
+/// points that come back within max_backward_px when tracked from img to prev_img and that stay inside
+/// the image, then adds the `detected` points (in their order, strongest first) that lie at least
+/// min_distance_px from every point kept so far, up to max_points in all. Returns the frame's points,
+/// tracked ones first; `matches` receives (queryIdx in prev_px, trainIdx in the result) per tracked point.
+/// An empty prev_px (first frame) gives the detected points alone.
+std::vector<cv::Point2f> klt_step(const cv::Mat& prev_img, const std::vector<cv::Point2f>& prev_px, const cv::Mat& img,
+                                  const std::vector<cv::Point2f>& detected, int max_points, const KltOptions& options,
+                                  std::vector<cv::DMatch>& matches);
 
 struct TrackFilterOptions {
   int min_frames = 2;          ///< a track must live in at least this many frames
@@ -92,6 +119,8 @@ Eigen::Vector3d backproject(double x, double y, double d, double fx, double fy, 
 /// Fills disparities/points (and labels when `labels` is not empty) for keypoints of one frame.
 FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& keypoints, const cv::Mat& disparity,
                                     const cv::Mat& labels, const Calibration& calib);
+FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
+                                 const Calibration& calib);
 
 /// What each filter removed, in observations ("points") and tracks.
 struct FilterCounts {
