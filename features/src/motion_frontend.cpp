@@ -30,7 +30,7 @@ void FrontEndOptions::validate() const {
   tracking.validate();
   klt.validate("front_end");
   if (tracker == FrameTracker::Descriptors && tracking.detector == KeypointMethod::Gftt)
-    throw Error("", "tracking.detector", "gftt corners have no descriptors: use them with the klt tracker");
+    throw Error("", "tracking.detector", "gftt corners have no descriptors: use them with the klt tracker (--tracker klt)");
   filters.validate();
   motion.validate();
   refine.validate();
