@@ -3,6 +3,7 @@
 #include "smseg/features/cloud_view.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <cmath>
 #include <limits>
 #include <numeric>
@@ -67,6 +68,8 @@ void SaliencyParams::validate() const {
   if (!(min_area > 0 && min_area < 1)) throw Error("", "--min-area", "must be in (0, 1) (share of the image)");
   if (blur < 0 || blur > 50) throw Error("", "--saliency-blur", "must be in 0..50 pixels");
   if (!(scale >= 0.05 && scale <= 1)) throw Error("", "--saliency-scale", "must be in [0.05, 1]");
+  if (!(max_area > min_area && max_area <= 1)) throw Error("", "--max-area", "must be in (--min-area, 1]");
+  if (!(step > 0 && step < 1)) throw Error("", "--saliency-step", "must be in (0, 1)");
 }
 
 SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params) {
@@ -119,23 +122,39 @@ SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params)
     sal.convertTo(s8, CV_8U, 255.0);
     out.threshold = cv::threshold(s8, dummy, 0, 255, cv::THRESH_BINARY | cv::THRESH_OTSU) / 255.0;
   }
-  cv::Mat binary = sal >= out.threshold;
-  cv::morphologyEx(binary, binary, cv::MORPH_OPEN, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3)));
-  cv::Mat cc, stats, centroids;
-  const int n = cv::connectedComponentsWithStats(binary, cc, stats, centroids, 8, CV_32S);
-  const double min_px = params.min_area * bgr.rows * bgr.cols;
-  std::vector<int> keep;
-  for (int c = 1; c < n; ++c)
-    if (stats.at<int>(c, cv::CC_STAT_AREA) >= min_px) keep.push_back(c);
-  std::stable_sort(keep.begin(), keep.end(), [&](int a, int b) {
-    return stats.at<int>(a, cv::CC_STAT_AREA) > stats.at<int>(b, cv::CC_STAT_AREA);
-  });
-  std::vector<int> relabel(static_cast<std::size_t>(n), 0);
-  for (std::size_t k = 0; k < keep.size(); ++k) relabel[static_cast<std::size_t>(keep[k])] = static_cast<int>(k) + 1;
-  out.regions = cv::Mat(bgr.size(), CV_32SC1);
-  for (int y = 0; y < cc.rows; ++y)
-    for (int x = 0; x < cc.cols; ++x) out.regions.at<int>(y, x) = relabel[static_cast<std::size_t>(cc.at<int>(y, x))];
-  out.count = static_cast<int>(keep.size());
+  // Connected salient components. One larger than max_area of the image is a salient structure (a table
+  // under the objects, a door) rather than an object: it is re-thresholded inside itself one step higher,
+  // until its parts are small enough; what of it is left over counts as background.
+  const double min_px = params.min_area * bgr.rows * bgr.cols, max_px = params.max_area * bgr.rows * bgr.cols;
+  const cv::Mat kernel = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(3, 3));
+  std::vector<std::pair<int, cv::Mat>> found;  // area, mask
+  cv::Mat structure = cv::Mat::zeros(bgr.size(), CV_8UC1);
+  std::function<void(const cv::Mat&, double)> split = [&](const cv::Mat& within, double level) {
+    cv::Mat binary = (sal >= level) & within;
+    cv::morphologyEx(binary, binary, cv::MORPH_OPEN, kernel);
+    cv::Mat cc, stats, centroids;
+    const int n = cv::connectedComponentsWithStats(binary, cc, stats, centroids, 8, CV_32S);
+    for (int c = 1; c < n; ++c) {
+      const int area = stats.at<int>(c, cv::CC_STAT_AREA);
+      if (area < min_px) continue;
+      const cv::Mat mask = cc == c;
+      if (area <= max_px) {
+        found.emplace_back(area, mask);
+      } else {
+        structure.setTo(255, mask);
+        if (level + params.step < 1.0) split(mask, level + params.step);
+      }
+    }
+  };
+  split(cv::Mat(bgr.size(), CV_8UC1, cv::Scalar(255)), out.threshold);
+  std::stable_sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  out.regions = cv::Mat::zeros(bgr.size(), CV_32SC1);
+  for (std::size_t k = 0; k < found.size(); ++k) {
+    out.regions.setTo(static_cast<int>(k) + 1, found[k].second);
+    structure.setTo(0, found[k].second);
+  }
+  out.structure = structure;
+  out.count = static_cast<int>(found.size());
   return out;
 }
 
@@ -153,7 +172,7 @@ MrfSeeds saliency_seeds(const std::vector<cv::Point>& pixels, const std::vector<
     const int r = sr.regions.at<int>(p);
     if (r > 0) {
       by_region[static_cast<std::size_t>(r)].push_back(static_cast<int>(i));
-    } else if (sr.saliency.at<float>(p) < below) {
+    } else if (sr.saliency.at<float>(p) < below || (!sr.structure.empty() && sr.structure.at<std::uint8_t>(p))) {
       by_region[0].push_back(static_cast<int>(i));
     }
   }
@@ -176,6 +195,69 @@ MrfSeeds saliency_seeds(const std::vector<cv::Point>& pixels, const std::vector<
                               : "no salient region holds " + std::to_string(min_points) + " or more cloud points");
   if (region_of_label) *region_of_label = used;
   return seeds;
+}
+
+void split_seed_regions(const ColouredCloud& view, MrfSeeds& seeds, double distance, double colour_tolerance,
+                        int min_points, std::vector<int>* region_of_label) {
+  if (!(distance > 0) || !(colour_tolerance > 0)) throw Error("", "--seed-split", "needs positive tolerances");
+  if (!view.has_colours()) throw Error("", "seeds", "splitting seed regions needs colours");
+  if (region_of_label && region_of_label->size() != seeds.regions.size())
+    throw Error("", "seeds", "one region per seed label is needed");
+  MrfSeeds out;
+  out.method = seeds.method;
+  std::vector<int> regions_out;
+  const float d2 = static_cast<float>(distance * distance), c2 = static_cast<float>(colour_tolerance * colour_tolerance);
+  auto colour_d2 = [&](int a, int b) {
+    float s = 0;
+    for (int k = 0; k < 3; ++k) {
+      const float d = float(view.colours[std::size_t(a)][k]) - float(view.colours[std::size_t(b)][k]);
+      s += d * d;
+    }
+    return s;
+  };
+  for (std::size_t l = 0; l < seeds.regions.size(); ++l) {
+    const std::vector<int>& pts = seeds.regions[l];
+    std::vector<std::vector<int>> parts;
+    if (l == 0) {
+      parts.push_back(pts);  // the background stays one label
+    } else {
+      // Connected components of the points linked by distance < distance and colour distance < tolerance.
+      std::vector<int> comp(pts.size(), -1);
+      int next = 0;
+      for (std::size_t i = 0; i < pts.size(); ++i) {
+        if (comp[i] >= 0) continue;
+        std::vector<std::size_t> stack{i};
+        comp[i] = next;
+        while (!stack.empty()) {
+          const std::size_t a = stack.back();
+          stack.pop_back();
+          for (std::size_t b = 0; b < pts.size(); ++b)
+            if (comp[b] < 0 && (view.points[std::size_t(pts[a])] - view.points[std::size_t(pts[b])]).squaredNorm() < d2 &&
+                colour_d2(pts[a], pts[b]) < c2) {
+              comp[b] = next;
+              stack.push_back(b);
+            }
+        }
+        ++next;
+      }
+      parts.assign(std::size_t(next), {});
+      for (std::size_t i = 0; i < pts.size(); ++i) parts[std::size_t(comp[i])].push_back(pts[i]);
+      std::stable_sort(parts.begin(), parts.end(), [](const auto& a, const auto& b) { return a.size() > b.size(); });
+    }
+    for (auto& part : parts) {
+      if (l > 0 && static_cast<int>(part.size()) < min_points) continue;
+      Eigen::Vector3f mean = Eigen::Vector3f::Zero();
+      for (int i : part) mean += view.points[std::size_t(i)];
+      out.positions.push_back(mean / static_cast<float>(part.size()));
+      out.regions.push_back(std::move(part));
+      regions_out.push_back(region_of_label ? (*region_of_label)[l] : static_cast<int>(l));
+    }
+  }
+  if (out.regions.size() < 2)
+    throw Error("", "--seeds saliency", "no salient region keeps " + std::to_string(min_points) +
+                                            " or more points of one colour and place");
+  seeds = std::move(out);
+  if (region_of_label) *region_of_label = regions_out;
 }
 
 cv::Vec3b label_colour(int label) {

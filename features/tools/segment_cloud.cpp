@@ -30,7 +30,9 @@ struct SaliencyRun {
   std::string input;  ///< cloud file; empty: WORK/cloud.pcd
   std::string out, sequence, work;
   int frame = -1;
-  int min_seed_points = 5;
+  int min_seed_points = 3;
+  double split_distance = 0.05;  ///< split seed regions by 3D distance and colour (0: no split)
+  double split_colour = 80;
   smseg::features::SaliencyParams saliency;
   smseg::features::ProjectionParams projection;
 };
@@ -46,6 +48,8 @@ int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& m
   run.saliency.validate();
   run.projection.validate();
   if (run.min_seed_points < 1) throw Error("", "--min-seed-points", "must be at least 1");
+  if (!(run.split_distance >= 0)) throw Error("", "--seed-split", "must be >= 0 metres (0: no split)");
+  if (!(run.split_colour > 0)) throw Error("", "--seed-split-colour", "must be positive");
   const Sequence seq = load_sequence(run.sequence);
   if (run.frame >= seq.frame_count())
     throw Error(seq.manifest.string(), "--frame",
@@ -100,6 +104,8 @@ int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& m
   std::vector<int> view_labels;
   try {
     sd = saliency_seeds(pixels, view.points, sr, run.saliency.background, run.min_seed_points, &region_of_label);
+    if (run.split_distance > 0)
+      split_seed_regions(view, sd, run.split_distance, run.split_colour, run.min_seed_points, &region_of_label);
     view_labels = mrf_segment(view, sd, mrf, &rep);
   } catch (const Error& e) {
     throw Error(e.file().empty() ? image_path.string() : e.file(), e.field(), e.reason());
@@ -152,9 +158,13 @@ int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& m
                     {"saliency_threshold", run.saliency.threshold},
                     {"background", run.saliency.background},
                     {"min_area", run.saliency.min_area},
+                    {"max_area", run.saliency.max_area},
+                    {"saliency_step", run.saliency.step},
                     {"saliency_blur", run.saliency.blur},
                     {"saliency_scale", run.saliency.scale},
                     {"min_seed_points", run.min_seed_points},
+                    {"seed_split", run.split_distance},
+                    {"seed_split_colour", run.split_colour},
                     {"splat_radius", run.projection.splat_radius},
                     {"depth_tolerance", run.projection.depth_tolerance},
                     {"neighbours", mrf.neighbours},
@@ -271,10 +281,20 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--saliency-scale", sal.saliency.scale,
                  "mrf saliency seeds: image scale at which the saliency is computed")->capture_default_str();
+  app.add_option("--max-area", sal.saliency.max_area,
+                 "mrf saliency seeds: a larger salient component (share of the image) is a structure, split at "
+                 "higher thresholds; its rest seeds the background")->capture_default_str();
+  app.add_option("--saliency-step", sal.saliency.step, "mrf saliency seeds: threshold step of those splits")
+      ->capture_default_str();
   app.add_option("--saliency-blur", sal.saliency.blur, "mrf saliency seeds: box-filter radius on the map (pixels)")
       ->capture_default_str();
   app.add_option("--min-seed-points", sal.min_seed_points,
                  "mrf saliency seeds: a salient region seeds a label when it holds this many visible points")
+      ->capture_default_str();
+  app.add_option("--seed-split", sal.split_distance,
+                 "mrf saliency seeds: split each region's points into groups linked within this distance (metres) "
+                 "and --seed-split-colour; each group seeds a label (0: one label per region)")->capture_default_str();
+  app.add_option("--seed-split-colour", sal.split_colour, "mrf saliency seeds: RGB distance within one group")
       ->capture_default_str();
   app.add_option("--splat-radius", sal.projection.splat_radius,
                  "mrf saliency seeds: radius of a point's disc in the z-buffer and OUT.png (pixels)")

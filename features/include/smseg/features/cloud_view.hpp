@@ -46,32 +46,45 @@ struct SaliencyParams {
   /// "colour" (fine-grained saliency of intensity, R-G and B-Y, averaged), "fine-grained"
   /// (StaticSaliencyFineGrained on the image) or "spectral-residual" (StaticSaliencySpectralResidual)
   std::string method = "colour";
-  double threshold = 0.6;   ///< on the saliency normalised to 0..1; 0: Otsu's threshold
+  double threshold = 0.3;   ///< on the saliency normalised to 0..1; 0: Otsu's threshold
   double background = 0.5;  ///< background seeds where saliency < background * threshold
   double min_area = 0.002;  ///< share of the image a salient region must cover
+  double max_area = 0.04;   ///< a larger salient component is a structure: split at higher levels
+  double step = 0.05;       ///< how much higher each split level is
   int blur = 2;             ///< radius of the box filter that smooths the map before thresholding (0: none)
-  double scale = 0.25;      ///< the image is resized by this factor before the saliency (coarser conspicuity)
+  double scale = 0.5;       ///< the image is resized by this factor before the saliency (coarser conspicuity)
   void validate() const;    ///< Error naming the option (--saliency, --saliency-threshold, ...)
 };
 
 struct SalientRegions {
   cv::Mat saliency;    ///< CV_32FC1 in 0..1 (normalised, smoothed)
   cv::Mat regions;     ///< CV_32SC1: 0 = not salient, 1..count = salient region (largest first)
+  cv::Mat structure;   ///< CV_8UC1: 255 = part of a salient structure (too large) outside every region
   double threshold = 0;  ///< the threshold used (0..1)
   int count = 0;
 };
 /// Saliency of a BGR image and its connected salient regions (8-connected, after a 3x3 opening), each of
-/// at least min_area of the image. count may be 0.
+/// min_area..max_area of the image; a component larger than max_area (a salient structure such as the
+/// table under the objects) is thresholded again inside itself `step` higher, recursively, and what is
+/// left of it marks `structure`. count may be 0.
 SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params);
 
 /// Seeds for mrf_segment over a sub-cloud: label 0 = the points (indices into `pixels`) whose pixel is
-/// not salient (saliency < background * threshold), label k = the points inside salient region k. A region
+/// not salient (saliency < background * threshold) or in a salient structure outside the regions, label k = the points inside salient region k. A region
 /// holding fewer than min_points points is dropped (labels stay consecutive). method = "saliency".
 /// background is SaliencyParams::background. Error (field "--seeds saliency") when no point is background
 /// or no region keeps enough points. region_of_label: per seed label, its salient region (0: background).
 MrfSeeds saliency_seeds(const std::vector<cv::Point>& pixels, const std::vector<Eigen::Vector3f>& positions,
                         const SalientRegions& regions, double background, int min_points,
                         std::vector<int>* region_of_label = nullptr);
+
+/// Splits every object seed label (>= 1) of a sub-cloud into the connected groups of its points linked by
+/// 3D distance < `distance` and RGB distance < `colour_tolerance` (salient regions that cover several
+/// touching objects in the image, or an object and the table around it, come apart in 3D or colour);
+/// groups of fewer than min_points points are dropped, the background (label 0) stays whole. Labels stay
+/// consecutive, largest group first per region; region_of_label follows. Error when no object label is left.
+void split_seed_regions(const ColouredCloud& view, MrfSeeds& seeds, double distance, double colour_tolerance,
+                        int min_points, std::vector<int>* region_of_label = nullptr);
 
 /// Colour for a label in pictures: label 0 (background) grey, then distinct colours (BGR).
 cv::Vec3b label_colour(int label);
