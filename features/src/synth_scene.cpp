@@ -546,6 +546,23 @@ int light_material(Builder& b, float emission) {
 // ---------------------------------------------------------------------------------------------
 // The corridor.
 
+// A room's floor (carpet with probability `carpet`, else tiles) and tiled ceiling: x in [-RX, RX],
+// z in [-RZ, RZ], ceiling at height H.
+void room_floor_and_ceiling(Builder& b, Rng& r, double carpet, double RX, double RZ, double H) {
+  int floor_mat;
+  if (r.chance(carpet)) {
+    static const double kCarpet[][3] = {{0.35, 0.38, 0.45}, {0.45, 0.4, 0.35}, {0.3, 0.4, 0.35}};
+    const auto& c = kCarpet[r.index(3)];
+    floor_mat = b.material(mat(Material::Carpet, lin(c[0], c[1], c[2]), lin(c[0] * 0.7, c[1] * 0.7, c[2] * 0.7),
+                               {0, 0, 0}, 0.5f));
+  } else {
+    floor_mat = b.material(mat(Material::Tiles, lin(0.75, 0.74, 0.7), lin(0.55, 0.58, 0.6), lin(0.4, 0.4, 0.38), 0.3f));
+  }
+  b.quad(Vector3d(0, 0, 0), Vector3d(0, 0, 1), Vector3d(1, 0, 0), RZ, RX, kFloor, floor_mat, Vector2d(-RZ, -RX));
+  const int ceil_mat = b.material(mat(Material::CeilingTiles, lin(0.9, 0.9, 0.88), lin(0.72, 0.72, 0.72), {0, 0, 0}, 0.6f));
+  b.quad(Vector3d(0, H, 0), Vector3d(1, 0, 0), Vector3d(0, 0, 1), RX, RZ, kCeiling, ceil_mat, Vector2d(-RX, -RZ));
+}
+
 void build_corridor(Scene& sc, const SynthOptions& o, Rng& r) {
   Builder b(sc, r);
   const double W = 2.4, H = 2.6, h = W / 2, r_turn = 1.0, behind = 2.5, keep_right = 0.3;
@@ -799,18 +816,7 @@ void build_lab(Scene& sc, const SynthOptions& o, Rng& r) {
   integrate_speed(path, o, 0.0);
 
   // Room.
-  int floor_mat;
-  if (r.chance(0.55)) {
-    static const double kCarpet[][3] = {{0.35, 0.38, 0.45}, {0.45, 0.4, 0.35}, {0.3, 0.4, 0.35}};
-    const auto& c = kCarpet[r.index(3)];
-    floor_mat = b.material(mat(Material::Carpet, lin(c[0], c[1], c[2]), lin(c[0] * 0.7, c[1] * 0.7, c[2] * 0.7),
-                               {0, 0, 0}, 0.5f));
-  } else {
-    floor_mat = b.material(mat(Material::Tiles, lin(0.75, 0.74, 0.7), lin(0.55, 0.58, 0.6), lin(0.4, 0.4, 0.38), 0.3f));
-  }
-  b.quad(Vector3d(0, 0, 0), Vector3d(0, 0, 1), Vector3d(1, 0, 0), RZ, RX, kFloor, floor_mat, Vector2d(-RZ, -RX));
-  const int ceil_mat = b.material(mat(Material::CeilingTiles, lin(0.9, 0.9, 0.88), lin(0.72, 0.72, 0.72), {0, 0, 0}, 0.6f));
-  b.quad(Vector3d(0, H, 0), Vector3d(1, 0, 0), Vector3d(0, 0, 1), RX, RZ, kCeiling, ceil_mat, Vector2d(-RX, -RZ));
+  room_floor_and_ceiling(b, r, 0.55, RX, RZ, H);
   for (double x : {-3.0, -1.0, 1.0, 3.0})
     for (double z : {-2.0, 0.0, 2.0}) {
       const bool dim = r.chance(0.08);
@@ -969,18 +975,7 @@ void build_tabletop(Scene& sc, const SynthOptions& o, Rng& r) {
   integrate_speed(path, o, 0.0);
 
   // Room: floor, ceiling with lights, painted walls with posters and a door.
-  int floor_mat;
-  if (r.chance(0.5)) {
-    static const double kCarpet[][3] = {{0.35, 0.38, 0.45}, {0.45, 0.4, 0.35}, {0.3, 0.4, 0.35}};
-    const auto& c = kCarpet[r.index(3)];
-    floor_mat = b.material(mat(Material::Carpet, lin(c[0], c[1], c[2]), lin(c[0] * 0.7, c[1] * 0.7, c[2] * 0.7),
-                               {0, 0, 0}, 0.5f));
-  } else {
-    floor_mat = b.material(mat(Material::Tiles, lin(0.75, 0.74, 0.7), lin(0.55, 0.58, 0.6), lin(0.4, 0.4, 0.38), 0.3f));
-  }
-  b.quad(Vector3d(0, 0, 0), Vector3d(0, 0, 1), Vector3d(1, 0, 0), RZ, RX, kFloor, floor_mat, Vector2d(-RZ, -RX));
-  const int ceil_mat = b.material(mat(Material::CeilingTiles, lin(0.9, 0.9, 0.88), lin(0.72, 0.72, 0.72), {0, 0, 0}, 0.6f));
-  b.quad(Vector3d(0, H, 0), Vector3d(1, 0, 0), Vector3d(0, 0, 1), RX, RZ, kCeiling, ceil_mat, Vector2d(-RX, -RZ));
+  room_floor_and_ceiling(b, r, 0.5, RX, RZ, H);
   for (double x : {-1.6, 0.0, 1.6})
     for (double z : {-1.4, 1.4}) ceiling_light(b, Vector2d(x, z), Vector2d(1, 0), H, 0.8f, light_material(b, 1.6f));
   const Vector2d corners[4] = {{RX, RZ}, {-RX, RZ}, {-RX, -RZ}, {RX, -RZ}};  // wall w runs from corner w to w + 1
