@@ -174,6 +174,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"box_margin", p.box_margin},
                     {"grabcut_iterations", p.grabcut_iterations},
                     {"frustum_only", p.frustum_only},
+                    {"max_distance", p.max_distance},
                     {"seed", p.seed}}},
                   {"points", rep.points},
                   {"considered", rep.considered},
@@ -318,6 +319,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--min-cluster-points", gc.params.min_cluster_points,
                  "grabcut-sfm: projections in the frame a cluster needs to be chosen")->capture_default_str();
+  app.add_option("--max-distance", gc.params.max_distance,
+                 "grabcut-sfm: cluster only the points within this many metres of the camera (0: all; 001 uses all)")
+      ->capture_default_str();
   app.add_flag("--frustum-only", gc.params.frustum_only,
                "grabcut-sfm: cluster only the points projecting into the frame (001 clusters the whole cloud)");
   return run_tool(app, argc, argv, [&] {

@@ -62,3 +62,60 @@ TEST(SegmentCloudTool, TabletopCentroidMinCutAndMrf) {
   EXPECT_EQ(r.status, 1);
   fs::remove_all(dir);
 }
+
+TEST(SegmentCloudTool, GrabCutSfmOnAFrameOfAWorkFolder) {
+  // make-sequence -> extract-features -> segment-cloud --method grabcut-sfm on one labelled frame.
+  const fs::path dir = fs::temp_directory_path() / ("smseg_grabcutsfm_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string seq = (dir / "seq").string(), work = (dir / "work").string();
+  Outcome r = run(smseg::test::tool("make-sequence") + " --scene lab --seed 5 --frames 30 --size 160x120 -q -o " + seq);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run(smseg::test::tool("extract-features") + " -q " + seq + " -o " + work);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string args = kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work;
+  const fs::path mask = dir / "m.png";
+  r = run(args + " --frame 0 --truth-label obstacle -o " + mask.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* f : {"m.png", "m.overlay.png", "m.kmeans2.png", "m.box.png", "m.png.json"})
+    EXPECT_TRUE(fs::exists(dir / f)) << f;
+  const smseg::Json s = smseg::read_json(dir / "m.png.json");
+  EXPECT_EQ(s["method"].get<std::string>(), "grabcut-sfm");
+  EXPECT_EQ(s["clusters"].size(), 6u);
+  EXPECT_GT(s["plane_inliers"].get<int>(), 0);  // the floor
+  EXPECT_GT(s["box"][2].get<int>(), 0);
+  for (const char* m : {"grabcut_sfm", "kmeans2", "kmeans2_best_of_both", "grabcut_truth_box"}) {
+    const double f1 = s["f1"][m].get<double>();
+    EXPECT_GE(f1, 0.0) << m;
+    EXPECT_LE(f1, 1.0) << m;
+  }
+  // GrabCut on the truth's own box finds this obstacle (0.996 measured): the truth mask is the right one.
+  EXPECT_GE(s["f1"]["grabcut_truth_box"].get<double>(), 0.9);
+  EXPECT_GT(s["seconds"]["total"].get<double>(), 0.0);
+  // Same seed, same mask file.
+  const std::string first = smseg::read_file(mask);
+  r = run(args + " --frame 0 --truth-label obstacle -o " + mask.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_EQ(smseg::read_file(mask), first);
+
+  // Bad input: one line, exit 1.
+  r = run(args + " --frame 30 -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("out of range"), std::string::npos) << r.out;
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + (dir / "nowork").string() +
+          " --frame 0 -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("tracks.json"), std::string::npos) << r.out;
+  r = run(args + " --frame 0 --truth-label unicorn -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("unicorn"), std::string::npos) << r.out;
+  r = run(args + " " + (dir / "none.pcd").string() + " --frame 0 -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("none.pcd"), std::string::npos) << r.out;
+  r = run(args + " --frame 0 --max-distance 0.01 -o " + (dir / "x.png").string());  // no point left
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("cloud.pcd"), std::string::npos) << r.out;
+  r = run(args + " --frame 0 --min-cluster-points 100000 -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);
+  EXPECT_NE(r.out.find("in front of the camera"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}

@@ -71,6 +71,8 @@ void GrabCutSfmParams::validate() const {
     throw Error("", "--outlier-threshold", "must be > 0 (robust standard deviations)");
   if (ransac_iterations < 1) throw Error("", "--ransac-iterations", "must be >= 1");
   if (!(box_margin >= 0 && box_margin <= 1)) throw Error("", "--box-margin", "must be in [0, 1]");
+  if (!(max_distance >= 0) || !std::isfinite(max_distance))
+    throw Error("", "--max-distance", "must be >= 0 metres (0: no limit)");
   if (grabcut_iterations < 1 || grabcut_iterations > 100) throw Error("", "--grabcut-iterations", "must be 1..100");
 }
 
@@ -413,8 +415,11 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   auto t0 = Clock::now();
   std::vector<Eigen::Vector3f> considered;
   considered.reserve(points.size());
-  for (const auto& p : points)
+  const Eigen::Vector3f cam_f(float(pose.t[0]), float(pose.t[1]), float(pose.t[2]));
+  for (const auto& p : points) {
+    if (params.max_distance > 0 && (p - cam_f).norm() > params.max_distance) continue;
     if (!params.frustum_only || in_frame(p, nullptr)) considered.push_back(p);
+  }
   rep.considered = int(considered.size());
   std::vector<Eigen::Vector3f> rest;
   if (params.plane_distance > 0) {
@@ -430,7 +435,8 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   if (int(rest.size()) < params.k)
     throw Error("", "cloud",
                 std::to_string(rest.size()) + " points are left " +
-                    (params.frustum_only ? "in the frame " : "") + "after plane removal (of " +
+                    (params.frustum_only ? "in the frame " : "") +
+                    (params.max_distance > 0 ? "within --max-distance " : "") + "after plane removal (of " +
                     std::to_string(points.size()) + "), fewer than k = " + std::to_string(params.k) + " clusters");
 
   // 2. 3D k-means.

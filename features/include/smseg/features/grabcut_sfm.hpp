@@ -1,6 +1,9 @@
 #pragma once
 // GrabCutSFM (paper 001, He & Upcroft): unsupervised segmentation of the object nearest the camera in one
 // frame of a video, from the structure-and-motion cloud and the frame's camera pose:
+//   0. (options, not in 001) only the points within max_distance of the camera and / or projecting into the
+//      frame (frustum_only) are used: a street-long SfM cloud has far and stray points that k-means would
+//      spend clusters on;
 //   1. RANSAC plane removal: the dominant plane (the ground or the table the object stands on) and its
 //      inliers within plane_distance are removed from the cloud (001 III-B, Fig. 3);
 //   2. 3D k-means (k = 6, k-means++ seeding, the best of `attempts` runs) on the remaining points;
@@ -57,13 +60,14 @@ struct GrabCutSfmParams {
   double box_margin = 0.1;       ///< share of the box's width / height added on each side
   int grabcut_iterations = 5;    ///< cv::grabCut iterations
   bool frustum_only = false;     ///< cluster only the points projecting into the frame (not in 001)
+  double max_distance = 0;       ///< metres: cluster only points this close to the camera (0: all; not in 001)
   std::uint64_t seed = 1;
   void validate() const;         ///< Error naming the option (--plane-distance, --k, ...)
 };
 
 struct GrabCutSfmReport {
   int points = 0;                       ///< cloud points
-  int considered = 0;                   ///< points offered to the plane fit (all, or the frustum's)
+  int considered = 0;                   ///< points offered to the plane fit (all, or those in the frustum / range)
   int plane_inliers = 0;                ///< removed as the plane
   Eigen::Vector4d plane{0, 0, 0, 0};    ///< n . X + d = 0, |n| = 1 (zero without plane removal)
   std::vector<int> cluster_sizes;       ///< per cluster, points
