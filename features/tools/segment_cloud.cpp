@@ -268,7 +268,7 @@ int main(int argc, char** argv) {
   int make_tabletop = 0, threads = 0, truth_object = 1;
   app.add_option("CLOUD", input, "input cloud (.pcd or .ply; fields x y z, optional rgb and label; grabcut-sfm: "
                  "default WORK/cloud.pcd)");
-  app.add_option("-o,--out", out, "output cloud (.pcd or .ply); the summary goes to the same name + .json")->required();
+  app.add_option("-o,--out", out, "output cloud (.pcd or .ply; grabcut-sfm: the mask, .png); the summary goes to the same name + .json")->required();
   app.add_option("--method", method, "centroid-mincut, mrf or grabcut-sfm")->capture_default_str();
   app.add_option("--seeds", seeds, "mrf: plane, or a seed file {\"format\": \"smseg-seeds\", \"version\": 1, \"radius\": r, "
                  "\"seeds\": [{\"label\": 0, \"position\": [x, y, z]}, ...]}")->capture_default_str();
