@@ -56,7 +56,7 @@ class FileLock {
 json synth_json(const features::synth::SynthOptions& o) {
   return {{"scene", o.scene},   {"seed", o.seed},         {"frames", o.frames},
           {"width", o.width},   {"height", o.height},     {"label_every", o.label_every},
-          {"fps", o.fps},       {"baseline", o.baseline}, {"camera_height", o.camera_height},
+          {"fps", o.fps},       {"baseline", o.baseline}, {"camera_height", o.camera_y()},
           {"hfov_deg", o.hfov_deg}, {"speed", o.speed},   {"noise_sigma", o.noise_sigma}};
 }
 

@@ -189,6 +189,7 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
     e.disparity = optional_path(f, "disparity");
     e.label = optional_path(f, "label");
     e.gt_depth = optional_path(f, "gt_depth");
+    e.instances = optional_path(f, "instances");
     e.time = f.has("time") ? f.num("time") : static_cast<double>(i);
     if (seq.kind == SequenceKind::Stereo && e.right.empty() && e.disparity.empty())
       f.fail("a stereo sequence needs a \"right\" image or a \"disparity\" for every frame");
@@ -237,6 +238,7 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
     if (!e.disparity.empty()) require_file(seq, e.disparity, where + ".disparity");
     if (!e.label.empty()) require_file(seq, e.label, where + ".label");
     if (!e.gt_depth.empty()) require_file(seq, e.gt_depth, where + ".gt_depth");
+    if (!e.instances.empty()) require_file(seq, e.instances, where + ".instances");
   }
   return seq;
 }
@@ -267,6 +269,7 @@ Json sequence_to_json(const Sequence& seq) {
     if (!e.disparity.empty()) f["disparity"] = e.disparity.string();
     if (!e.label.empty()) f["label"] = e.label.string();
     if (!e.gt_depth.empty()) f["gt_depth"] = e.gt_depth.string();
+    if (!e.instances.empty()) f["instances"] = e.instances.string();
     frames.push_back(std::move(f));
   }
   j["frames"] = std::move(frames);
@@ -344,6 +347,22 @@ cv::Mat Sequence::load_gt_depth(int frame) const {
   return d;
 }
 
+bool Sequence::has_instances(int frame) const {
+  check_frame(*this, frame);
+  return !frames[frame].instances.empty();
+}
+
+cv::Mat Sequence::load_instances(int frame) const {
+  check_frame(*this, frame);
+  if (frames[frame].instances.empty())
+    throw Error(manifest.string(), "frames[" + std::to_string(frame) + "].instances", "frame has no instance image");
+  const fs::path full = resolve(frames[frame].instances);
+  cv::Mat m = read_image(full, cv::IMREAD_UNCHANGED);
+  check_size(*this, full, m);
+  if (m.type() != CV_8UC1) throw Error(full.string(), "", "an instance image must be 8-bit with one channel");
+  return m;
+}
+
 cv::Mat Sequence::load_labels(int frame) const {
   check_frame(*this, frame);
   if (frames[frame].label.empty())
@@ -413,6 +432,7 @@ void validate_images(const Sequence& seq) {
     if (!e.disparity.empty()) seq.load_disparity(i);
     if (!e.label.empty()) seq.load_labels(i);
     if (!e.gt_depth.empty()) seq.load_gt_depth(i);
+    if (!e.instances.empty()) seq.load_instances(i);
   }
 }
 

@@ -92,7 +92,9 @@ inline bool intersect(const Quad& q, double num, const Eigen::Vector3d& o, const
   const double lambda = num / denom;
   if (!(lambda > kMinLambda) || !(lambda < best)) return false;
   const Eigen::Vector3d r = o + lambda * d - q.centre;
-  if (std::abs(r.dot(q.u)) > q.hu || std::abs(r.dot(q.v)) > q.hv) return false;
+  const double a = r.dot(q.u), b = r.dot(q.v);
+  if (std::abs(a) > q.hu || std::abs(b) > q.hv) return false;
+  if (q.disc && (a * a) / (q.hu * q.hu) + (b * b) / (q.hv * q.hv) > 1.0) return false;
   best = lambda;
   return true;
 }

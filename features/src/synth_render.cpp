@@ -111,7 +111,7 @@ inline float gauss(std::uint64_t h) {
 
 /// Renders one camera: BGR image, and optionally labels and depth.
 void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>& quads, const Pose& pose, int frame,
-                 int camera, cv::Mat& image, cv::Mat* labels, cv::Mat* depth) {
+                 int camera, cv::Mat& image, cv::Mat* labels, cv::Mat* depth, cv::Mat* instances) {
   const Bins bins = bin_quads(quads, pose, o);
   const Vector3d C(pose.t[0], pose.t[1], pose.t[2]);
   const double t = frame_time(o, frame);
@@ -136,6 +136,7 @@ void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>
   cv::Mat lin(o.height, o.width, CV_32FC3);
   if (labels) labels->create(o.height, o.width, CV_8UC1);
   if (depth) depth->create(o.height, o.width, CV_32FC1);
+  if (instances) instances->create(o.height, o.width, CV_8UC1);
   for (int y = 0; y < o.height; ++y) {
     cv::Vec3f* row = lin.ptr<cv::Vec3f>(y);
     // Radiance -> exposure (global drift, camera gain, vignetting) -> gamma.
@@ -159,12 +160,14 @@ void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>
         row[x] = cv::Vec3f(0, 0, 0);
         if (labels) labels->at<std::uint8_t>(y, x) = kVoid;
         if (depth) depth->at<float>(y, x) = 0.0f;
+        if (instances) instances->at<std::uint8_t>(y, x) = 0;
         prev_hit = -1;
         continue;
       }
       const Quad& q = quads[hit];
       if (labels) labels->at<std::uint8_t>(y, x) = q.cls;
       if (depth) depth->at<float>(y, x) = static_cast<float>(best);
+      if (instances) instances->at<std::uint8_t>(y, x) = q.instance;
       const Vector3d p = C + best * d;
       const Vector3d r = p - q.centre;
       const float s = static_cast<float>(r.dot(q.u) + q.hu + q.tex.x());
@@ -238,17 +241,19 @@ Frame render_frame(const Scene& scene, const SynthOptions& opts, int frame) {
   Frame fr;
   fr.pose = camera_pose(scene, opts, frame);
   const std::vector<Quad> quads = quads_at(scene, frame_time(opts, frame));
-  render_view(scene, opts, quads, fr.pose, frame, 0, fr.left, &fr.labels, &fr.depth);
+  render_view(scene, opts, quads, fr.pose, frame, 0, fr.left, &fr.labels, &fr.depth, &fr.instances);
   Pose right = fr.pose;
   for (int i = 0; i < 3; ++i) right.t[i] += opts.baseline * fr.pose.R[3 * i + 0];
-  render_view(scene, opts, quads, right, frame, 1, fr.right, nullptr, nullptr);
+  render_view(scene, opts, quads, right, frame, 1, fr.right, nullptr, nullptr, nullptr);
   return fr;
 }
 
 Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
   opts.validate();
   const Scene scene = build_scene(opts);
-  for (const char* sub : {"left", "right", "labels", "depth"}) {
+  const bool instances = has_instances(opts.scene);
+  for (const char* sub : {"left", "right", "labels", "depth", "instances"}) {
+    if (!instances && std::string(sub) == "instances") continue;
     std::error_code ec;
     fs::create_directories(out_dir / sub, ec);
     if (ec) throw Error((out_dir / sub).string(), "", "cannot create the folder: " + ec.message());
@@ -265,9 +270,9 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
   seq.calibration.cx = opts.cx();
   seq.calibration.cy = opts.cy();
   seq.calibration.baseline = opts.baseline;
-  seq.camera_height = opts.camera_height;
+  seq.camera_height = opts.camera_y();
   seq.label_encoding = LabelEncoding::Rgb;
-  seq.classes = classes();
+  seq.classes = classes(opts.scene);
   seq.void_class = void_class();
   for (int f = 0; f < opts.frames; ++f) {
     FrameEntry e;
@@ -276,8 +281,11 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
     e.label = fs::path("labels") / frame_name(f, ".png");
     e.gt_depth = fs::path("depth") / frame_name(f, ".npy");
     e.time = frame_time(opts, f);
+    if (f % opts.label_every == 0) {
+      seq.labelled_frames.push_back(f);
+      if (instances) e.instances = fs::path("instances") / frame_name(f, ".png");
+    }
     seq.frames.push_back(e);
-    if (f % opts.label_every == 0) seq.labelled_frames.push_back(f);
   }
   seq.gt_poses.resize(opts.frames);
 
@@ -290,6 +298,7 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
       write_image_atomic(out_dir / e.right, fr.right);
       write_image_atomic(out_dir / e.label, colour_labels(fr.labels, seq));
       write_npy_f32_atomic(out_dir / e.gt_depth, fr.depth);
+      if (!e.instances.empty()) write_image_atomic(out_dir / e.instances, fr.instances);
       seq.gt_poses[f] = fr.pose;
       progress.tick();
     }
@@ -304,7 +313,7 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
                   {"label_every", opts.label_every},
                   {"fps", opts.fps},
                   {"baseline", opts.baseline},
-                  {"camera_height", opts.camera_height},
+                  {"camera_height", opts.camera_y()},
                   {"hfov_deg", opts.hfov_deg},
                   {"speed", opts.speed},
                   {"noise_sigma", opts.noise_sigma}};
@@ -318,6 +327,21 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
                {"labels", "every frame has a label image; labelled_frames marks every label_every-th"},
                {"people", scene.people.size()},
                {"static_quads", scene.quads.size()}};
+  if (instances) {
+    Json objects = Json::array();
+    for (const Object& ob : scene.objects)
+      objects.push_back({{"id", ob.id},
+                         {"shape", ob.shape},
+                         {"colour", ob.colour},
+                         {"texture", ob.texture},
+                         {"base", {ob.base.x(), ob.base.y(), ob.base.z()}},
+                         {"size", {ob.size.x(), ob.size.y(), ob.size.z()}},
+                         {"yaw", ob.yaw}});
+    seq.extra["objects"] = std::move(objects);
+    seq.extra["instances"] =
+        "labelled frames have an instance image: 8-bit PNG, pixel = object id (objects[].id), 0 = not an object";
+    seq.extra["look_at"] = {scene.look_at.x(), scene.look_at.y(), scene.look_at.z()};
+  }
   save_sequence(seq);
   return load_sequence(out_dir);
 }

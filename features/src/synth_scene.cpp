@@ -912,6 +912,195 @@ void build_lab(Scene& sc, const SynthOptions& o, Rng& r) {
   }
 }
 
+// ---------------------------------------------------------------------------------------------
+// The tabletop: a room with a table in the middle, objects on it, the camera circling the table.
+
+/// An upright cylinder standing at base (its bottom centre): a prism of `sides` faces whose edges lie on
+/// the circle of radius r, and a disc lid of radius r.
+void cylinder(std::vector<Quad>& out, const Vector3d& base, double r, double height, int sides, std::uint8_t cls,
+              int side_mat, int top_mat) {
+  const double half_w = r * std::sin(kPi / sides), apothem = r * std::cos(kPi / sides);
+  for (int i = 0; i < sides; ++i) {
+    const double th = 2 * kPi * (i + 0.5) / sides;
+    const Vector3d n(std::cos(th), 0, std::sin(th));
+    Quad q;
+    q.centre = base + n * apothem + kUp * (height / 2);
+    q.u = Vector3d(std::sin(th), 0, -std::cos(th));  // u x up = n: the face looks outwards
+    q.v = kUp;
+    q.normal = q.u.cross(q.v);
+    q.hu = half_w;
+    q.hv = height / 2;
+    q.tex = Vector2d(2 * half_w * i, 0);  // the texture wraps around continuously
+    q.cls = cls;
+    q.material = side_mat;
+    out.push_back(q);
+  }
+  Quad lid;
+  lid.centre = base + kUp * height;
+  lid.u = Vector3d(0, 0, 1);
+  lid.v = Vector3d(1, 0, 0);
+  lid.normal = lid.u.cross(lid.v);  // up
+  lid.hu = lid.hv = r;
+  lid.cls = cls;
+  lid.material = top_mat;
+  lid.disc = true;
+  out.push_back(lid);
+}
+
+void build_tabletop(Scene& sc, const SynthOptions& o, Rng& r) {
+  Builder b(sc, r);
+  const double RX = 3.2, RZ = 2.8, H = 2.6;
+  sc.ceiling_height = H;
+  sc.ambient = 0.3f;
+  sc.look_at = Vector3d(0, kTableHeight + 0.1, 0);
+
+  // Camera path: around the table at 1.15-1.85 m from its centre, drifting towards and away from it.
+  CameraPath& path = sc.path;
+  path.closed = true;
+  const double ph1 = r.uniform(0, 2 * kPi), ph2 = r.uniform(0, 2 * kPi), start = r.uniform(0, 2 * kPi);
+  const double sense = r.chance(0.5) ? 1.0 : -1.0;
+  const int N = 1200;
+  for (int i = 0; i < N; ++i) {
+    const double th = start + sense * 2 * kPi * i / N;
+    const double radius = 1.5 + 0.3 * std::sin(2 * th + ph1) + 0.05 * std::sin(3 * th + ph2);
+    path.points.emplace_back(radius * std::cos(th), radius * std::sin(th));
+  }
+  finish_path(path);
+  integrate_speed(path, o, 0.0);
+
+  // Room: floor, ceiling with lights, painted walls with posters and a door.
+  int floor_mat;
+  if (r.chance(0.5)) {
+    static const double kCarpet[][3] = {{0.35, 0.38, 0.45}, {0.45, 0.4, 0.35}, {0.3, 0.4, 0.35}};
+    const auto& c = kCarpet[r.index(3)];
+    floor_mat = b.material(mat(Material::Carpet, lin(c[0], c[1], c[2]), lin(c[0] * 0.7, c[1] * 0.7, c[2] * 0.7),
+                               {0, 0, 0}, 0.5f));
+  } else {
+    floor_mat = b.material(mat(Material::Tiles, lin(0.75, 0.74, 0.7), lin(0.55, 0.58, 0.6), lin(0.4, 0.4, 0.38), 0.3f));
+  }
+  b.quad(Vector3d(0, 0, 0), Vector3d(0, 0, 1), Vector3d(1, 0, 0), RZ, RX, kFloor, floor_mat, Vector2d(-RZ, -RX));
+  const int ceil_mat = b.material(mat(Material::CeilingTiles, lin(0.9, 0.9, 0.88), lin(0.72, 0.72, 0.72), {0, 0, 0}, 0.6f));
+  b.quad(Vector3d(0, H, 0), Vector3d(1, 0, 0), Vector3d(0, 0, 1), RX, RZ, kCeiling, ceil_mat, Vector2d(-RX, -RZ));
+  for (double x : {-1.6, 0.0, 1.6})
+    for (double z : {-1.4, 1.4}) ceiling_light(b, Vector2d(x, z), Vector2d(1, 0), H, 0.8f, light_material(b, 1.6f));
+  const Vector2d corners[4] = {{RX, RZ}, {-RX, RZ}, {-RX, -RZ}, {RX, -RZ}};  // wall w runs from corner w to w + 1
+  const Vector2d inwards[4] = {{0, -1}, {1, 0}, {0, 1}, {-1, 0}};
+  const int door_wall = r.index(4);
+  for (int w = 0; w < 4; ++w) {
+    const Vector2d A = corners[w], B = corners[(w + 1) % 4], n = inwards[w];
+    const double len = (B - A).norm();
+    const Vector2d u = (B - A) / len;
+    const int paint = b.material(mat(Material::Plain, pastel(r), lin(0.2, 0.18, 0.16), {0, 0, 0}, 0.5f, 0.1f));
+    b.wall(A, B, n, 0.0, H, kWall, paint);
+    double door_at = -10;
+    if (w == door_wall) {
+      door_at = r.uniform(0.5, len - 1.6);
+      b.decal(A, u, n, door_at, 0.0, 0.9, 2.05, door_material(b));
+    }
+    // Posters at eye height (what the camera sees above the table), not over the door.
+    for (double at = 0.3 + r.uniform(0, 0.4); at < len - 0.9;) {
+      const double pw = r.uniform(0.45, 0.85), ph = r.uniform(0.55, 0.9);
+      if (at + pw > len - 0.3) break;
+      if (at + pw > door_at - 0.15 && at < door_at + 1.05) {
+        at = door_at + 1.05 + r.uniform(0.1, 0.4);
+        continue;
+      }
+      const int m = r.chance(0.2) ? b.material(mat(Material::Checker, lin(0.92, 0.92, 0.9), lin(0.04, 0.04, 0.04),
+                                                   {0, 0, 0}, static_cast<float>(pw / 8)))
+                                  : poster_material(b, pw, ph);
+      b.decal(A, u, n, at, 0.9 + r.uniform(0, 0.35), pw, ph, m);
+      at += pw + r.uniform(0.25, 0.9);
+    }
+  }
+
+  // The table: a wooden top on four legs, its long side along x.
+  const double thx = r.uniform(0.6, 0.8), thz = r.uniform(0.375, 0.475), top = 0.04, leg = 0.025;
+  const double k = r.uniform(0.85, 1.15);
+  const int wood = r.chance(0.5) ? b.material(mat(Material::Wood, lin(0.62 * k, 0.45 * k, 0.3 * k),
+                                                  lin(0.45 * k, 0.3 * k, 0.18 * k)))
+                                 : b.material(mat(Material::Wood, lin(0.8 * k, 0.68 * k, 0.5 * k),
+                                                  lin(0.66 * k, 0.52 * k, 0.36 * k)));
+  const int legs = b.material(mat(Material::Plain, lin(0.25, 0.25, 0.27)));
+  const Matrix3d ax = Matrix3d::Identity();
+  Builder::box(sc.quads, Vector3d(0, kTableHeight - top / 2, 0), ax, Vector3d(thx, top / 2, thz), kTable, wood, wood,
+               wood, true);
+  for (int sx = -1; sx <= 1; sx += 2)
+    for (int sz = -1; sz <= 1; sz += 2)
+      Builder::box(sc.quads, Vector3d(sx * (thx - 0.06), (kTableHeight - top) / 2, sz * (thz - 0.06)), ax,
+                   Vector3d(leg, (kTableHeight - top) / 2, leg), kTable, legs, legs, legs, false);
+
+  // Objects on the table: 3-6 boxes and cylinders of distinct colours, not touching, away from the edge.
+  Rng orng(detail::hash(o.seed, kObjects));
+  Builder ob(sc, orng);
+  struct Colour {
+    const char* name;
+    double r, g, b;
+  };
+  static const Colour kColours[] = {{"red", 0.85, 0.12, 0.10},   {"blue", 0.10, 0.30, 0.85},
+                                    {"green", 0.12, 0.65, 0.20}, {"yellow", 0.95, 0.80, 0.10},
+                                    {"orange", 0.95, 0.45, 0.08}, {"purple", 0.50, 0.15, 0.65},
+                                    {"cyan", 0.10, 0.70, 0.80},  {"magenta", 0.85, 0.15, 0.55}};
+  constexpr int kNumColours = 8;
+  int order[kNumColours];
+  for (int i = 0; i < kNumColours; ++i) order[i] = i;
+  for (int i = kNumColours - 1; i > 0; --i) std::swap(order[i], order[orng.index(i + 1)]);
+  const int count = 3 + orng.index(4);
+  const double lim_x = std::min(thx - 0.08, 0.5), lim_z = thz - 0.08;
+  struct Placed {
+    Vector2d c;
+    double radius;
+  };
+  std::vector<Placed> placed;
+  for (int i = 0; i < count; ++i) {
+    const bool is_box = orng.chance(0.5);
+    Vector3d size = is_box ? Vector3d(orng.uniform(0.1, 0.24), orng.uniform(0.08, 0.28), orng.uniform(0.1, 0.22))
+                           : Vector3d(0, orng.uniform(0.1, 0.26), 0);
+    if (!is_box) size.x() = size.z() = 2 * orng.uniform(0.04, 0.08);
+    const double yaw = is_box ? orng.uniform(0, kPi) : 0.0;
+    Vector2d pos;
+    bool ok = false;
+    for (int attempt = 0; attempt < 300 && !ok; ++attempt) {
+      if (attempt > 0 && attempt % 60 == 0) size = Vector3d(size.x() * 0.85, size.y(), size.z() * 0.85);
+      const double radius = 0.5 * std::hypot(size.x(), size.z());
+      if (lim_x - radius <= 0 || lim_z - radius <= 0) continue;
+      pos = Vector2d(orng.uniform(-lim_x + radius, lim_x - radius), orng.uniform(-lim_z + radius, lim_z - radius));
+      ok = std::all_of(placed.begin(), placed.end(),
+                       [&](const Placed& p) { return (p.c - pos).norm() >= p.radius + radius + 0.06; });
+      if (ok) placed.push_back({pos, radius});
+    }
+    if (!ok) continue;  // no room left on the table
+    const Colour& col = kColours[order[i]];
+    const std::array<float, 3> a = lin(col.r, col.g, col.b);
+    const int texture = orng.index(3);
+    Material m;
+    if (texture == 0) {  // speckled: the colour with fine noise
+      m = mat(Material::Fabric, a);
+    } else if (texture == 1) {  // striped: the colour and a darker shade
+      m = mat(Material::Fabric, a, lin(col.r * 0.45, col.g * 0.45, col.b * 0.45));
+      m.scale2 = static_cast<float>(orng.uniform(0.02, 0.04));
+    } else {  // checked: the colour and off-white
+      m = mat(Material::Checker, a, lin(0.92, 0.9, 0.86), {0, 0, 0}, static_cast<float>(orng.uniform(0.025, 0.045)));
+    }
+    const int mi = ob.material(m);
+    const std::size_t first = sc.quads.size();
+    if (is_box) {
+      ob.floor_box(pos, kTableHeight, yaw, size, kObject, mi, mi, mi);
+    } else {
+      cylinder(sc.quads, at_height(pos, kTableHeight), size.x() / 2, size.y(), 24, kObject, mi, mi);
+    }
+    Object obj;
+    obj.id = static_cast<int>(sc.objects.size()) + 1;
+    for (std::size_t q = first; q < sc.quads.size(); ++q) sc.quads[q].instance = static_cast<std::uint8_t>(obj.id);
+    obj.shape = is_box ? "box" : "cylinder";
+    obj.colour = col.name;
+    obj.texture = texture == 0 ? "speckled" : texture == 1 ? "striped" : "checked";
+    obj.base = at_height(pos, kTableHeight);
+    obj.size = size;
+    obj.yaw = yaw;
+    sc.objects.push_back(obj);
+  }
+}
+
 /// Moves everything by -shift in XZ so that the world origin is under the first camera position.
 void shift_scene(Scene& sc, const Vector2d& shift) {
   const Vector3d d(shift.x(), 0, shift.y());
@@ -922,6 +1111,8 @@ void shift_scene(Scene& sc, const Vector2d& shift) {
     p.b -= shift;
   }
   for (auto& p : sc.path.points) p -= shift;
+  for (auto& ob : sc.objects) ob.base -= d;
+  sc.look_at -= d;
 }
 
 }  // namespace
@@ -937,10 +1128,18 @@ std::vector<ClassInfo> classes() {
 
 ClassInfo void_class() { return {"void", 255, {0, 0, 0}}; }
 
+std::vector<ClassInfo> classes(const std::string& scene) {
+  if (scene != "tabletop") return classes();
+  // Floor, wall and ceiling as in the other scenes; the table red like furniture, objects orange.
+  return {{"floor", 0, {120, 190, 250}}, {"wall", 1, {30, 50, 160}},   {"ceiling", 2, {40, 170, 60}},
+          {"table", 3, {210, 30, 30}},   {"object", 4, {255, 160, 0}}};
+}
+
 void SynthOptions::validate() const {
   auto fail = [](const char* option, const std::string& why) { throw Error("", option, why); };
   auto finite = [](double v) { return std::isfinite(v); };
-  if (scene != "corridor" && scene != "lab") fail("scene", "is \"" + scene + "\", expected \"corridor\" or \"lab\"");
+  if (scene != "corridor" && scene != "lab" && scene != "tabletop")
+    fail("scene", "is \"" + scene + "\", expected \"corridor\", \"lab\" or \"tabletop\"");
   if (frames < 1 || frames > 100000) fail("frames", "must be in 1..100000, got " + std::to_string(frames));
   if (width < 16 || width > 4096) fail("width", "must be in 16..4096, got " + std::to_string(width));
   if (height < 16 || height > 4096) fail("height", "must be in 16..4096, got " + std::to_string(height));
@@ -948,8 +1147,8 @@ void SynthOptions::validate() const {
   if (!finite(fps) || fps <= 0 || fps > 240) fail("fps", "must be in (0, 240], got " + std::to_string(fps));
   if (!finite(baseline) || baseline <= 0 || baseline > 1)
     fail("baseline", "must be in (0, 1] metres, got " + std::to_string(baseline));
-  if (!finite(camera_height) || camera_height < 0.3 || camera_height > 2.0)
-    fail("camera_height", "must be in [0.3, 2.0] metres, got " + std::to_string(camera_height));
+  if (camera_height && (!finite(*camera_height) || *camera_height < 0.3 || *camera_height > 2.0))
+    fail("camera_height", "must be in [0.3, 2.0] metres, got " + std::to_string(*camera_height));
   if (!finite(hfov_deg) || hfov_deg < 20 || hfov_deg > 120)
     fail("hfov_deg", "must be in [20, 120] degrees, got " + std::to_string(hfov_deg));
   if (!finite(speed) || speed < 0 || speed > 2) fail("speed", "must be in [0, 2] m/s, got " + std::to_string(speed));
@@ -958,6 +1157,11 @@ void SynthOptions::validate() const {
 }
 
 double SynthOptions::fx() const { return (width / 2.0) / std::tan(hfov_deg * kPi / 360.0); }
+
+double SynthOptions::camera_y() const {
+  if (camera_height) return *camera_height;
+  return scene == "tabletop" ? kTabletopCameraHeight : 1.0;
+}
 
 double frame_time(const SynthOptions& opts, int frame) { return frame / opts.fps; }
 
@@ -977,11 +1181,21 @@ Pose camera_pose(const Scene& scene, const SynthOptions& o, int frame) {
   const double yaw = (1.0 * std::sin(2 * kPi * t / 3.3 + ph[1]) + 0.4 * std::sin(2 * kPi * t / 1.7 + ph[2])) * deg;
   const double pitch = (0.6 * std::sin(2 * kPi * t / 2.3 + ph[3]) + 0.2 * std::sin(2 * kPi * t / 0.97 + ph[4])) * deg;
   const double roll = 0.5 * std::sin(2 * kPi * t / 3.7 + ph[5]) * deg;
-  const double y = o.camera_height + 0.004 * std::sin(2 * kPi * t / 0.83 + ph[6]);
+  const double y = o.camera_y() + 0.004 * std::sin(2 * kPi * t / 0.83 + ph[6]);
   Matrix3d R0;
-  R0.col(0) = Vector3d(-f2.y(), 0, f2.x());  // right
-  R0.col(1) = Vector3d(0, -1, 0);            // down
-  R0.col(2) = Vector3d(f2.x(), 0, f2.y());   // forward
+  if (scene.name == "tabletop") {  // look at the table (a point drifting 10 cm around its centre)
+    const Vector3d target = scene.look_at + Vector3d(0.1 * std::sin(2 * kPi * t / 6.1 + ph[7]), 0,
+                                                     0.1 * std::cos(2 * kPi * t / 7.7 + ph[7]));
+    const Vector3d f = (target - at_height(pos, y)).normalized();
+    const Vector3d right = f.cross(kUp).normalized();
+    R0.col(0) = right;
+    R0.col(1) = f.cross(right);  // down
+    R0.col(2) = f;
+  } else {  // look along the direction of travel
+    R0.col(0) = Vector3d(-f2.y(), 0, f2.x());  // right
+    R0.col(1) = Vector3d(0, -1, 0);            // down
+    R0.col(2) = Vector3d(f2.x(), 0, f2.y());   // forward
+  }
   const Matrix3d R = R0 * Eigen::AngleAxisd(yaw, Vector3d::UnitY()).toRotationMatrix() *
                      Eigen::AngleAxisd(pitch, Vector3d::UnitX()).toRotationMatrix() *
                      Eigen::AngleAxisd(roll, Vector3d::UnitZ()).toRotationMatrix();
@@ -1000,8 +1214,10 @@ Scene build_scene(const SynthOptions& opts) {
   sc.gain_phase = r.uniform(0, 2 * kPi);
   if (opts.scene == "corridor") {
     build_corridor(sc, opts, r);
-  } else {
+  } else if (opts.scene == "lab") {
     build_lab(sc, opts, r);
+  } else {
+    build_tabletop(sc, opts, r);
   }
   const Pose p0 = camera_pose(sc, opts, 0);
   shift_scene(sc, Vector2d(p0.t[0], p0.t[2]));

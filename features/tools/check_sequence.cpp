@@ -6,7 +6,7 @@
 
 int main(int argc, char** argv) {
   CLI::App app{"Validate a sequence: its manifest and every image it names (sizes, label colours or\n"
-               "values), then print a one-paragraph summary. Exit 1 with one line naming the file and\n"
+               "values, instance images), then print a one-paragraph summary. Exit 1 with one line naming the file and\n"
                "the problem if anything is wrong.",
                "check-sequence"};
   std::string dir;
@@ -21,6 +21,9 @@ int main(int argc, char** argv) {
               << ", " << seq.frame_count() << " frames of " << seq.size.width << "x" << seq.size.height << ", "
               << seq.labelled_frames.size() << " labelled, " << seq.classes.size() << " classes";
     if (seq.calibration.fx) std::cout << ", fx " << *seq.calibration.fx;
+    int instances = 0;
+    for (int f = 0; f < seq.frame_count(); ++f) instances += seq.has_instances(f);
+    if (instances > 0) std::cout << ", " << instances << " instance images";
     std::cout << (quick ? " (images not decoded)" : "") << "\n";
     return 0;
   });

@@ -15,14 +15,19 @@ int main(int argc, char** argv) {
                "cluttered lab, with a walking person, textured surfaces, lighting changes and sensor noise.\n"
                "Writes left/right images, a label image and ground-truth depth for every frame, and the\n"
                "manifest (sequence.json) with calibration and ground-truth camera poses. Classes: floor, wall,\n"
-               "ceiling, furniture, obstacle, person. Same options and seed give byte-identical files.",
+               "ceiling, furniture, obstacle, person. The tabletop scene (for the point-cloud segmenters): a\n"
+               "camera circling a table with 3-6 boxes and cylinders on it; classes floor, wall, ceiling,\n"
+               "table, object, and an instance image (object ids) per labelled frame in instances/.\n"
+               "Same options and seed give byte-identical files.",
                "make-sequence"};
   std::string out, size = "320x240", montage;
   int montage_frames = 4;
   double montage_scale = 1.0;
   bool quiet = false;
-  app.add_option("--scene", o.scene, "scene: corridor or lab (default corridor)")
-      ->check(CLI::IsMember({"corridor", "lab"}));
+  app.add_option("--scene", o.scene,
+                 "scene: corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling "
+                 "it; also writes instance images) (default corridor)")
+      ->check(CLI::IsMember({"corridor", "lab", "tabletop"}));
   app.add_option("--seed", o.seed, "random seed for layout, textures, people and noise (default 1)");
   app.add_option("--frames", o.frames, "number of frames (default 300)");
   app.add_option("--size", size, "image size WIDTHxHEIGHT (default 320x240)");
@@ -31,7 +36,8 @@ int main(int argc, char** argv) {
                  "(default 10)");
   app.add_option("--fps", o.fps, "frame rate in Hz (default 12, as in the thesis)");
   app.add_option("--baseline", o.baseline, "stereo baseline in metres (default 0.12)");
-  app.add_option("--camera-height", o.camera_height, "camera height above the floor in metres (default 1.0)");
+  app.add_option("--camera-height", o.camera_height,
+                 "camera height above the floor in metres (default 1.0; tabletop 1.15, the table top + 0.4)");
   app.add_option("--hfov", o.hfov_deg, "horizontal field of view in degrees (default 66)");
   app.add_option("--speed", o.speed, "mean robot speed in m/s (default 0.45)");
   app.add_option("--noise", o.noise_sigma, "sensor read noise, grey levels of 255 (default 2)");

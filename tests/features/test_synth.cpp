@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <random>
+#include <set>
 #include <sstream>
 
 #include <Eigen/Dense>
@@ -249,7 +250,7 @@ TEST(Synth, PosesFollowTheWorldConvention) {
   const Pose p0 = sy::camera_pose(scene, o, 0);
   EXPECT_NEAR(p0.t[0], 0.0, 1e-9);
   EXPECT_NEAR(p0.t[2], 0.0, 1e-9);
-  EXPECT_NEAR(p0.t[1], o.camera_height, 0.01);
+  EXPECT_NEAR(p0.t[1], o.camera_y(), 0.01);
   double yaw0 = 0;
   int phase = 0;  // 0: before the first turn, 1: turned ~90 degrees, 2: turned back
   double travelled = 0;
@@ -388,3 +389,192 @@ TEST(Synth, BadOptionsNameTheOption) {
 }
 
 }  // namespace
+
+// ---------------------------------------------------------------------------------------------------
+// The tabletop scene: a table with 3-6 objects, the camera circling it, instance images.
+
+namespace {
+
+sy::SynthOptions tabletop(std::uint64_t seed, int frames) {
+  sy::SynthOptions o = small("tabletop", frames);
+  o.seed = seed;
+  return o;
+}
+
+/// True when world point p lies inside object ob (its box or cylinder), grown by tol metres.
+bool inside_object(const sy::Object& ob, const Vector3d& p, double tol) {
+  const Vector3d r = p - ob.base;
+  if (r.y() < -tol || r.y() > ob.size.y() + tol) return false;
+  if (ob.shape == "cylinder") return std::hypot(r.x(), r.z()) <= ob.size.x() / 2 + tol;
+  // Box turned by yaw: local x = (cos, 0, -sin), local z = (sin, 0, cos).
+  const double lx = r.x() * std::cos(ob.yaw) - r.z() * std::sin(ob.yaw);
+  const double lz = r.x() * std::sin(ob.yaw) + r.z() * std::cos(ob.yaw);
+  return std::abs(lx) <= ob.size.x() / 2 + tol && std::abs(lz) <= ob.size.z() / 2 + tol;
+}
+
+}  // namespace
+
+// The layout: 3-6 distinct objects standing on the table top, inside its edges and not overlapping.
+TEST(SynthTabletop, ObjectsStandOnTheTableApart) {
+  for (std::uint64_t seed : {1, 2, 3, 4, 5, 6}) {
+    const sy::Scene scene = sy::build_scene(tabletop(seed, 2));
+    ASSERT_GE(scene.objects.size(), 3u) << "seed " << seed;
+    ASSERT_LE(scene.objects.size(), 6u) << "seed " << seed;
+    std::set<std::string> colours;
+    for (std::size_t i = 0; i < scene.objects.size(); ++i) {
+      const sy::Object& a = scene.objects[i];
+      EXPECT_EQ(a.id, static_cast<int>(i) + 1);
+      EXPECT_NEAR(a.base.y(), sy::kTableHeight, 1e-12);
+      EXPECT_LE(std::hypot(a.base.x() - scene.look_at.x(), a.base.z() - scene.look_at.z()), 0.6) << "seed " << seed;
+      EXPECT_TRUE(colours.insert(a.colour).second) << "seed " << seed << ": two " << a.colour << " objects";
+      for (std::size_t j = 0; j < i; ++j) {
+        const sy::Object& b = scene.objects[j];
+        const double gap = std::hypot(a.base.x() - b.base.x(), a.base.z() - b.base.z()) -
+                           0.5 * std::hypot(a.size.x(), a.size.z()) - 0.5 * std::hypot(b.size.x(), b.size.z());
+        EXPECT_GE(gap, 0.05) << "seed " << seed << ": objects " << a.id << " and " << b.id << " touch";
+      }
+    }
+  }
+}
+
+// The renderer's fast path (with the cylinders' disc lids) equals the brute-force ray caster, instance
+// ids included, and every object pixel's 3D point lies on its object.
+TEST(SynthTabletop, InstancesAgreeWithRayCastAndObjectGeometry) {
+  const auto o = tabletop(2, 24);
+  const sy::Scene scene = sy::build_scene(o);
+  const auto quads = sy::quads_at(scene, 0.0);
+  std::mt19937 rng(11);
+  int object_pixels = 0, cast = 0;
+  for (int f : {0, 9, 23}) {
+    const sy::Frame fr = sy::render_frame(scene, o, f);
+    const Vector3d C = centre(fr.pose);
+    for (int k = 0; k < 300; ++k) {
+      const int x = static_cast<int>(rng() % o.width), y = static_cast<int>(rng() % o.height);
+      const sy::RayHit h = sy::cast_ray(quads, C, sy::pixel_ray(o, fr.pose, x, y));
+      ASSERT_TRUE(h.hit) << "pixel " << x << "," << y << " sees nothing: the room is not closed";
+      EXPECT_EQ(fr.labels.at<std::uint8_t>(y, x), h.cls) << "frame " << f << " pixel " << x << "," << y;
+      EXPECT_EQ(fr.instances.at<std::uint8_t>(y, x), quads[h.quad].instance) << "frame " << f;
+      EXPECT_EQ(fr.depth.at<float>(y, x), static_cast<float>(h.lambda));
+      ++cast;
+    }
+    for (int y = 0; y < o.height; ++y)
+      for (int x = 0; x < o.width; ++x) {
+        const int id = fr.instances.at<std::uint8_t>(y, x);
+        ASSERT_EQ(id != 0, fr.labels.at<std::uint8_t>(y, x) == sy::kObject) << "pixel " << x << "," << y;
+        if (id == 0) continue;
+        ASSERT_LE(id, static_cast<int>(scene.objects.size()));
+        const Vector3d p = C + fr.depth.at<float>(y, x) * sy::pixel_ray(o, fr.pose, x, y);
+        EXPECT_TRUE(inside_object(scene.objects[id - 1], p, 0.005))
+            << "frame " << f << " pixel " << x << "," << y << " of object " << id << " is off the object";
+        ++object_pixels;
+      }
+  }
+  EXPECT_EQ(cast, 900);
+  EXPECT_GT(object_pixels, 300);
+}
+
+// The camera circles the table at about the table top + 0.4 m, always moving, looking down at the table;
+// every object is seen (at least 15 pixels at 160x120) in most frames.
+TEST(SynthTabletop, CameraCirclesTheTableAndSeesTheObjects) {
+  for (std::uint64_t seed : {1, 3}) {
+    const auto o = tabletop(seed, 120);
+    const sy::Scene scene = sy::build_scene(o);
+    const int K = static_cast<int>(scene.objects.size());
+    std::vector<int> seen(K + 1, 0);
+    int frames = 0;
+    double travelled = 0, turned = 0;
+    Eigen::Vector2d prev_dir(0, 0);
+    for (int f = 0; f < o.frames; ++f) {
+      const Pose p = sy::camera_pose(scene, o, f);
+      EXPECT_NEAR(p.t[1], sy::kTableHeight + 0.4, 0.01);
+      const Eigen::Vector2d rel(p.t[0] - scene.look_at.x(), p.t[2] - scene.look_at.z());
+      EXPECT_GT(rel.norm(), 1.1) << "seed " << seed << " frame " << f;
+      EXPECT_LT(rel.norm(), 1.9) << "seed " << seed << " frame " << f;
+      EXPECT_LT(p.R[5], -0.1) << "the optical axis (R column 2) points down";
+      if (f > 0) {
+        const Pose q = sy::camera_pose(scene, o, f - 1);
+        const double step = std::hypot(p.t[0] - q.t[0], p.t[2] - q.t[2]);
+        EXPECT_GT(step, 0.01) << "seed " << seed << " frame " << f << ": the camera stands still";
+        EXPECT_LT(step, 0.08) << "seed " << seed << " frame " << f;
+        travelled += step;
+        turned += std::abs(std::atan2(prev_dir.x() * rel.y() - prev_dir.y() * rel.x(), prev_dir.dot(rel)));
+      }
+      prev_dir = rel;
+      if (f % 4 != 0) continue;
+      const sy::Frame fr = sy::render_frame(scene, o, f);
+      for (int id = 1; id <= K; ++id) seen[id] += cv::countNonZero(fr.instances == id) >= 15;
+      ++frames;
+    }
+    for (int id = 1; id <= K; ++id)
+      EXPECT_GE(seen[id], 0.8 * frames) << "seed " << seed << ": object " << id << " seen in " << seen[id] << " of "
+                                        << frames << " frames";
+    EXPECT_GT(travelled / (o.frames / o.fps), 0.3);
+    EXPECT_GT(turned, 0.5) << "the camera moves around the table";
+  }
+}
+
+// The written sequence: tabletop classes, an instance image for every labelled frame (and only those),
+// object pixels exactly the pixels labelled object, the object list in the manifest.
+TEST(SynthTabletop, WritesAValidSequenceWithInstanceImages) {
+  const fs::path dir = temp_dir("tabletop");
+  auto o = tabletop(4, 13);
+  o.label_every = 6;
+  sy::make_sequence(o, dir);
+  const Sequence seq = load_sequence(dir);
+  EXPECT_NO_THROW(validate_images(seq));
+  ASSERT_EQ(seq.classes.size(), 5u);
+  const char* names[] = {"floor", "wall", "ceiling", "table", "object"};
+  for (int c = 0; c < 5; ++c) EXPECT_EQ(seq.classes[c].name, names[c]);
+  EXPECT_NEAR(*seq.camera_height, 1.15, 1e-12);
+  EXPECT_EQ(seq.labelled_frames, (std::vector<int>{0, 6, 12}));
+  const int K = static_cast<int>(seq.extra["objects"].size());
+  EXPECT_GE(K, 3);
+  for (int f = 0; f < seq.frame_count(); ++f) {
+    EXPECT_EQ(seq.has_instances(f), f % 6 == 0) << "frame " << f;
+    if (!seq.has_instances(f)) continue;
+    const cv::Mat inst = seq.load_instances(f), labels = seq.load_labels(f);
+    EXPECT_EQ(cv::countNonZero((inst > 0) != (labels == sy::kObject)), 0) << "frame " << f;
+    double lo, hi;
+    cv::minMaxLoc(inst, &lo, &hi);
+    EXPECT_LE(hi, K);
+    EXPECT_GT(cv::countNonZero(labels == sy::kTable), 500) << "frame " << f;
+    EXPECT_EQ(cv::countNonZero(labels == kVoid), 0) << "frame " << f;
+  }
+  // Other scenes have no instance images, and asking for one is an error naming the field.
+  const fs::path lab = temp_dir("lab_noinst");
+  sy::make_sequence(small("lab", 2), lab);
+  const Sequence ls = load_sequence(lab);
+  EXPECT_FALSE(ls.has_instances(0));
+  EXPECT_FALSE(fs::exists(lab / "instances"));
+  try {
+    ls.load_instances(0);
+    ADD_FAILURE() << "no error";
+  } catch (const smseg::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("instances"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+  fs::remove_all(lab);
+}
+
+TEST(SynthTabletop, SameSeedSameBytesWhateverTheThreadCount) {
+  const fs::path a = temp_dir("tt_a"), b = temp_dir("tt_b"), c = temp_dir("tt_c");
+  auto o = tabletop(7, 5);
+  o.label_every = 2;
+  sy::make_sequence(o, a);
+  tbb::task_arena one(1);
+  one.execute([&] { sy::make_sequence(o, b); });
+  int files = 0;
+  for (const auto& e : fs::recursive_directory_iterator(a)) {
+    if (!e.is_regular_file()) continue;
+    const fs::path rel = fs::relative(e.path(), a);
+    ASSERT_TRUE(fs::exists(b / rel)) << rel;
+    EXPECT_EQ(slurp(e.path()), slurp(b / rel)) << rel << " differs between runs";
+    ++files;
+  }
+  EXPECT_EQ(files, 1 + 4 * 5 + 3);  // manifest, 4 files per frame, instances of frames 0, 2, 4
+  o.seed = 8;
+  sy::make_sequence(o, c);
+  EXPECT_NE(slurp(a / "left/000000.png"), slurp(c / "left/000000.png"));
+  EXPECT_NE(slurp(a / "sequence.json"), slurp(c / "sequence.json"));
+  for (const auto& d : {a, b, c}) fs::remove_all(d);
+}

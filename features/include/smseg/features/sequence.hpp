@@ -53,6 +53,7 @@ struct FrameEntry {
   fs::path disparity;  ///< stereo: precomputed left disparity (float NPY or 16-bit PNG / 256), optional
   fs::path label;      ///< label image, required for labelled frames, optional for others
   fs::path gt_depth;   ///< ground-truth depth (float32 NPY, metres, 0 = none), synthetic sequences
+  fs::path instances;  ///< object instance image (8-bit PNG, 1..K = object id, 0 = none), optional
   double time = 0;     ///< seconds since the first frame
 };
 
@@ -88,6 +89,10 @@ struct Sequence {
   /// CV_8UC1 class positions / kVoid; a pixel whose colour or value is not in the class list (nor
   /// void) is an Error naming the file, the pixel and the value.
   cv::Mat load_labels(int frame) const;
+  /// CV_8UC1 object ids (0 = not an object); Error when the frame has none or the file is not an 8-bit
+  /// single-channel image of the sequence's size.
+  cv::Mat load_instances(int frame) const;
+  bool has_instances(int frame) const;
 };
 
 /// Reads and validates `dir/sequence.json` (or a manifest file given directly).

@@ -39,11 +39,20 @@
 //   the camera when the candidates allow.
 // - World frame (DESIGN 3.2): Y up, origin on the floor under the first camera position; poses are
 //   camera-to-world R (columns = camera x right, y down, z forward in world coordinates) and centre t.
+// - Tabletop (for the point-cloud segmenters of issue 8): a 6.4 x 5.6 m room (floor, walls with
+//   posters and a door, ceiling with lights) with a wooden table in the middle (0.75 m high, 1.2-1.6 x
+//   0.75-0.95 m top, four legs) and 3-6 objects on it, boxes and cylinders (24-sided prisms with a disc
+//   lid) of distinct saturated colours, plain, striped or checked, placed from the seed without touching
+//   and away from the table's edge. The stereo camera (default 1.15 m high, the table top + 0.4 m) circles
+//   the table at 1.15-1.85 m from its centre, drifting towards and away from it, always looking at the
+//   table (a little sway on top), at about `speed` m/s. Classes floor, wall, ceiling, table, object;
+//   every object also has an instance id 1..K (instance images, see make_sequence).
 // - Everything random derives from `seed` through counter-based hashing; same options and seed give
 //   byte-identical files.
 
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -54,20 +63,25 @@
 
 namespace smseg::features::synth {
 
-/// The classes, in this order (their positions in Sequence::classes).
+/// The classes, in this order (their positions in Sequence::classes). The tabletop scene has the first
+/// five, with furniture named "table" (kTable) and obstacle named "object" (kObject), and no person.
 enum Class : std::uint8_t { kFloor = 0, kWall, kCeiling, kFurniture, kObstacle, kPerson, kClassCount };
-std::vector<ClassInfo> classes();  ///< names and display colours, RGB label encoding
+inline constexpr std::uint8_t kTable = kFurniture, kObject = kObstacle;
+std::vector<ClassInfo> classes();  ///< corridor and lab: names and display colours, RGB label encoding
+std::vector<ClassInfo> classes(const std::string& scene);  ///< the class list of a scene
 ClassInfo void_class();            ///< black (0, 0, 0), value 255
+inline bool has_instances(const std::string& scene) { return scene == "tabletop"; }
 
 struct SynthOptions {
-  std::string scene = "corridor";  ///< "corridor" or "lab"
+  std::string scene = "corridor";  ///< "corridor", "lab" or "tabletop"
   std::uint64_t seed = 1;          ///< geometry, textures, people, noise all derive from it
   int frames = 300;                ///< number of frames, >= 1
   int width = 320, height = 240;   ///< image size in pixels, each in 16..4096
   int label_every = 10;            ///< the manifest marks frames 0, n, 2n, ... as labelled (>= 1)
   double fps = 12.0;               ///< frame rate (the thesis captured at about 12 Hz)
   double baseline = 0.12;          ///< stereo baseline in metres (Bumblebee2: 12 cm), (0, 1]
-  double camera_height = 1.0;      ///< optical centre above the floor in metres, [0.3, 2.0]
+  /// Optical centre above the floor in metres, [0.3, 2.0]; unset: the scene's default (camera_y()).
+  std::optional<double> camera_height;
   double hfov_deg = 66.0;          ///< horizontal field of view in degrees, [20, 120]
   double speed = 0.45;             ///< mean robot speed in m/s, [0, 2]
   double noise_sigma = 2.0;        ///< sensor read noise in grey levels (0..255 scale), [0, 50]
@@ -76,9 +90,14 @@ struct SynthOptions {
   /// Throws Error("", "<option>", why) for the first invalid option.
   void validate() const;
   double fx() const;  ///< focal length in pixels (fx = fy)
+  /// camera_height, or the scene's default: 1.0 (corridor, lab), kTabletopCameraHeight (tabletop).
+  double camera_y() const;
   double cx() const { return (width - 1) / 2.0; }
   double cy() const { return (height - 1) / 2.0; }
 };
+
+inline constexpr double kTableHeight = 0.75;          ///< tabletop: height of the table top, metres
+inline constexpr double kTabletopCameraHeight = 1.15;  ///< tabletop: default camera height (table + 0.4 m)
 
 /// Procedural surface appearance; see synth_texture.cpp for each kind.
 struct Material {
@@ -95,12 +114,15 @@ struct Material {
 
 /// A one-sided rectangle: centre + s*u + t*v for |s| <= hu, |t| <= hv; visible from the side
 /// normal = u x v points to. Texture coordinates are (s + hu + tex.x, t + hv + tex.y), in metres.
+/// A disc quad is the ellipse inscribed in the rectangle, (s/hu)^2 + (t/hv)^2 <= 1 (cylinder lids).
 struct Quad {
   Eigen::Vector3d centre, u, v, normal;
   double hu = 0, hv = 0;
   Eigen::Vector2d tex{0, 0};
   std::uint8_t cls = kWall;
-  int material = 0;  ///< index into Scene::materials
+  int material = 0;           ///< index into Scene::materials
+  std::uint8_t instance = 0;  ///< object id 1..K (tabletop objects), 0 for everything else
+  bool disc = false;
 };
 
 struct Light {
@@ -125,8 +147,20 @@ struct CameraPath {
   std::vector<double> frame_arc;        ///< arc length travelled at each frame
 };
 
+/// A tabletop object (for the manifest and the tests): instance id, shape, where it stands.
+struct Object {
+  int id = 0;                  ///< 1..K, the value in the instance images
+  std::string shape;           ///< "box" or "cylinder"
+  std::string colour;          ///< colour name (its base colour)
+  std::string texture;         ///< "plain", "stripes" or "checks"
+  Eigen::Vector3d base{0, 0, 0};  ///< world point at the centre of its bottom face
+  Eigen::Vector3d size{0, 0, 0};  ///< box: width, height, depth; cylinder: diameter, height, diameter
+  double yaw = 0;              ///< radians about world Y
+};
+
 struct Scene {
   std::string name;
+  std::vector<Object> objects;  ///< tabletop objects, id order
   std::vector<Material> materials;
   std::vector<Quad> quads;  ///< static geometry
   std::vector<Light> lights;
@@ -136,6 +170,7 @@ struct Scene {
   double light_range = 7.0;  ///< a light contributes nothing beyond this distance
   double ambient = 0.3;
   double gain_phase = 0.0;   ///< phase of the slow global illumination drift
+  Eigen::Vector3d look_at{0, 0, 0};  ///< tabletop: the point the camera looks at (the table's centre)
 };
 
 /// Builds the scene of opts.scene for opts.seed, including the camera path for opts.frames frames.
@@ -168,6 +203,7 @@ struct Frame {
   cv::Mat left, right;  ///< CV_8UC3 BGR
   cv::Mat labels;       ///< CV_8UC1 class positions, kVoid where nothing was hit
   cv::Mat depth;        ///< CV_32FC1 z-depth of the left camera in metres, 0 where nothing was hit
+  cv::Mat instances;    ///< CV_8UC1 object id of the hit quad (1..K), 0 for non-objects and void
   Pose pose;            ///< left camera
 };
 
@@ -175,8 +211,9 @@ struct Frame {
 Frame render_frame(const Scene& scene, const SynthOptions& opts, int frame);
 
 /// Renders every frame and writes the sequence into out_dir (created if missing): left/NNNNNN.png,
-/// right/NNNNNN.png, labels/NNNNNN.png (RGB class colours, every frame), depth/NNNNNN.npy, and last
-/// the manifest sequence.json. Returns the sequence as load_sequence would read it.
+/// right/NNNNNN.png, labels/NNNNNN.png (RGB class colours, every frame), depth/NNNNNN.npy, for scenes
+/// with objects (tabletop) instances/NNNNNN.png (8-bit, object id 1..K, 0 = no object; labelled frames
+/// only), and last the manifest sequence.json. Returns the sequence as load_sequence would read it.
 Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir);
 
 /// A montage for the docs: one row per frame, columns left image | colour labels | false-colour depth
