@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 
 #include <tbb/global_control.h>
 
@@ -31,7 +32,7 @@ smseg::Json nan_null(double v) { return std::isnan(v) ? smseg::Json(nullptr) : s
 struct GrabCutSfmCli {
   std::string sequence, work, cloud, out;  // cloud: empty = WORK/cloud.pcd
   int frame = -1;
-  std::string truth_label, truth_region = "largest", truth_mask;
+  std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
   int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
   smseg::features::GrabCutSfmParams params;
 };
@@ -46,8 +47,8 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
   if (o.sequence.empty()) throw Error("", "--sequence", "grabcut-sfm needs the sequence folder");
   if (o.work.empty()) throw Error("", "--work", "grabcut-sfm needs the work folder (tracks.json, cloud.pcd)");
   if (o.frame < 0) throw Error("", "--frame", "grabcut-sfm needs the frame index (>= 0)");
-  if (!o.truth_label.empty() && !o.truth_mask.empty())
-    throw Error("", "--truth-label", "give --truth-label or --truth-mask, not both");
+  if (int(!o.truth_label.empty()) + int(!o.truth_mask.empty()) + int(!o.truth_instance.empty()) > 1)
+    throw Error("", "--truth-label", "give one of --truth-label, --truth-mask and --truth-instance");
   if (o.truth_region != "largest" && o.truth_region != "all")
     throw Error("", "--truth-region", "must be largest or all");
   if (o.truth_value < 0 || o.truth_value > 255) throw Error("", "--truth-value", "must be 0..255");
@@ -122,6 +123,48 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
         if (stats.at<int>(c, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = c;
       truth = comp == best;
     }
+  } else if (!o.truth_instance.empty()) {
+    // The sequence's instance image (object ids 1..K); "nearest": the object whose pixels have the
+    // smallest median ground-truth depth, "all": every object, else one id.
+    if (!seq.has_instances(o.frame))
+      throw Error(seq.manifest.string(), "--truth-instance",
+                  "frame " + std::to_string(o.frame) + " has no instance image");
+    const cv::Mat inst = seq.load_instances(o.frame);
+    int id = 0;
+    if (o.truth_instance == "nearest") {
+      const cv::Mat depth = seq.load_gt_depth(o.frame);
+      std::vector<std::vector<float>> d(256);
+      for (int y = 0; y < inst.rows; ++y)
+        for (int x = 0; x < inst.cols; ++x) {
+          const std::uint8_t v = inst.at<std::uint8_t>(y, x);
+          const float z = depth.at<float>(y, x);
+          if (v && z > 0) d[v].push_back(z);
+        }
+      float best = std::numeric_limits<float>::infinity();
+      for (int v = 1; v < 256; ++v) {
+        if (d[std::size_t(v)].empty()) continue;
+        auto& dv = d[std::size_t(v)];
+        std::nth_element(dv.begin(), dv.begin() + std::ptrdiff_t(dv.size() / 2), dv.end());
+        if (dv[dv.size() / 2] < best) {
+          best = dv[dv.size() / 2];
+          id = v;
+        }
+      }
+      if (id == 0) throw Error(seq.manifest.string(), "--truth-instance", "frame " + std::to_string(o.frame) + " shows no object");
+    } else if (o.truth_instance != "all") {
+      try {
+        std::size_t used = 0;
+        id = std::stoi(o.truth_instance, &used);
+        if (used != o.truth_instance.size() || id < 1 || id > 255) throw std::invalid_argument("id");
+      } catch (const std::exception&) {
+        throw Error("", "--truth-instance", "must be nearest, all or an object id 1..255");
+      }
+    }
+    truth = id == 0 ? inst != 0 : inst == id;
+    if (cv::countNonZero(truth) == 0)
+      throw Error(seq.manifest.string(), "--truth-instance",
+                  "frame " + std::to_string(o.frame) + " shows no pixel of object " + o.truth_instance);
+    truth_source = "instances " + o.truth_instance + (id ? " (object " + std::to_string(id) + ")" : "");
   } else if (!o.truth_mask.empty()) {
     const cv::Mat m = cv::imread(o.truth_mask, cv::IMREAD_UNCHANGED);
     if (m.empty()) throw Error(o.truth_mask, "--truth-mask", "cannot be read as an image");
@@ -254,7 +297,7 @@ int main(int argc, char** argv) {
       "    into the frame, 2D RANSAC outlier removal, its bounding box, OpenCV grabCut. -o MASK.png; also\n"
       "    MASK.overlay.png, the baselines' masks MASK.kmeans2.png (2D k-means, k = 2, on colour) and MASK.box.png\n"
       "    (grabCut on the truth's bounding box), and MASK.png.json with F1 of all three against --truth-label\n"
-      "    NAME (the frame's label image) or --truth-mask FILE.\n"
+      "    NAME (the frame's label image), --truth-instance nearest|all|ID (instance images) or --truth-mask FILE.\n"
       "With --make-tabletop N, writes a synthetic tabletop cloud of N points instead (label 0 table,\n"
       "1..--objects objects) to -o.",
       "segment-cloud"};
@@ -307,6 +350,9 @@ int main(int argc, char** argv) {
   app.add_option("--truth-region", gc.truth_region,
                  "grabcut-sfm, --truth-label: largest (the class's largest 8-connected region; its other pixels "
                  "count as background) or all")->capture_default_str();
+  app.add_option("--truth-instance", gc.truth_instance,
+                 "grabcut-sfm: F1 against an object of the frame's instance image (synthetic tabletop): nearest "
+                 "(smallest median ground-truth depth), all, or an object id");
   app.add_option("--truth-mask", gc.truth_mask, "grabcut-sfm: F1 against this 8-bit mask image (non-zero = object)");
   app.add_option("--truth-value", gc.truth_value, "grabcut-sfm, --truth-mask: object = pixels of this value (0: any non-zero)")
       ->capture_default_str();

@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 
@@ -117,5 +118,44 @@ TEST(SegmentCloudTool, GrabCutSfmOnAFrameOfAWorkFolder) {
   r = run(args + " --frame 0 --min-cluster-points 100000 -o " + (dir / "x.png").string());
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("in front of the camera"), std::string::npos) << r.out;
+  fs::remove_all(dir);
+}
+
+TEST(SegmentCloudTool, GrabCutSfmOnTheTabletopScene) {
+  // make-sequence --scene tabletop -> extract-features (stereo) -> grabcut-sfm against the nearest object
+  // of the instance image. Measured on frame 0 of this 12-frame sequence: F1 0.78, 2D k-means 0.00,
+  // GrabCut on the object's own box 0.996; the GrabCutSFM box covers 96% of the object's box. Over the
+  // 30 labelled frames of the 300-frame sequence the F1 is far lower (docs/graphcuts.md).
+  const fs::path dir = fs::temp_directory_path() / ("smseg_grabcutsfm_tab_" + std::to_string(::getpid()));
+  fs::remove_all(dir);
+  const std::string seq = (dir / "seq").string(), work = (dir / "work").string();
+  Outcome r = run(smseg::test::tool("make-sequence") + " --scene tabletop --frames 12 -q -o " + seq);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run(smseg::test::tool("extract-features") + " -q " + seq + " -o " + work);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const fs::path mask = dir / "m.png";
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work +
+          " --frame 0 --truth-instance nearest -o " + mask.string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const smseg::Json s = smseg::read_json(dir / "m.png.json");
+  EXPECT_NE(s["truth"]["source"].get<std::string>().find("(object "), std::string::npos);
+  // The nearest cluster's box holds (nearly all of) the nearest object's box (001 notes that its boxes can
+  // miss the object's outline, which has few tracked points).
+  const auto rect = [](const smseg::Json& j) {
+    return std::array<int, 4>{j[0].get<int>(), j[1].get<int>(), j[2].get<int>(), j[3].get<int>()};
+  };
+  const auto box = rect(s["box"]), truth = rect(s["truth"]["box"]);
+  const int iw = std::min(box[0] + box[2], truth[0] + truth[2]) - std::max(box[0], truth[0]);
+  const int ih = std::min(box[1] + box[3], truth[1] + truth[3]) - std::max(box[1], truth[1]);
+  const double covered = iw > 0 && ih > 0 ? double(iw) * ih / (double(truth[2]) * truth[3]) : 0.0;
+  EXPECT_GE(covered, 0.9) << s["box"] << " " << s["truth"]["box"];
+  // The truth mask is the object: GrabCut from its own box finds it.
+  EXPECT_GE(s["f1"]["grabcut_truth_box"].get<double>(), 0.9) << r.out;
+  // 001 Fig. 9's ordering: GrabCutSFM above 2D k-means.
+  EXPECT_GT(s["f1"]["grabcut_sfm"].get<double>(), s["f1"]["kmeans2"].get<double>()) << r.out;
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work +
+          " --frame 1 --truth-instance nearest -o " + (dir / "x.png").string());
+  EXPECT_EQ(r.status, 1);  // frame 1 is not labelled: no instance image
+  EXPECT_NE(r.out.find("instance"), std::string::npos) << r.out;
   fs::remove_all(dir);
 }
