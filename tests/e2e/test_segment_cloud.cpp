@@ -124,7 +124,7 @@ TEST(SegmentCloudTool, GrabCutSfmOnAFrameOfAWorkFolder) {
 TEST(SegmentCloudTool, GrabCutSfmOnTheTabletopScene) {
   // make-sequence --scene tabletop -> extract-features (stereo) -> grabcut-sfm against the nearest object
   // of the instance image. Measured on frame 0 of this 12-frame sequence: F1 0.78, 2D k-means 0.00,
-  // GrabCut on the object's own box 0.996; the GrabCutSFM box covers 96% of the object's box. Over the
+  // GrabCut on the object's own box 0.996; the GrabCutSFM box covers 95% of the object's box. Over the
   // 30 labelled frames of the 300-frame sequence the F1 is far lower (docs/graphcuts.md).
   const fs::path dir = fs::temp_directory_path() / ("smseg_grabcutsfm_tab_" + std::to_string(::getpid()));
   fs::remove_all(dir);
