@@ -34,6 +34,7 @@ struct GrabCutSfmCli {
   int frame = -1;
   std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
   int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
+  int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
   smseg::features::GrabCutSfmParams params;
 };
 
@@ -88,10 +89,20 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
   } else {
     throw Error(seq.manifest.string(), "calibration", "no focal length (neither fx/fy nor an SfM focal in tracks.json)");
   }
-  const std::string cloud_path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
-  if (!fs::is_regular_file(cloud_path, ec))
-    throw Error(cloud_path, "", "no cloud: run extract-features on the sequence first");
-  const sf::ColouredCloud cloud = sf::read_coloured_cloud(cloud_path);
+  if (o.window >= 0 && !o.cloud.empty()) throw Error("", "--window", "give a CLOUD or --window, not both");
+  std::string cloud_path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
+  sf::ColouredCloud cloud;
+  if (o.window >= 0) {  // the tracks around the frame
+    cloud_path = tracks_path.string();
+    cloud.points = sf::window_cloud(tracks.result, o.frame, o.window);
+    if (cloud.points.empty())
+      throw Error(cloud_path, "tracks", "no track has a 3D point within " + std::to_string(o.window) +
+                                            " frames of frame " + std::to_string(o.frame));
+  } else {
+    if (!fs::is_regular_file(cloud_path, ec))
+      throw Error(cloud_path, "", "no cloud: run extract-features on the sequence first");
+    cloud = sf::read_coloured_cloud(cloud_path);
+  }
   const cv::Mat image = seq.load_left(o.frame);
 
   // Truth mask (255 object) and ignored pixels (void).
@@ -218,6 +229,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"grabcut_iterations", p.grabcut_iterations},
                     {"frustum_only", p.frustum_only},
                     {"max_distance", p.max_distance},
+                    {"window", o.window},
                     {"seed", p.seed}}},
                   {"points", rep.points},
                   {"considered", rep.considered},
@@ -368,6 +380,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-distance", gc.params.max_distance,
                  "grabcut-sfm: cluster only the points within this many metres of the camera (0: all; 001 uses all)")
       ->capture_default_str();
+  app.add_option("--window", gc.window,
+                 "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
+                 "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "
+                 "one reconstruction)")->capture_default_str();
   app.add_flag("--frustum-only", gc.params.frustum_only,
                "grabcut-sfm: cluster only the points projecting into the frame (001 clusters the whole cloud)");
   return run_tool(app, argc, argv, [&] {

@@ -309,3 +309,31 @@ TEST(GrabCutSfm, BadInputIsAnError) {
   EXPECT_THROW(grabcut_sfm(sc.cloud, PinholeIntrinsics{0, 0, 1, 1}, sc.pose, sc.image, GrabCutSfmParams{}), Error);
   EXPECT_THROW(grabcut_box(sc.image, cv::Rect(500, 500, 10, 10), 3, 1), Error);
 }
+
+TEST(GrabCutSfm, WindowCloudAveragesTheTracksSeenNearTheFrame) {
+  // Six posed frames (camera f at world x = f, not rotated); track A seen in frames 0 and 1 at one world point,
+  // track B only in frame 1, track C only in frame 5 (outside a window of 1 around frame 0), track D
+  // without a 3D point (disparity 0).
+  FrontEndResult fe;
+  fe.first_frame = 0;
+  fe.poses.resize(6);
+  for (int f = 0; f < 6; ++f) fe.poses[std::size_t(f)].t = {double(f), 0, 0};
+  const auto track = [](std::vector<int> frames, std::vector<Eigen::Vector3d> pts, float d = 1) {
+    Track t;
+    t.frames = frames;
+    t.points = pts;
+    t.disparities.assign(frames.size(), d);
+    t.pixels.assign(frames.size(), cv::Point2f(0, 0));
+    t.labels.assign(frames.size(), -1);
+    return t;
+  };
+  fe.tracks.push_back(track({0, 1}, {{2, 0, 5}, {1, 0, 5}}));  // world (2, 0, 5) seen from x = 0 and x = 1
+  fe.tracks.push_back(track({1}, {{0, 1, 3}}));                // world (1, 1, 3)
+  fe.tracks.push_back(track({5}, {{0, 0, 1}}));
+  fe.tracks.push_back(track({0}, {{0, 0, 1}}, 0.f));
+  const std::vector<Eigen::Vector3f> c = window_cloud(fe, 0, 1);
+  ASSERT_EQ(c.size(), 2u);
+  EXPECT_TRUE(c[0].isApprox(Eigen::Vector3f(2, 0, 5)));
+  EXPECT_TRUE(c[1].isApprox(Eigen::Vector3f(1, 1, 3)));
+  EXPECT_EQ(window_cloud(fe, 0, 10).size(), 3u);  // C joins; D never (no 3D point)
+}

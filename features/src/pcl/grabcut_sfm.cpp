@@ -394,6 +394,26 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
   return 2.0 * double(tp) / double(2 * tp + fp + fn);
 }
 
+std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, int window) {
+  std::vector<Eigen::Vector3f> out;
+  const int first = fe.first_frame, n = static_cast<int>(fe.poses.size());
+  for (const Track& t : fe.tracks) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (std::size_t i = 0; i < t.frames.size(); ++i) {
+      const int f = t.frames[i];
+      if (f < frame - window || f > frame + window || f < first || f >= first + n) continue;
+      if (i >= t.disparities.size() || !(t.disparities[i] > 0) || i >= t.points.size()) continue;
+      const Pose& p = fe.poses[std::size_t(f - first)];
+      const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p.R.data());
+      sum += R * t.points[i] + Eigen::Vector3d(p.t[0], p.t[1], p.t[2]);
+      ++count;
+    }
+    if (count > 0) out.push_back((sum / count).cast<float>());
+  }
+  return out;
+}
+
 cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
                     const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report_out) {
   params.validate();

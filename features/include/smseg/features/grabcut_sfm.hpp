@@ -35,6 +35,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "smseg/features/motion.hpp"
 #include "smseg/features/sequence.hpp"
 
 namespace smseg::features {
@@ -91,6 +92,11 @@ struct GrabCutSfmReport {
 /// min_cluster_points projections in front of the camera inside the frame.
 cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
                     const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report = nullptr);
+
+/// A cloud local to one frame (not in 001): one point per track observed with a 3D point in frames
+/// [frame - window, frame + window] (those with a pose), the mean of its world positions there (R P + t of
+/// each observation's frame). Keeps the drift and the far structure of a long sequence out of the clusters.
+std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int frame, int window);
 
 // ---- building blocks (exposed for tests) ------------------------------------------------------------
 
