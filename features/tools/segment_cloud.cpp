@@ -35,6 +35,7 @@ struct GrabCutSfmCli {
   std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
   int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
   int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
+  std::string cluster = "kmeans", nearest = "centre";
   smseg::features::GrabCutSfmParams params;
 };
 
@@ -52,6 +53,9 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
     throw Error("", "--truth-label", "give one of --truth-label, --truth-mask and --truth-instance");
   if (o.truth_region != "largest" && o.truth_region != "all")
     throw Error("", "--truth-region", "must be largest or all");
+  if (o.cluster != "kmeans" && o.cluster != "euclidean") throw Error("", "--cluster", "must be kmeans or euclidean");
+  if (o.nearest != "centre" && o.nearest != "median" && o.nearest != "depth")
+    throw Error("", "--nearest", "must be centre, median or depth");
   if (o.truth_value < 0 || o.truth_value > 255) throw Error("", "--truth-value", "must be 0..255");
   const std::string ext = fs::path(o.out).extension().string();
   if (ext != ".png") throw Error(o.out, "-o", "grabcut-sfm writes a PNG mask: the output must end in .png");
@@ -207,6 +211,10 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
     clusters.push_back({{"points", rep.cluster_sizes[c]},
                         {"in_frame", rep.cluster_in_frame[c]},
                         {"distance", rep.cluster_distances[c]}});
+  Json planes = Json::array();
+  for (std::size_t i = 0; i < rep.planes.size(); ++i)
+    planes.push_back({{"plane", {rep.planes[i][0], rep.planes[i][1], rep.planes[i][2], rep.planes[i][3]}},
+                      {"inliers", rep.planes_inliers[i]}});
   const auto& p = o.params;
   Json summary = {{"format", "smseg-segment-cloud"},
                   {"version", 1},
@@ -230,11 +238,23 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"frustum_only", p.frustum_only},
                     {"max_distance", p.max_distance},
                     {"window", o.window},
+                    {"planes", p.planes},
+                    {"plane_min_share", p.plane_min_share},
+                    {"height_band", p.height_band},
+                    {"max_tilt", p.max_tilt},
+                    {"support_radius", p.support_radius},
+                    {"cluster", o.cluster},
+                    {"cluster_tolerance", p.cluster_tolerance},
+                    {"min_cluster_size", p.min_cluster_size},
+                    {"nearest", o.nearest},
                     {"seed", p.seed}}},
                   {"points", rep.points},
                   {"considered", rep.considered},
                   {"plane_inliers", rep.plane_inliers},
                   {"plane", {rep.plane[0], rep.plane[1], rep.plane[2], rep.plane[3]}},
+                  {"planes", planes},
+                  {"support", rep.support},
+                  {"in_band", rep.in_band},
                   {"clusters", clusters},
                   {"chosen", rep.chosen},
                   {"chosen_projections", rep.chosen_points.size()},
@@ -249,7 +269,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"grabcut", rep.seconds_grabcut},
                     {"total", rep.seconds_total}}}};
   std::string line = "frame " + std::to_string(o.frame) + ": cluster " + std::to_string(rep.chosen) + " of " +
-                     std::to_string(p.k) + " (" + fmt(rep.cluster_distances[std::size_t(rep.chosen)], "%.2f") +
+                     std::to_string(rep.cluster_sizes.size()) + " (" + fmt(rep.cluster_distances[std::size_t(rep.chosen)], "%.2f") +
                      " m, " + std::to_string(rep.inliers_2d) + "/" + std::to_string(rep.chosen_points.size()) +
                      " projections kept), box " + std::to_string(rep.box.width) + "x" +
                      std::to_string(rep.box.height) + " at (" + std::to_string(rep.box.x) + ", " +
@@ -386,6 +406,30 @@ int main(int argc, char** argv) {
                  "one reconstruction)")->capture_default_str();
   app.add_flag("--frustum-only", gc.params.frustum_only,
                "grabcut-sfm: cluster only the points projecting into the frame (001 clusters the whole cloud)");
+  app.add_option("--planes", gc.params.planes,
+                 "grabcut-sfm: remove up to this many RANSAC planes in turn (001: 1)")->capture_default_str();
+  app.add_option("--plane-min-share", gc.params.plane_min_share,
+                 "grabcut-sfm: a second or later plane is removed only if it holds this share of the points left")
+      ->capture_default_str();
+  app.add_option("--height-band", gc.params.height_band,
+                 "grabcut-sfm: metres; > 0 keeps only the points between --plane-distance and this height above the "
+                 "supporting plane (the removed plane facing world +Y within --max-tilt nearest below the camera; "
+                 "0: no band, 001)")->capture_default_str();
+  app.add_option("--max-tilt", gc.params.max_tilt,
+                 "grabcut-sfm, --height-band: degrees between a supporting plane's normal and world +Y at most")
+      ->capture_default_str();
+  app.add_option("--support-radius", gc.params.support_radius,
+                 "grabcut-sfm, --height-band: metres; > 0 keeps only the points standing on the supporting plane (their "
+                 "foot on the plane within this of a plane inlier's foot; 0: the whole band)")->capture_default_str();
+  app.add_option("--cluster", gc.cluster, "grabcut-sfm: kmeans (001, --k clusters) or euclidean (--cluster-tolerance)")
+      ->capture_default_str();
+  app.add_option("--cluster-tolerance", gc.params.cluster_tolerance,
+                 "grabcut-sfm, --cluster euclidean: metres between neighbours of one cluster")->capture_default_str();
+  app.add_option("--min-cluster-size", gc.params.min_cluster_size,
+                 "grabcut-sfm, --cluster euclidean: smaller clusters are dropped")->capture_default_str();
+  app.add_option("--nearest", gc.nearest,
+                 "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001) or its points' median "
+                 "distance (median) or median depth along the optical axis (depth)")->capture_default_str();
   return run_tool(app, argc, argv, [&] {
     if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
     std::unique_ptr<tbb::global_control> limit;
@@ -401,6 +445,9 @@ int main(int argc, char** argv) {
     if (method == "grabcut-sfm") {
       if (app.count("--plane-distance")) gc.params.plane_distance = plane.plane_distance;
       gc.params.seed = tab.seed;
+      gc.params.euclidean = gc.cluster == "euclidean";
+      gc.params.median_distance = gc.nearest == "median" || gc.nearest == "depth";
+      gc.params.median_depth = gc.nearest == "depth";
       gc.cloud = input;
       gc.out = out;
       return run_grabcut_sfm(gc);

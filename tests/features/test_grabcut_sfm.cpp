@@ -337,3 +337,77 @@ TEST(GrabCutSfm, WindowCloudAveragesTheTracksSeenNearTheFrame) {
   EXPECT_TRUE(c[1].isApprox(Eigen::Vector3f(1, 1, 3)));
   EXPECT_EQ(window_cloud(fe, 0, 10).size(), 3u);  // C joins; D never (no 3D point)
 }
+
+TEST(GrabCutSfm, PlaneRansacFacingUpSkipsALargerWall) {
+  // A wall (x = 1, 400 points, off the floor) and a floor (y = 0, 200 points): unconstrained RANSAC takes the wall; with
+  // normals restricted to within 30 degrees of +Y it takes the floor.
+  std::mt19937_64 rng(8);
+  std::uniform_real_distribution<float> U(-1, 1);
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 400; ++i) pts.emplace_back(1.f, 1.5f + U(rng), 2 + U(rng));  // 0.5-2.5 m high
+  for (int i = 0; i < 200; ++i) pts.emplace_back(U(rng) * 0.9f, 0.f, 2 + U(rng));
+  Eigen::Vector4d pl;
+  const std::vector<char> any = ransac_plane(pts, 0.02, 200, 1, &pl);
+  EXPECT_NEAR(std::abs(pl[0]), 1.0, 1e-6);
+  EXPECT_TRUE(any[0]);
+  const std::vector<char> up = ransac_plane(pts, 0.02, 200, 1, &pl, Eigen::Vector3d::UnitY(), std::cos(M_PI / 6));
+  EXPECT_NEAR(std::abs(pl[1]), 1.0, 1e-6);
+  for (int i = 0; i < 600; ++i) EXPECT_EQ(bool(up[std::size_t(i)]), i >= 400) << i;
+}
+
+TEST(GrabCutSfm, EuclideanClustersChainNeighboursAndDropSmallOnes) {
+  // Two lines of points 2 cm apart, 1 m from each other, and two isolated points.
+  std::vector<Eigen::Vector3f> pts;
+  for (int i = 0; i < 20; ++i) {
+    pts.emplace_back(-1.f + 0.02f * float(i), 0.f, 0.f);  // line A (0.38 m long: chained, not within 3 cm end to end)
+    pts.emplace_back(1.f, 0.02f * float(i), 0.f);        // line B
+  }
+  pts.emplace_back(0.f, 0.f, 5.f);
+  pts.emplace_back(0.f, 0.5f, -5.f);
+  const std::vector<int> l = euclidean_clusters(pts, 0.03, 5);
+  ASSERT_EQ(l.size(), pts.size());
+  for (int i = 0; i < 20; ++i) {
+    EXPECT_EQ(l[std::size_t(2 * i)], 0) << i;      // numbered by first point: line A is 0
+    EXPECT_EQ(l[std::size_t(2 * i + 1)], 1) << i;  // line B is 1
+  }
+  EXPECT_EQ(l[40], -1);  // alone: below min_size
+  EXPECT_EQ(l[41], -1);
+  EXPECT_EQ(euclidean_clusters(pts, 0.01, 5), std::vector<int>(42, -1));  // 2 cm steps: nothing chains
+}
+
+TEST(GrabCutSfm, HeightBandKeepsThePointsStandingOnTheSupportingPlane) {
+  // The ground faces up (the camera's up within 20 degrees): it is the supporting plane; the band 0.05-1 m
+  // above it within 0.3 m of a ground point's foot holds the box and the wall's foot, not the wall above 1 m.
+  const Scene sc = make_scene();
+  GrabCutSfmParams p;
+  p.height_band = 1.0;
+  p.support_radius = 0.3;
+  p.euclidean = true;
+  p.cluster_tolerance = 0.15;
+  GrabCutSfmReport rep;
+  const cv::Mat mask = grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
+  EXPECT_EQ(rep.support, 0);
+  ASSERT_FALSE(rep.planes.empty());
+  EXPECT_GT(rep.planes[0][1], 0.99);  // faces up, oriented towards the camera
+  int box = 0, wall_low = 0;
+  for (std::size_t i = 0; i < sc.cloud.size(); ++i) {
+    box += sc.cloud_label[i] == 1 && sc.cloud[i].y() > 0.06f;
+    wall_low += sc.cloud_label[i] == 2 && sc.cloud[i].y() <= 1.01f;
+  }
+  EXPECT_GE(rep.in_band, int(0.9 * box));
+  EXPECT_LE(rep.in_band, box + wall_low + 20);
+  ASSERT_GE(rep.chosen, 0);
+  EXPECT_LT(rep.cluster_distances[std::size_t(rep.chosen)], 3.5);
+  EXPECT_GE(mask_f1(mask, sc.truth), 0.9);
+  // No plane can face up within 0 degrees: one clear error.
+  p.max_tilt = 0;
+  try {
+    grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.reason()).find("supporting plane"), std::string::npos) << e.what();
+  }
+  p.max_tilt = 30;
+  p.height_band = 0.01;  // not above --plane-distance
+  EXPECT_THROW(grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p), Error);
+}

@@ -74,6 +74,20 @@ void GrabCutSfmParams::validate() const {
   if (!(max_distance >= 0) || !std::isfinite(max_distance))
     throw Error("", "--max-distance", "must be >= 0 metres (0: no limit)");
   if (grabcut_iterations < 1 || grabcut_iterations > 100) throw Error("", "--grabcut-iterations", "must be 1..100");
+  if (planes < 1 || planes > 20) throw Error("", "--planes", "must be 1..20");
+  if (!(plane_min_share >= 0 && plane_min_share <= 1)) throw Error("", "--plane-min-share", "must be in [0, 1]");
+  if (!(height_band >= 0) || !std::isfinite(height_band))
+    throw Error("", "--height-band", "must be >= 0 metres (0: no band)");
+  if (height_band > 0 && !(height_band > plane_distance))
+    throw Error("", "--height-band", "must exceed --plane-distance (the band starts there)");
+  if (height_band > 0 && !(plane_distance > 0))
+    throw Error("", "--height-band", "needs plane removal (--plane-distance > 0): the band lies above a removed plane");
+  if (!(support_radius >= 0) || !std::isfinite(support_radius))
+    throw Error("", "--support-radius", "must be >= 0 metres (0: any point in the band)");
+  if (!(max_tilt >= 0 && max_tilt <= 90)) throw Error("", "--max-tilt", "must be 0..90 degrees");
+  if (!(cluster_tolerance > 0) || !std::isfinite(cluster_tolerance))
+    throw Error("", "--cluster-tolerance", "must be > 0 metres");
+  if (min_cluster_size < 1) throw Error("", "--min-cluster-size", "must be >= 1");
 }
 
 bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
@@ -88,7 +102,8 @@ bool project_point(const Eigen::Vector3f& world, const Pose& pose, const Pinhole
 }
 
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
-                               std::uint64_t seed, Eigen::Vector4d* plane_out) {
+                               std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
+                               double min_cos) {
   const std::size_t n = points.size();
   std::vector<char> inlier(n, 0);
   if (plane_out) plane_out->setZero();
@@ -110,6 +125,7 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
     const double len = nrm.norm();
     if (!(len > 1e-12)) continue;
     nrm /= len;
+    if (std::abs(nrm.dot(up)) < min_cos) continue;  // not facing `up` closely enough
     const Eigen::Vector4d pl(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(pa));
     const int cnt = count(pl);
     if (cnt > best_count) {
@@ -254,6 +270,58 @@ std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int atte
       std::copy_n(&best_centres[c * d], d, &(*centres_out)[std::size_t(order[c]) * d]);
   }
   return out;
+}
+
+std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size) {
+  const std::size_t n = points.size();
+  std::vector<int> parent(n);
+  for (std::size_t i = 0; i < n; ++i) parent[i] = int(i);
+  const auto find = [&](int a) {
+    while (parent[std::size_t(a)] != a) {
+      parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
+      a = parent[std::size_t(a)];
+    }
+    return a;
+  };
+  // Voxel grid of the tolerance's size: neighbours within the tolerance lie in the 27 surrounding cells.
+  const auto cell_of = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector3i(int(std::floor(p.x() / tolerance)), int(std::floor(p.y() / tolerance)),
+                           int(std::floor(p.z() / tolerance)));
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (std::uint64_t(std::uint32_t(c.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(c.y()) & 0x1FFFFF) << 21) |
+           std::uint64_t(std::uint32_t(c.z()) & 0x1FFFFF);
+  };
+  std::vector<std::pair<std::uint64_t, int>> cells(n);
+  for (std::size_t i = 0; i < n; ++i) cells[i] = {key(cell_of(points[i])), int(i)};
+  std::sort(cells.begin(), cells.end());
+  const double t2 = tolerance * tolerance;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i c = cell_of(points[i]);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::uint64_t kk = key(c + Eigen::Vector3i(dx, dy, dz));
+          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(kk, -1));
+          for (; it != cells.end() && it->first == kk; ++it) {
+            const std::size_t j = std::size_t(it->second);
+            if (j <= i || (points[i] - points[j]).squaredNorm() > t2) continue;
+            const int a = find(int(i)), b = find(int(j));
+            if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
+          }
+        }
+  }
+  std::vector<int> size(n, 0);
+  for (std::size_t i = 0; i < n; ++i) ++size[std::size_t(find(int(i)))];
+  std::vector<int> label(n, -1), id(n, -1);
+  int next = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int r = find(int(i));
+    if (size[std::size_t(r)] < min_size) continue;
+    if (id[std::size_t(r)] < 0) id[std::size_t(r)] = next++;
+    label[i] = id[std::size_t(r)];
+  }
+  return label;
 }
 
 std::vector<char> compact_inliers_2d(const std::vector<cv::Point2f>& points, double threshold, int iterations,
@@ -441,42 +509,120 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
     if (!params.frustum_only || in_frame(p, nullptr)) considered.push_back(p);
   }
   rep.considered = int(considered.size());
-  std::vector<Eigen::Vector3f> rest;
+  std::vector<Eigen::Vector3f> rest = considered;
+  const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
+  // The camera's up axis in the world (camera y points down). Used instead of world +Y: a chained
+  // camera path drifts (on the tabletop sequence world +Y and the camera's up differ by up to 35 degrees).
+  const Eigen::Matrix3d Rcw = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
+  const Eigen::Vector3d up = -Rcw.col(1);
+  const double min_cos = params.height_band > 0 ? std::cos(params.max_tilt * 3.14159265358979323846 / 180) : -1;
+  std::vector<Eigen::Vector3f> support_points;  // the first plane's inliers
   if (params.plane_distance > 0) {
-    const std::vector<char> on_plane =
-        ransac_plane(considered, params.plane_distance, params.plane_iterations, stage_seed(params.seed, 1), &rep.plane);
-    for (std::size_t i = 0; i < considered.size(); ++i)
-      if (!on_plane[i]) rest.push_back(considered[i]);
+    // Planes in turn (001: one): the first always (with height_band, facing up: the supporting plane), a
+    // later one while it holds plane_min_share of the rest.
+    for (int pi = 0; pi < params.planes; ++pi) {
+      Eigen::Vector4d pl;
+      const std::vector<char> on_plane =
+          ransac_plane(rest, params.plane_distance, params.plane_iterations,
+                       stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1);
+      const int count = int(std::count(on_plane.begin(), on_plane.end(), char(1)));
+      if (count < 3 || (pi > 0 && double(count) < params.plane_min_share * double(rest.size()))) break;
+      if (pi == 0) rep.plane = pl;
+      if (pl.head<3>().dot(cam) + pl[3] < 0) pl = -pl;  // normal towards the camera
+      rep.planes.push_back(pl);
+      rep.planes_inliers.push_back(count);
+      std::vector<Eigen::Vector3f> kept;
+      kept.reserve(rest.size() - std::size_t(count));
+      for (std::size_t i = 0; i < rest.size(); ++i)
+        if (!on_plane[i])
+          kept.push_back(rest[i]);
+        else if (pi == 0)
+          support_points.push_back(rest[i]);
+      rest.swap(kept);
+    }
     rep.plane_inliers = int(considered.size() - rest.size());
-  } else {
-    rest = considered;
+  }
+  if (params.height_band > 0) {
+    if (rep.planes.empty() || rep.planes[0].head<3>().dot(up) < min_cos)
+      throw Error("", "cloud",
+                  "no plane facing up within --max-tilt " + std::to_string(params.max_tilt) +
+                      " degrees below the camera, so --height-band has no supporting plane");
+    rep.support = 0;
+    const Eigen::Vector4d& sp = rep.planes[0];
+    const Eigen::Vector3d n = sp.head<3>();
+    const double r2 = params.support_radius * params.support_radius;
+    // Standing on the plane: the point's foot (its projection onto the plane) within support_radius of a
+    // plane inlier's foot.
+    const auto on_support = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d foot = p - (n.dot(p) + sp[3]) * n;
+      for (const auto& q : support_points) {
+        const Eigen::Vector3d qd = q.cast<double>();
+        if ((qd - (n.dot(qd) + sp[3]) * n - foot).squaredNorm() <= r2) return true;
+      }
+      return false;
+    };
+    std::vector<Eigen::Vector3f> kept;
+    for (const auto& p : rest) {
+      const double h = n.dot(p.cast<double>()) + sp[3];
+      if (h > params.plane_distance && h <= params.height_band &&
+          (params.support_radius <= 0 || on_support(p.cast<double>())))
+        kept.push_back(p);
+    }
+    rest.swap(kept);
+    rep.in_band = int(rest.size());
   }
   rep.seconds_plane = seconds_since(t0);
-  if (int(rest.size()) < params.k)
+  if (!params.euclidean && int(rest.size()) < params.k)
     throw Error("", "cloud",
                 std::to_string(rest.size()) + " points are left " +
                     (params.frustum_only ? "in the frame " : "") +
-                    (params.max_distance > 0 ? "within --max-distance " : "") + "after plane removal (of " +
+                    (params.max_distance > 0 ? "within --max-distance " : "") + "after plane removal" +
+                    (params.height_band > 0 ? " and the height band" : "") + " (of " +
                     std::to_string(points.size()) + "), fewer than k = " + std::to_string(params.k) + " clusters");
 
-  // 2. 3D k-means.
+  // 2. 3D k-means (or Euclidean clustering).
   t0 = Clock::now();
-  std::vector<float> data(rest.size() * 3);
-  for (std::size_t i = 0; i < rest.size(); ++i)
-    for (int j = 0; j < 3; ++j) data[i * 3 + std::size_t(j)] = rest[i][j];
+  std::vector<int> cluster;
+  std::size_t K = 0;
   std::vector<float> centres;
-  const std::vector<int> cluster =
-      kmeans(data, 3, params.k, params.attempts, params.kmeans_iterations, stage_seed(params.seed, 2), &centres);
+  if (params.euclidean) {
+    cluster = euclidean_clusters(rest, params.cluster_tolerance, params.min_cluster_size);
+    for (int c : cluster) K = std::max(K, std::size_t(c + 1));
+    if (K == 0)
+      throw Error("", "cloud", "no Euclidean cluster of " + std::to_string(params.min_cluster_size) + " or more points among the " +
+                                   std::to_string(rest.size()) + " points left");
+    centres.assign(K * 3, 0.f);
+    std::vector<double> sum(K * 3, 0.0);
+    std::vector<int> cnt(K, 0);
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if (cluster[i] < 0) continue;
+      const std::size_t c = std::size_t(cluster[i]);
+      for (int j = 0; j < 3; ++j) sum[c * 3 + std::size_t(j)] += rest[i][j];
+      ++cnt[c];
+    }
+    for (std::size_t c = 0; c < K; ++c)
+      for (std::size_t j = 0; j < 3; ++j) centres[c * 3 + j] = float(sum[c * 3 + j] / cnt[c]);
+  } else {
+    std::vector<float> data(rest.size() * 3);
+    for (std::size_t i = 0; i < rest.size(); ++i)
+      for (int j = 0; j < 3; ++j) data[i * 3 + std::size_t(j)] = rest[i][j];
+    cluster = kmeans(data, 3, params.k, params.attempts, params.kmeans_iterations, stage_seed(params.seed, 2), &centres);
+    K = std::size_t(params.k);
+  }
   rep.seconds_kmeans = seconds_since(t0);
 
   // 3. The nearest cluster with enough projections in the frame.
   t0 = Clock::now();
-  const std::size_t K = std::size_t(params.k);
   rep.cluster_sizes.assign(K, 0);
   rep.cluster_in_frame.assign(K, 0);
   rep.cluster_distances.assign(K, 0);
+  std::vector<std::vector<double>> point_distances(params.median_distance ? K : 0);
   for (std::size_t i = 0; i < rest.size(); ++i) {
+    if (cluster[i] < 0) continue;
     ++rep.cluster_sizes[std::size_t(cluster[i])];
+    if (params.median_distance)
+      point_distances[std::size_t(cluster[i])].push_back(params.median_depth ? (rest[i].cast<double>() - cam).dot(Rcw.col(2))
+                                                                              : (rest[i].cast<double>() - cam).norm());
     cv::Point2f q;
     if (in_frame(rest[i], &q)) {
       ++rep.cluster_in_frame[std::size_t(cluster[i])];
@@ -484,11 +630,10 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
       rep.projected_cluster.push_back(cluster[i]);
     }
   }
-  const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t c = 0; c < K; ++c) {
     const Eigen::Vector3d ctr(centres[c * 3], centres[c * 3 + 1], centres[c * 3 + 2]);
-    rep.cluster_distances[c] = (ctr - cam).norm();
+    rep.cluster_distances[c] = params.median_distance ? median(point_distances[c]) : (ctr - cam).norm();
     if (rep.cluster_in_frame[c] >= params.min_cluster_points && rep.cluster_distances[c] < best) {
       best = rep.cluster_distances[c];
       rep.chosen = int(c);

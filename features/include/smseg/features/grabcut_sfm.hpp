@@ -62,6 +62,22 @@ struct GrabCutSfmParams {
   int grabcut_iterations = 5;    ///< cv::grabCut iterations
   bool frustum_only = false;     ///< cluster only the points projecting into the frame (not in 001)
   double max_distance = 0;       ///< metres: cluster only points this close to the camera (0: all; not in 001)
+  // Several planes and the supporting plane (not in 001, which removes one plane):
+  int planes = 1;                ///< planes removed in turn at most (001: 1)
+  double plane_min_share = 0.1;  ///< a second or later plane is removed only if it holds this share of the rest
+  double height_band = 0;        ///< metres: > 0: the first plane is the supporting plane, RANSAC hypotheses
+                                 ///< restricted to normals within max_tilt of the camera's up axis, and only
+                                 ///< the points between plane_distance and height_band above it are kept
+                                 ///< (0: no band, 001)
+  double max_tilt = 30;          ///< degrees, see height_band
+  double support_radius = 0;     ///< metres: > 0 keeps, of the band, only the points standing on the supporting
+                                 ///< plane: the foot of the point within this of a plane inlier's foot
+  // Clustering and the choice of the nearest cluster:
+  bool euclidean = false;        ///< Euclidean clustering (points within cluster_tolerance chained) instead of k-means
+  double cluster_tolerance = 0.03;  ///< metres, Euclidean clustering
+  int min_cluster_size = 10;     ///< Euclidean clustering: smaller clusters are dropped
+  bool median_distance = false;  ///< nearest by the median distance of the cluster's points (else its centre's)
+  bool median_depth = false;     ///< with median_distance: depth (along the optical axis) instead of distance
   std::uint64_t seed = 1;
   void validate() const;         ///< Error naming the option (--plane-distance, --k, ...)
 };
@@ -69,10 +85,15 @@ struct GrabCutSfmParams {
 struct GrabCutSfmReport {
   int points = 0;                       ///< cloud points
   int considered = 0;                   ///< points offered to the plane fit (all, or those in the frustum / range)
-  int plane_inliers = 0;                ///< removed as the plane
-  Eigen::Vector4d plane{0, 0, 0, 0};    ///< n . X + d = 0, |n| = 1 (zero without plane removal)
+  int plane_inliers = 0;                ///< removed as planes (all of them)
+  Eigen::Vector4d plane{0, 0, 0, 0};    ///< the first plane: n . X + d = 0, |n| = 1 (zero without plane removal)
+  std::vector<Eigen::Vector4d> planes;  ///< every plane removed, in order (normals towards the camera)
+  std::vector<int> planes_inliers;      ///< per plane, its inliers
+  int support = -1;                     ///< with height_band: the supporting plane's index in `planes` (0)
+  int in_band = 0;                      ///< with height_band: points kept in the band
   std::vector<int> cluster_sizes;       ///< per cluster, points
-  std::vector<double> cluster_distances;  ///< per cluster, distance of its centre from the camera (metres)
+  std::vector<double> cluster_distances;  ///< per cluster, distance from the camera (metres): of its centre, or
+                                          ///< the median of its points' with median_distance
   std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
   int chosen = -1;                      ///< the cluster used
   std::vector<cv::Point2f> projected;   ///< every clustered point projecting into the frame
@@ -102,15 +123,22 @@ std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int f
 
 /// RANSAC plane over `points` (3-point hypotheses, inliers within `distance`, the plane refitted by least
 /// squares to the best hypothesis's inliers and the inliers recounted). Returns per point 1 = inlier.
-/// Fewer than 3 points: no inliers, plane zero.
+/// Fewer than 3 points: no inliers, plane zero. With `min_cos` > 0 only hypotheses whose normal n has
+/// |n . up| >= min_cos count (a plane facing `up`, unit, within acos(min_cos)).
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
-                               std::uint64_t seed, Eigen::Vector4d* plane = nullptr);
+                               std::uint64_t seed, Eigen::Vector4d* plane = nullptr,
+                               const Eigen::Vector3d& up = Eigen::Vector3d::Zero(), double min_cos = -1);
 
 /// k-means of n rows of `dim` floats (row-major), k-means++ seeding, Lloyd iterations until no label
 /// changes, best of `attempts` (lowest sum of squared distances). Labels 0..k-1 ordered by the first point
 /// of each cluster (so the labelling does not depend on the seeding order). Error when n < k or k < 1.
 std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int attempts, int max_iterations,
                         std::uint64_t seed, std::vector<float>* centres = nullptr);
+
+/// Euclidean clustering: points joined when within `tolerance` of each other (transitively, single
+/// linkage, on a voxel grid of that size); clusters of fewer than `min_size` points get -1. Labels 0..m-1
+/// ordered by the first point of each cluster. Deterministic.
+std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size);
 
 /// The 2D RANSAC of step 4: per point 1 = inlier. Fewer than 3 points: all inliers.
 std::vector<char> compact_inliers_2d(const std::vector<cv::Point2f>& points, double threshold, int iterations,
