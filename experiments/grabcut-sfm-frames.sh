@@ -5,9 +5,13 @@
 #   e.g. the CamVid val run of docs/graphcuts.md (the 10 labelled frames with the largest car):
 #   bash experiments/grabcut-sfm-frames.sh ../shared/camvid-seq/0016E5_07959-08159 work/0016E5_07959-08159 \
 #       out/gcsfm "45 43 44 42 46 41 4 5 3 47" --truth-label Car --plane-distance 0.25 --max-distance 30
+#   or the tabletop sequence with the tabletop options of docs/graphcuts.md:
+#   bash experiments/grabcut-sfm-frames.sh tab/seq tab/work out/tab "$(seq -s ' ' 0 10 290)" --truth-instance nearest \
+#       --window 10 --frustum-only --max-distance 3 --plane-distance 0.02 --height-band 0.35 --support-radius 0.15 \
+#       --cluster euclidean --cluster-tolerance 0.06 --min-cluster-size 8 --box-margin 0.3
 # env BIN: the folder holding segment-cloud (default build/bin).
 set -euo pipefail
-if [ $# -lt 4 ]; then sed -n 2,9p "$0"; exit 2; fi
+if [ $# -lt 4 ]; then sed -n 2,12p "$0"; exit 2; fi
 seq="$1"; work="$2"; out="$3"; frames="$4"; shift 4
 bin="${BIN:-build/bin}"
 mkdir -p "$out"

@@ -512,7 +512,8 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   std::vector<Eigen::Vector3f> rest = considered;
   const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
   // The camera's up axis in the world (camera y points down). Used instead of world +Y: a chained
-  // camera path drifts (on the tabletop sequence world +Y and the camera's up differ by up to 35 degrees).
+  // camera path drifts (on the tabletop sequence world +Y and the camera's up differ by 18 and 24 degrees
+  // at frames 100 and 200).
   const Eigen::Matrix3d Rcw = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
   const Eigen::Vector3d up = -Rcw.col(1);
   const double min_cos = params.height_band > 0 ? std::cos(params.max_tilt * 3.14159265358979323846 / 180) : -1;

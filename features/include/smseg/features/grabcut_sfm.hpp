@@ -6,8 +6,11 @@
 //      spend clusters on;
 //   1. RANSAC plane removal: the dominant plane (the ground or the table the object stands on) and its
 //      inliers within plane_distance are removed from the cloud (001 III-B, Fig. 3);
-//   2. 3D k-means (k = 6, k-means++ seeding, the best of `attempts` runs) on the remaining points;
-//   3. the cluster whose centre is nearest the camera centre, among the clusters with at least
+//      (options, not in 001: several planes in turn; the first plane as the supporting plane facing the
+//      camera's up, and only the points in a height band above it, standing on it: see height_band)
+//   2. 3D k-means (k = 6, k-means++ seeding, the best of `attempts` runs) on the remaining points (option,
+//      not in 001: Euclidean clustering);
+//   3. the cluster whose centre (option: median distance or depth of its points) is nearest the camera centre, among the clusters with at least
 //      min_cluster_points points projecting into the frame in front of the camera, is projected into the
 //      frame (x = P X, 001 eq. 2);
 //   4. 2D RANSAC outlier removal (001 III-C; the paper does not give the model, ours): a hypothesis is a
