@@ -413,10 +413,10 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--height-band", gc.params.height_band,
                  "grabcut-sfm: metres; > 0 keeps only the points between --plane-distance and this height above the "
-                 "supporting plane (the removed plane facing world +Y within --max-tilt nearest below the camera; "
-                 "0: no band, 001)")->capture_default_str();
+                 "supporting plane (the first plane, its RANSAC hypotheses restricted to normals within --max-tilt of "
+                 "the camera's up axis; 0: no band, 001)")->capture_default_str();
   app.add_option("--max-tilt", gc.params.max_tilt,
-                 "grabcut-sfm, --height-band: degrees between a supporting plane's normal and world +Y at most")
+                 "grabcut-sfm, --height-band: degrees between the supporting plane's normal and the camera's up at most")
       ->capture_default_str();
   app.add_option("--support-radius", gc.params.support_radius,
                  "grabcut-sfm, --height-band: metres; > 0 keeps only the points standing on the supporting plane (their "

@@ -411,3 +411,24 @@ TEST(GrabCutSfm, HeightBandKeepsThePointsStandingOnTheSupportingPlane) {
   p.height_band = 0.01;  // not above --plane-distance
   EXPECT_THROW(grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p), Error);
 }
+
+TEST(GrabCutSfm, SeveralPlanesTakeTheGroundThenTheWall) {
+  // The ground first (the dominant plane), then the wall at z = 8 while it holds 10% of the points left;
+  // a share of 1 stops after the ground.
+  const Scene sc = make_scene();
+  GrabCutSfmParams p;
+  p.planes = 3;
+  GrabCutSfmReport rep;
+  grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
+  ASSERT_GE(rep.planes.size(), 2u);
+  EXPECT_GT(std::abs(rep.planes[0][1]), 0.99);  // ground: normal along Y
+  EXPECT_GT(std::abs(rep.planes[1][2]), 0.99);  // wall: normal along Z
+  int wall = 0;
+  for (int l : sc.cloud_label) wall += l == 2;
+  EXPECT_GE(rep.planes_inliers[1], int(0.9 * wall));
+  EXPECT_EQ(rep.plane_inliers, rep.planes_inliers[0] + rep.planes_inliers[1] +
+                                   (rep.planes.size() > 2 ? rep.planes_inliers[2] : 0));
+  p.plane_min_share = 1;
+  grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
+  EXPECT_EQ(rep.planes.size(), 1u);
+}
