@@ -8,7 +8,7 @@
 #   or the tabletop sequence with the tabletop options of docs/graphcuts.md:
 #   bash experiments/grabcut-sfm-frames.sh tab/seq tab/work out/tab "$(seq -s ' ' 0 10 290)" --truth-instance nearest \
 #       --window 10 --frustum-only --max-distance 3 --plane-distance 0.02 --height-band 0.35 --support-radius 0.15 \
-#       --cluster euclidean --cluster-tolerance 0.06 --min-cluster-size 8 --box-margin 0.3
+#       --cluster euclidean --cluster-tolerance 0.06 --min-cluster-size 8 --box-margin 0.3 --max-tilt 20
 # env BIN: the folder holding segment-cloud (default build/bin).
 set -euo pipefail
 if [ $# -lt 4 ]; then sed -n 2,12p "$0"; exit 2; fi
