@@ -4,14 +4,17 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <limits>
 
 #include <tbb/global_control.h>
 
+#include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "smseg/cli.hpp"
 #include "smseg/features/cloud_segment.hpp"
 #include "smseg/features/cloud_view.hpp"
+#include "smseg/features/grabcut_sfm.hpp"
 #include "smseg/features/tracks_io.hpp"
 
 namespace {
@@ -229,6 +232,287 @@ int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& m
   return 0;
 }
 
+// ---- --method grabcut-sfm (paper 001) -------------------------------------------------------------
+
+struct GrabCutSfmCli {
+  std::string sequence, work, cloud, out;  // cloud: empty = WORK/cloud.pcd
+  int frame = -1;
+  std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
+  int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
+  int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
+  std::string cluster = "kmeans", nearest = "centre";
+  smseg::features::GrabCutSfmParams params;
+};
+
+smseg::Json rect_json(const cv::Rect& r) { return {r.x, r.y, r.width, r.height}; }
+
+/// GrabCutSFM on one frame of a work folder, its two baselines, F1 against a truth mask when given;
+/// writes the mask (out), OUT-stem.overlay.png, the baselines' masks and out + ".json".
+int run_grabcut_sfm(const GrabCutSfmCli& o) {
+  using namespace smseg;
+  namespace sf = smseg::features;
+  if (o.sequence.empty()) throw Error("", "--sequence", "grabcut-sfm needs the sequence folder");
+  if (o.work.empty()) throw Error("", "--work", "grabcut-sfm needs the work folder (tracks.json, cloud.pcd)");
+  if (o.frame < 0) throw Error("", "--frame", "grabcut-sfm needs the frame index (>= 0)");
+  if (int(!o.truth_label.empty()) + int(!o.truth_mask.empty()) + int(!o.truth_instance.empty()) > 1)
+    throw Error("", "--truth-label", "give one of --truth-label, --truth-mask and --truth-instance");
+  if (o.truth_region != "largest" && o.truth_region != "all")
+    throw Error("", "--truth-region", "must be largest or all");
+  if (o.cluster != "kmeans" && o.cluster != "euclidean") throw Error("", "--cluster", "must be kmeans or euclidean");
+  if (o.nearest != "centre" && o.nearest != "median" && o.nearest != "depth")
+    throw Error("", "--nearest", "must be centre, median or depth");
+  if (o.truth_value < 0 || o.truth_value > 255) throw Error("", "--truth-value", "must be 0..255");
+  const std::string ext = fs::path(o.out).extension().string();
+  if (ext != ".png") throw Error(o.out, "-o", "grabcut-sfm writes a PNG mask: the output must end in .png");
+  o.params.validate();
+  const sf::Sequence seq = sf::load_sequence(o.sequence);
+  if (o.frame >= seq.frame_count())
+    throw Error(seq.manifest.string(), "--frame",
+                "frame " + std::to_string(o.frame) + " is out of range (the sequence has " +
+                    std::to_string(seq.frame_count()) + " frames)");
+  const fs::path tracks_path = fs::path(o.work) / "tracks.json";
+  std::error_code ec;
+  if (!fs::is_regular_file(tracks_path, ec))
+    throw Error(tracks_path.string(), "", "no camera poses: run extract-features on the sequence first");
+  const sf::TracksFile tracks = sf::read_tracks(tracks_path);
+  if (tracks.sequence_name != seq.name)
+    throw Error(tracks_path.string(), "sequence",
+                "is for sequence \"" + tracks.sequence_name + "\", not \"" + seq.name + "\"");
+  const int first = tracks.result.first_frame, posed = static_cast<int>(tracks.result.poses.size());
+  if (o.frame < first || o.frame >= first + posed)
+    throw Error(tracks_path.string(), "poses",
+                "frame " + std::to_string(o.frame) + " has no pose (poses cover frames " + std::to_string(first) +
+                    ".." + std::to_string(first + posed - 1) + ")");
+  const sf::Pose pose = tracks.result.poses[std::size_t(o.frame - first)];
+  sf::PinholeIntrinsics k;
+  k.cx = seq.calibration.cx;
+  k.cy = seq.calibration.cy;
+  std::string focal_source;
+  if (tracks.result.summary.sfm && tracks.result.summary.sfm->focal > 0) {
+    k.fx = k.fy = tracks.result.summary.sfm->focal;
+    focal_source = "tracks.json summary.sfm.focal_px (" + tracks.result.summary.sfm->focal_source + ")";
+  } else if (seq.calibration.fx && seq.calibration.fy) {
+    k.fx = *seq.calibration.fx;
+    k.fy = *seq.calibration.fy;
+    focal_source = "sequence calibration";
+  } else {
+    throw Error(seq.manifest.string(), "calibration", "no focal length (neither fx/fy nor an SfM focal in tracks.json)");
+  }
+  if (o.window >= 0 && !o.cloud.empty()) throw Error("", "--window", "give a CLOUD or --window, not both");
+  std::string cloud_path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
+  sf::ColouredCloud cloud;
+  if (o.window >= 0) {  // the tracks around the frame
+    cloud_path = tracks_path.string();
+    cloud.points = sf::window_cloud(tracks.result, o.frame, o.window);
+    if (cloud.points.empty())
+      throw Error(cloud_path, "tracks", "no track has a 3D point within " + std::to_string(o.window) +
+                                            " frames of frame " + std::to_string(o.frame));
+  } else {
+    if (!fs::is_regular_file(cloud_path, ec))
+      throw Error(cloud_path, "", "no cloud: run extract-features on the sequence first");
+    cloud = sf::read_coloured_cloud(cloud_path);
+  }
+  const cv::Mat image = seq.load_left(o.frame);
+
+  // Truth mask (255 object) and ignored pixels (void).
+  cv::Mat truth, ignore;
+  std::string truth_source;
+  if (!o.truth_label.empty()) {
+    int cls = -1;
+    std::string names;
+    for (std::size_t c = 0; c < seq.classes.size(); ++c) {
+      if (seq.classes[c].name == o.truth_label) cls = static_cast<int>(c);
+      names += (c ? ", " : "") + seq.classes[c].name;
+    }
+    if (cls < 0)
+      throw Error(seq.manifest.string(), "--truth-label", "no class \"" + o.truth_label + "\" (classes: " + names + ")");
+    if (!seq.is_labelled(o.frame))
+      throw Error(seq.manifest.string(), "--truth-label", "frame " + std::to_string(o.frame) + " has no label image");
+    const cv::Mat labels = seq.load_labels(o.frame);
+    truth = labels == cls;
+    ignore = labels == sf::kVoid;
+    if (cv::countNonZero(truth) == 0)
+      throw Error(seq.resolve(seq.frames[std::size_t(o.frame)].label).string(), "--truth-label",
+                  "frame " + std::to_string(o.frame) + " has no pixel of class " + o.truth_label);
+    truth_source = "label " + o.truth_label + " (" + o.truth_region + ")";
+    if (o.truth_region == "largest") {  // the largest 8-connected region of the class
+      cv::Mat comp, stats, centroids;
+      const int n = cv::connectedComponentsWithStats(truth, comp, stats, centroids, 8, CV_32S);
+      int best = 1;
+      for (int c = 2; c < n; ++c)
+        if (stats.at<int>(c, cv::CC_STAT_AREA) > stats.at<int>(best, cv::CC_STAT_AREA)) best = c;
+      truth = comp == best;
+    }
+  } else if (!o.truth_instance.empty()) {
+    // The sequence's instance image (object ids 1..K); "nearest": the object whose pixels have the
+    // smallest median ground-truth depth, "all": every object, else one id.
+    if (!seq.has_instances(o.frame))
+      throw Error(seq.manifest.string(), "--truth-instance",
+                  "frame " + std::to_string(o.frame) + " has no instance image");
+    const cv::Mat inst = seq.load_instances(o.frame);
+    int id = 0;
+    if (o.truth_instance == "nearest") {
+      const cv::Mat depth = seq.load_gt_depth(o.frame);
+      std::vector<std::vector<float>> d(256);
+      for (int y = 0; y < inst.rows; ++y)
+        for (int x = 0; x < inst.cols; ++x) {
+          const std::uint8_t v = inst.at<std::uint8_t>(y, x);
+          const float z = depth.at<float>(y, x);
+          if (v && z > 0) d[v].push_back(z);
+        }
+      float best = std::numeric_limits<float>::infinity();
+      for (int v = 1; v < 256; ++v) {
+        if (d[std::size_t(v)].empty()) continue;
+        auto& dv = d[std::size_t(v)];
+        std::nth_element(dv.begin(), dv.begin() + std::ptrdiff_t(dv.size() / 2), dv.end());
+        if (dv[dv.size() / 2] < best) {
+          best = dv[dv.size() / 2];
+          id = v;
+        }
+      }
+      if (id == 0) throw Error(seq.manifest.string(), "--truth-instance", "frame " + std::to_string(o.frame) + " shows no object");
+    } else if (o.truth_instance != "all") {
+      try {
+        std::size_t used = 0;
+        id = std::stoi(o.truth_instance, &used);
+        if (used != o.truth_instance.size() || id < 1 || id > 255) throw std::invalid_argument("id");
+      } catch (const std::exception&) {
+        throw Error("", "--truth-instance", "must be nearest, all or an object id 1..255");
+      }
+    }
+    truth = id == 0 ? inst != 0 : inst == id;
+    if (cv::countNonZero(truth) == 0)
+      throw Error(seq.manifest.string(), "--truth-instance",
+                  "frame " + std::to_string(o.frame) + " shows no pixel of object " + o.truth_instance);
+    truth_source = "instances " + o.truth_instance + (id ? " (object " + std::to_string(id) + ")" : "");
+  } else if (!o.truth_mask.empty()) {
+    const cv::Mat m = cv::imread(o.truth_mask, cv::IMREAD_UNCHANGED);
+    if (m.empty()) throw Error(o.truth_mask, "--truth-mask", "cannot be read as an image");
+    if (m.type() != CV_8UC1 || m.size() != image.size())
+      throw Error(o.truth_mask, "--truth-mask",
+                  "must be an 8-bit single-channel image of the frame's size (" + std::to_string(image.cols) + " x " +
+                      std::to_string(image.rows) + ")");
+    truth = o.truth_value == 0 ? m != 0 : m == o.truth_value;
+    if (cv::countNonZero(truth) == 0)
+      throw Error(o.truth_mask, "--truth-mask", "the truth mask has no object pixel");
+    truth_source = o.truth_mask + (o.truth_value ? " == " + std::to_string(o.truth_value) : " != 0");
+  }
+
+  sf::GrabCutSfmReport rep;
+  cv::Mat mask;
+  try {
+    mask = sf::grabcut_sfm(cloud.points, k, pose, image, o.params, &rep);
+  } catch (const Error& e) {
+    throw Error(e.field() == "cloud" ? cloud_path : e.file(), e.field(),
+                e.reason() + " (frame " + std::to_string(o.frame) + ")");
+  }
+  const fs::path out(o.out);
+  const fs::path stem = out.parent_path() / out.stem();
+  sf::write_image_atomic(out, mask);
+  sf::write_image_atomic(stem.string() + ".overlay.png", sf::grabcut_sfm_overlay(image, mask, rep));
+
+  Json clusters = Json::array();
+  for (std::size_t c = 0; c < rep.cluster_sizes.size(); ++c)
+    clusters.push_back({{"points", rep.cluster_sizes[c]},
+                        {"in_frame", rep.cluster_in_frame[c]},
+                        {"distance", rep.cluster_distances[c]}});
+  Json planes = Json::array();
+  for (std::size_t i = 0; i < rep.planes.size(); ++i)
+    planes.push_back({{"plane", {rep.planes[i][0], rep.planes[i][1], rep.planes[i][2], rep.planes[i][3]}},
+                      {"inliers", rep.planes_inliers[i]}});
+  const auto& p = o.params;
+  Json summary = {{"format", "smseg-segment-cloud"},
+                  {"version", 1},
+                  {"method", "grabcut-sfm"},
+                  {"sequence", o.sequence},
+                  {"work", o.work},
+                  {"cloud", cloud_path},
+                  {"frame", o.frame},
+                  {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"focal_source", focal_source}}},
+                  {"params",
+                   {{"plane_distance", p.plane_distance},
+                    {"plane_iterations", p.plane_iterations},
+                    {"k", p.k},
+                    {"attempts", p.attempts},
+                    {"kmeans_iterations", p.kmeans_iterations},
+                    {"min_cluster_points", p.min_cluster_points},
+                    {"outlier_threshold", p.outlier_threshold},
+                    {"ransac_iterations", p.ransac_iterations},
+                    {"box_margin", p.box_margin},
+                    {"grabcut_iterations", p.grabcut_iterations},
+                    {"frustum_only", p.frustum_only},
+                    {"max_distance", p.max_distance},
+                    {"window", o.window},
+                    {"planes", p.planes},
+                    {"plane_min_share", p.plane_min_share},
+                    {"height_band", p.height_band},
+                    {"max_tilt", p.max_tilt},
+                    {"support_radius", p.support_radius},
+                    {"cluster", o.cluster},
+                    {"cluster_tolerance", p.cluster_tolerance},
+                    {"min_cluster_size", p.min_cluster_size},
+                    {"nearest", o.nearest},
+                    {"seed", p.seed}}},
+                  {"points", rep.points},
+                  {"considered", rep.considered},
+                  {"plane_inliers", rep.plane_inliers},
+                  {"plane", {rep.plane[0], rep.plane[1], rep.plane[2], rep.plane[3]}},
+                  {"planes", planes},
+                  {"support", rep.support},
+                  {"in_band", rep.in_band},
+                  {"clusters", clusters},
+                  {"chosen", rep.chosen},
+                  {"chosen_projections", rep.chosen_points.size()},
+                  {"inliers_2d", rep.inliers_2d},
+                  {"inlier_box", rect_json(rep.inlier_box)},
+                  {"box", rect_json(rep.box)},
+                  {"mask_pixels", cv::countNonZero(mask)},
+                  {"seconds",
+                   {{"plane", rep.seconds_plane},
+                    {"kmeans", rep.seconds_kmeans},
+                    {"projection_ransac_box", rep.seconds_projection},
+                    {"grabcut", rep.seconds_grabcut},
+                    {"total", rep.seconds_total}}}};
+  std::string line = "frame " + std::to_string(o.frame) + ": cluster " + std::to_string(rep.chosen) + " of " +
+                     std::to_string(rep.cluster_sizes.size()) + " (" + fmt(rep.cluster_distances[std::size_t(rep.chosen)], "%.2f") +
+                     " m, " + std::to_string(rep.inliers_2d) + "/" + std::to_string(rep.chosen_points.size()) +
+                     " projections kept), box " + std::to_string(rep.box.width) + "x" +
+                     std::to_string(rep.box.height) + " at (" + std::to_string(rep.box.x) + ", " +
+                     std::to_string(rep.box.y) + "), " + fmt(rep.seconds_total * 1000, "%.0f") + " ms";
+
+  // Baselines: 2D k-means (k = 2) on colour; GrabCut on the truth mask's bounding box (when there is one).
+  auto t0 = std::chrono::steady_clock::now();
+  cv::Mat clusters2;
+  const cv::Mat km = sf::kmeans2_colour(image, p.seed, &clusters2);
+  const double km_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  sf::write_image_atomic(stem.string() + ".kmeans2.png", km);
+  summary["kmeans2"] = {{"seconds", km_seconds}, {"foreground_pixels", cv::countNonZero(km)}};
+  if (!truth.empty()) {
+    std::vector<cv::Point> pts;
+    cv::findNonZero(truth, pts);
+    const cv::Rect tbox = cv::boundingRect(pts);
+    t0 = std::chrono::steady_clock::now();
+    const cv::Mat gb = sf::grabcut_box(image, tbox, p.grabcut_iterations, p.seed);
+    const double gb_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    sf::write_image_atomic(stem.string() + ".box.png", gb);
+    const double f1 = sf::mask_f1(mask, truth, ignore), f1_km = sf::mask_f1(km, truth, ignore);
+    const double f1_km_other = sf::mask_f1(km == 0, truth, ignore), f1_box = sf::mask_f1(gb, truth, ignore);
+    summary["truth"] = {{"source", truth_source}, {"pixels", cv::countNonZero(truth)}, {"box", rect_json(tbox)},
+                        {"ignored_pixels", ignore.empty() ? 0 : cv::countNonZero(ignore)}};
+    summary["grabcut_box"] = {{"box", rect_json(tbox)}, {"seconds", gb_seconds}};
+    summary["f1"] = {{"grabcut_sfm", nan_null(f1)},
+                     {"kmeans2", nan_null(f1_km)},
+                     {"kmeans2_other_cluster", nan_null(f1_km_other)},
+                     {"kmeans2_best_of_both", nan_null(std::max(f1_km, f1_km_other))},
+                     {"grabcut_truth_box", nan_null(f1_box)}};
+    line += ", F1 grabcut-sfm " + fmt(f1, "%.3f") + ", kmeans2 " + fmt(f1_km, "%.3f") + " (best of both " +
+            fmt(std::max(f1_km, f1_km_other), "%.3f") + "), grabcut on the truth box " + fmt(f1_box, "%.3f");
+  }
+  write_json_atomic(o.out + ".json", summary);
+  std::cout << line << " -> " << o.out << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -252,6 +536,13 @@ int main(int argc, char** argv) {
       "    the large regions). Only the visible points are labelled. Writes OUT, OUT.json, the labels\n"
       "    splatted into the frame (OUT.png) and the saliency map (OUT.saliency.png); F1 per object and the\n"
       "    confusion matrix against the frame's instance image (make-sequence --scene tabletop) when it has one.\n"
+      "  --method grabcut-sfm (GrabCutSFM, paper 001): the object nearest the camera in one frame of a work\n"
+      "    folder (--sequence SEQ --work WORK --frame N; cloud WORK/cloud.pcd or CLOUD, poses and focal from\n"
+      "    WORK/tracks.json): RANSAC plane removal, 3D k-means (--k), the cluster nearest the camera projected\n"
+      "    into the frame, 2D RANSAC outlier removal, its bounding box, OpenCV grabCut. -o MASK.png; also\n"
+      "    MASK.overlay.png, the baselines' masks MASK.kmeans2.png (2D k-means, k = 2, on colour) and MASK.box.png\n"
+      "    (grabCut on the truth's bounding box), and MASK.png.json with F1 of all three against --truth-label\n"
+      "    NAME (the frame's label image), --truth-instance nearest|all|ID (instance images) or --truth-mask FILE.\n"
       "With --make-tabletop N, writes a synthetic tabletop cloud of N points instead (label 0 table,\n"
       "1..--objects objects) to -o.",
       "segment-cloud"};
@@ -263,15 +554,13 @@ int main(int argc, char** argv) {
   std::string seeds = "plane";
   double mrf_lambda = mrf.lambda;
   int make_tabletop = 0, threads = 0, truth_object = 1;
-  app.add_option("CLOUD", input, "input cloud (.pcd or .ply; fields x y z, optional rgb and label)");
-  app.add_option("-o,--out", out, "output cloud (.pcd or .ply); the summary goes to the same name + .json")->required();
-  app.add_option("--method", method, "centroid-mincut or mrf")->capture_default_str();
-  app.add_option("--seeds", seeds, "mrf: plane, saliency, or a seed file {\"format\": \"smseg-seeds\", \"version\": 1, "
-                 "\"radius\": r, \"seeds\": [{\"label\": 0, \"position\": [x, y, z]}, ...]}")->capture_default_str();
+  app.add_option("CLOUD", input, "input cloud (.pcd or .ply; fields x y z, optional rgb and label; grabcut-sfm: "
+                 "default WORK/cloud.pcd)");
+  app.add_option("-o,--out", out, "output cloud (.pcd or .ply; grabcut-sfm: the mask, .png); the summary goes to the same name + .json")->required();
+  app.add_option("--method", method, "centroid-mincut, mrf or grabcut-sfm")->capture_default_str();
+  app.add_option("--seeds", seeds, "mrf: plane, saliency, or a seed file {\"format\": \"smseg-seeds\", \"version\": 1, \"radius\": r, "
+                 "\"seeds\": [{\"label\": 0, \"position\": [x, y, z]}, ...]}")->capture_default_str();
   SaliencyRun sal;
-  app.add_option("--sequence", sal.sequence, "mrf saliency seeds: the sequence (folder or sequence.json)");
-  app.add_option("--work", sal.work, "mrf saliency seeds: the extract-features work folder (poses, cloud.pcd)");
-  app.add_option("--frame", sal.frame, "mrf saliency seeds: the frame whose image seeds and views the cloud");
   app.add_option("--saliency", sal.saliency.method, "mrf saliency seeds: colour (fine-grained saliency of intensity, R-G, B-Y), fine-grained or "
                  "spectral-residual")
       ->capture_default_str();
@@ -304,7 +593,9 @@ int main(int argc, char** argv) {
   app.add_option("--components", mrf.components, "mrf: Gaussians per colour model")->capture_default_str();
   app.add_option("--mrf-lambda", mrf_lambda, "mrf: weight of the pairwise term")->capture_default_str();
   app.add_option("--iterations", mrf.max_iterations, "mrf: at most this many GMM re-estimation rounds")->capture_default_str();
-  app.add_option("--plane-distance", plane.plane_distance, "mrf plane seeds: RANSAC inlier distance")->capture_default_str();
+  app.add_option("--plane-distance", plane.plane_distance,
+                 "RANSAC plane inlier distance, metres: mrf plane seeds (default shown); grabcut-sfm plane removal "
+                 "(default 0.05; 0: no plane removal)")->capture_default_str();
   app.add_option("--colour-tolerance", plane.colour_tolerance, "mrf plane seeds: RGB distance within one cluster")
       ->capture_default_str();
   app.add_option("--min-cluster", plane.min_cluster, "mrf plane seeds: smallest cluster that seeds an object")
@@ -324,8 +615,68 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--make-tabletop", make_tabletop, "write a synthetic tabletop cloud of this many points instead");
   app.add_option("--objects", tab.objects, "--make-tabletop: objects on the table (1..8)")->capture_default_str();
-  app.add_option("--seed", tab.seed, "--make-tabletop: seed")->capture_default_str();
+  app.add_option("--seed", tab.seed, "seed of --make-tabletop and of grabcut-sfm's random draws")->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
+  GrabCutSfmCli gc;
+  app.add_option("--sequence", sal.sequence,
+                 "grabcut-sfm and mrf saliency seeds: the sequence (folder or sequence.json)");
+  app.add_option("--work", sal.work,
+                 "grabcut-sfm and mrf saliency seeds: the extract-features work folder (tracks.json, cloud.pcd)");
+  app.add_option("--frame", sal.frame,
+                 "grabcut-sfm: the frame to segment; mrf saliency seeds: the frame whose image seeds and views the "
+                 "cloud (sequence index)");
+  app.add_option("--truth-label", gc.truth_label, "grabcut-sfm: F1 against the frame's pixels of this class (void ignored)");
+  app.add_option("--truth-region", gc.truth_region,
+                 "grabcut-sfm, --truth-label: largest (the class's largest 8-connected region; its other pixels "
+                 "count as background) or all")->capture_default_str();
+  app.add_option("--truth-instance", gc.truth_instance,
+                 "grabcut-sfm: F1 against an object of the frame's instance image (synthetic tabletop): nearest "
+                 "(smallest median ground-truth depth), all, or an object id");
+  app.add_option("--truth-mask", gc.truth_mask, "grabcut-sfm: F1 against this 8-bit mask image (non-zero = object)");
+  app.add_option("--truth-value", gc.truth_value, "grabcut-sfm, --truth-mask: object = pixels of this value (0: any non-zero)")
+      ->capture_default_str();
+  app.add_option("--k", gc.params.k, "grabcut-sfm: 3D k-means clusters")->capture_default_str();
+  app.add_option("--outlier-threshold", gc.params.outlier_threshold,
+                 "grabcut-sfm: 2D RANSAC inlier ellipse, robust standard deviations per axis")->capture_default_str();
+  app.add_option("--box-margin", gc.params.box_margin, "grabcut-sfm: share of the box's size added on each side")
+      ->capture_default_str();
+  app.add_option("--grabcut-iterations", gc.params.grabcut_iterations, "grabcut-sfm: cv::grabCut iterations")
+      ->capture_default_str();
+  app.add_option("--min-cluster-points", gc.params.min_cluster_points,
+                 "grabcut-sfm: projections in the frame a cluster needs to be chosen")->capture_default_str();
+  app.add_option("--max-distance", gc.params.max_distance,
+                 "grabcut-sfm: cluster only the points within this many metres of the camera (0: all; 001 uses all)")
+      ->capture_default_str();
+  app.add_option("--window", gc.window,
+                 "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
+                 "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "
+                 "one reconstruction)")->capture_default_str();
+  app.add_flag("--frustum-only", gc.params.frustum_only,
+               "grabcut-sfm: cluster only the points projecting into the frame (001 clusters the whole cloud)");
+  app.add_option("--planes", gc.params.planes,
+                 "grabcut-sfm: remove up to this many RANSAC planes in turn (001: 1)")->capture_default_str();
+  app.add_option("--plane-min-share", gc.params.plane_min_share,
+                 "grabcut-sfm: a second or later plane is removed only if it holds this share of the points left")
+      ->capture_default_str();
+  app.add_option("--height-band", gc.params.height_band,
+                 "grabcut-sfm: metres; > 0 keeps only the points between --plane-distance and this height above the "
+                 "supporting plane (the first plane, its RANSAC hypotheses restricted to normals within --max-tilt of "
+                 "the camera's up axis; 0: no band, 001)")->capture_default_str();
+  app.add_option("--max-tilt", gc.params.max_tilt,
+                 "grabcut-sfm, --height-band: degrees between the supporting plane's normal and the camera's up at most")
+      ->capture_default_str();
+  app.add_option("--support-radius", gc.params.support_radius,
+                 "grabcut-sfm, --height-band: metres; > 0 keeps only the points standing on the supporting plane (their "
+                 "foot on the plane within this of a plane inlier's foot; 0: the whole band)")->capture_default_str();
+  app.add_option("--cluster", gc.cluster, "grabcut-sfm: kmeans (001, --k clusters) or euclidean (--cluster-tolerance)")
+      ->capture_default_str();
+  app.add_option("--cluster-tolerance", gc.params.cluster_tolerance,
+                 "grabcut-sfm, --cluster euclidean: metres between neighbours of one cluster")->capture_default_str();
+  app.add_option("--min-cluster-size", gc.params.min_cluster_size,
+                 "grabcut-sfm, --cluster euclidean: smaller clusters are dropped")->capture_default_str();
+  app.add_option("--nearest", gc.nearest,
+                 "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001) or its points' median "
+                 "distance (median) or median depth along the optical axis (depth)")->capture_default_str();
   return run_tool(app, argc, argv, [&] {
     if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
     std::unique_ptr<tbb::global_control> limit;
@@ -345,6 +696,19 @@ int main(int argc, char** argv) {
       sal.input = input;
       sal.out = out;
       return run_saliency_mrf(sal, mrf);
+    }
+    if (method == "grabcut-sfm") {
+      if (app.count("--plane-distance")) gc.params.plane_distance = plane.plane_distance;
+      gc.params.seed = tab.seed;
+      gc.params.euclidean = gc.cluster == "euclidean";
+      gc.params.median_distance = gc.nearest == "median" || gc.nearest == "depth";
+      gc.params.median_depth = gc.nearest == "depth";
+      gc.sequence = sal.sequence;
+      gc.work = sal.work;
+      gc.frame = sal.frame;
+      gc.cloud = input;
+      gc.out = out;
+      return run_grabcut_sfm(gc);
     }
     if (input.empty()) throw Error("", "CLOUD", "an input cloud is required (or --make-tabletop N)");
     if (method == "mrf") {
@@ -424,7 +788,7 @@ int main(int argc, char** argv) {
       std::cout << line << " -> " << out << "\n";
       return 0;
     }
-    if (method != "centroid-mincut") throw Error("", "--method", "\"" + method + "\" is not a method (centroid-mincut or mrf)");
+    if (method != "centroid-mincut") throw Error("", "--method", "\"" + method + "\" is not a method (centroid-mincut, mrf or grabcut-sfm)");
     if (solver == "maxflow") mc.solver = features::MinCutSolver::MaxFlow;
     else if (solver == "pcl") mc.solver = features::MinCutSolver::Pcl;
     else throw Error("", "--solver", "\"" + solver + "\" is not a solver (maxflow or pcl)");
