@@ -328,8 +328,11 @@ int expect_same_files(const fs::path& a, const fs::path& b) {
   for (const auto& e : fs::recursive_directory_iterator(a)) {
     if (!e.is_regular_file()) continue;
     const fs::path rel = fs::relative(e.path(), a);
-    EXPECT_TRUE(fs::exists(b / rel)) << rel;
-    if (fs::exists(b / rel)) EXPECT_EQ(slurp(e.path()), slurp(b / rel)) << rel << " differs between runs";
+    if (!fs::exists(b / rel)) {
+      ADD_FAILURE() << rel << " is missing from the second run";
+    } else {
+      EXPECT_EQ(slurp(e.path()), slurp(b / rel)) << rel << " differs between runs";
+    }
     ++files;
   }
   return files;
