@@ -40,6 +40,48 @@ void FrontEndOptions::validate() const {
     throw Error("", "last_frame", "must be -1 (to the end) or greater than first_frame");
 }
 
+void summarise_tracks_and_motion(FrontEndResult& res, int n, const std::function<bool(std::size_t)>& counted) {
+  FrontEndSummary& s = res.summary;
+  const int first = res.first_frame;
+  std::vector<int> per_frame(n, 0);
+  std::vector<int> lengths;
+  for (const auto& tr : res.tracks) {
+    lengths.push_back(static_cast<int>(tr.size()));
+    for (int f : tr.frames) ++per_frame[f - first];
+  }
+  if (n > 0) {
+    long total = 0;
+    for (int v : per_frame) total += v;
+    s.valid_points_per_frame_mean = static_cast<double>(total) / n;
+    s.valid_points_per_frame_min = *std::min_element(per_frame.begin(), per_frame.end());
+  }
+  if (!lengths.empty()) {
+    std::sort(lengths.begin(), lengths.end());
+    double sum = 0;
+    for (int l : lengths) sum += l;
+    s.track_length_mean = sum / static_cast<double>(lengths.size());
+    s.track_length_median = lengths[lengths.size() / 2];
+    s.track_length_max = lengths.back();
+  }
+  int good = 0;
+  double ratio_sum = 0, ratio_min = 1;
+  for (std::size_t k = 0; k < res.pair_motions.size(); ++k) {
+    const auto& pm = res.pair_motions[k];
+    if (pm.bridged) {
+      ++s.bad_pairs;
+      s.bridged_pairs.push_back(first + static_cast<int>(k));
+      continue;
+    }
+    if (counted && !counted(k)) continue;
+    const double r = pm.points > 0 ? static_cast<double>(pm.inliers) / pm.points : 0;
+    ++good;
+    ratio_sum += r;
+    ratio_min = std::min(ratio_min, r);
+  }
+  s.inlier_ratio_mean = good ? ratio_sum / good : 0;
+  s.inlier_ratio_min = good ? ratio_min : 0;
+}
+
 FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& o) {
   const auto wall0 = Clock::now();
   o.validate();
@@ -192,42 +234,7 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   s.frames = n;
   s.keypoints = keypoints;
   s.filters = counts;
-  std::vector<int> per_frame(n, 0);
-  std::vector<int> lengths;
-  for (const auto& tr : res.tracks) {
-    lengths.push_back(static_cast<int>(tr.size()));
-    for (int f : tr.frames) ++per_frame[f - first];
-  }
-  if (n > 0) {
-    long total = 0;
-    for (int v : per_frame) total += v;
-    s.valid_points_per_frame_mean = static_cast<double>(total) / n;
-    s.valid_points_per_frame_min = *std::min_element(per_frame.begin(), per_frame.end());
-  }
-  if (!lengths.empty()) {
-    std::sort(lengths.begin(), lengths.end());
-    double sum = 0;
-    for (int l : lengths) sum += l;
-    s.track_length_mean = sum / static_cast<double>(lengths.size());
-    s.track_length_median = lengths[lengths.size() / 2];
-    s.track_length_max = lengths.back();
-  }
-  int good = 0;
-  double ratio_sum = 0, ratio_min = 1;
-  for (std::size_t k = 0; k < res.pair_motions.size(); ++k) {
-    const auto& pm = res.pair_motions[k];
-    if (pm.bridged) {
-      ++s.bad_pairs;
-      s.bridged_pairs.push_back(first + static_cast<int>(k));
-      continue;
-    }
-    const double r = pm.points > 0 ? static_cast<double>(pm.inliers) / pm.points : 0;
-    ++good;
-    ratio_sum += r;
-    ratio_min = std::min(ratio_min, r);
-  }
-  s.inlier_ratio_mean = good ? ratio_sum / good : 0;
-  s.inlier_ratio_min = good ? ratio_min : 0;
+  summarise_tracks_and_motion(res, n);
   auto mean = [](const std::vector<double>& v, int denom) {
     double a = 0;
     for (double x : v) a += x;

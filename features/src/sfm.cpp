@@ -1042,38 +1042,9 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
   s.frames = n;
   s.keypoints = keypoints;
   s.filters = fc;
-  std::vector<int> per_frame(n, 0), lengths;
-  for (const auto& tr : res.tracks) {
-    lengths.push_back(static_cast<int>(tr.size()));
-    for (int f : tr.frames) ++per_frame[f - first];
-  }
-  if (n > 0) {
-    s.valid_points_per_frame_mean = std::accumulate(per_frame.begin(), per_frame.end(), 0.0) / n;
-    s.valid_points_per_frame_min = *std::min_element(per_frame.begin(), per_frame.end());
-  }
-  if (!lengths.empty()) {
-    std::sort(lengths.begin(), lengths.end());
-    s.track_length_mean = std::accumulate(lengths.begin(), lengths.end(), 0.0) / static_cast<double>(lengths.size());
-    s.track_length_median = lengths[lengths.size() / 2];
-    s.track_length_max = lengths.back();
-  }
-  int good = 0;
-  double ratio_sum = 0, ratio_min = 1;
-  for (std::size_t k = 0; k < res.pair_motions.size(); ++k) {
-    const auto& pm = res.pair_motions[k];
-    if (pm.bridged) {
-      ++s.bad_pairs;
-      s.bridged_pairs.push_back(first + static_cast<int>(k));
-      continue;
-    }
-    if (status[k + 1] == FrameStatus::Still || pm.points == 0) continue;
-    const double r = static_cast<double>(pm.inliers) / pm.points;
-    ++good;
-    ratio_sum += r;
-    ratio_min = std::min(ratio_min, r);
-  }
-  s.inlier_ratio_mean = good ? ratio_sum / good : 0;
-  s.inlier_ratio_min = good ? ratio_min : 0;
+  summarise_tracks_and_motion(res, n, [&](std::size_t k) {
+    return status[k + 1] != FrameStatus::Still && res.pair_motions[k].points > 0;
+  });
   auto mean = [](const std::vector<double>& v, int denom) {
     return denom > 0 ? std::accumulate(v.begin(), v.end(), 0.0) / denom : 0.0;
   };

@@ -225,6 +225,13 @@ struct FrontEndResult {
   FrontEndSummary summary;
 };
 
+/// The summary figures both front ends share, from res.tracks and res.pair_motions over the n frames
+/// from res.first_frame: valid points per frame (mean, min), track lengths (mean, median, max), bridged
+/// pairs, and the motion inlier ratio (mean, min) over the pairs that are not bridged and for which
+/// `counted(k)` holds (all of them when it is empty; a pair with no points counts as 0).
+void summarise_tracks_and_motion(FrontEndResult& res, int n,
+                                 const std::function<bool(std::size_t)>& counted = {});
+
 /// Runs the stereo front end over the sequence. Bad input (mono sequence, missing calibration or
 /// camera height, missing images) is an Error naming file and field; frames with no valid disparity
 /// or no keypoints are not errors: they give no observations and bridged motion (see the summary).
