@@ -9,6 +9,7 @@
 #include <set>
 #include <thread>
 
+#include "jsonl.hpp"
 #include "smseg/eval/sweep.hpp"
 #include "smseg/experiments/runner.hpp"
 #include "smseg/io.hpp"
@@ -54,13 +55,7 @@ class Run : public ::testing::Test {
 };
 fs::path Run::dir;
 
-std::vector<json> records(const fs::path& jsonl) {
-  std::vector<json> out;
-  std::ifstream in(jsonl);
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) out.push_back(json::parse(line));
-  return out;
-}
+using smseg::test::read_jsonl;
 
 }  // namespace
 
@@ -70,7 +65,7 @@ TEST_F(Run, RecordsMeanWhatTheySayAndPointsShareTheirForest) {
   const ex::RunReport r = ex::run_experiment(e, o);
   EXPECT_EQ(r.total, 4);
   EXPECT_EQ(r.run, 4);
-  const auto recs = records(o.out / "experiment.jsonl");
+  const auto recs = read_jsonl(o.out / "experiment.jsonl");
   ASSERT_EQ(recs.size(), 4u);
   for (std::size_t i = 0; i < recs.size(); ++i) {
     const json& rec = recs[i];
@@ -127,7 +122,7 @@ TEST_F(Run, ResumesWithNoPointLostOrRepeated) {
   const ex::RunReport second = ex::run_experiment(e, o);
   EXPECT_EQ(second.done_before, 1);
   EXPECT_EQ(second.run, 2);
-  auto recs = records(jsonl);
+  auto recs = read_jsonl(jsonl);
   ASSERT_EQ(recs.size(), 3u);
   const json before = recs[1];
 
@@ -142,7 +137,7 @@ TEST_F(Run, ResumesWithNoPointLostOrRepeated) {
   const ex::RunReport third = ex::run_experiment(e, o);
   EXPECT_EQ(third.done_before, 2);
   EXPECT_EQ(third.run, 2);  // point 1 again, and point 3
-  recs = records(jsonl);
+  recs = read_jsonl(jsonl);
   ASSERT_EQ(recs.size(), 4u);
   std::set<int> indices;
   for (const auto& r : recs) indices.insert(r["index"].get<int>());
@@ -157,7 +152,7 @@ TEST_F(Run, ResumesWithNoPointLostOrRepeated) {
   const ex::RunReport fourth = ex::run_experiment(e, o);
   EXPECT_EQ(fourth.run, 0);
   EXPECT_EQ(fourth.done_before, 4);
-  EXPECT_EQ(records(jsonl).size(), 4u);
+  EXPECT_EQ(read_jsonl(jsonl).size(), 4u);
 
   // A new title or new figures change no result: accepted, and the folder's config.json takes them.
   json retitled = tiny_config();
@@ -176,7 +171,7 @@ TEST_F(Run, ResumesWithNoPointLostOrRepeated) {
     EXPECT_EQ(err.file(), (o.out / "config.json").string());
     EXPECT_EQ(err.field(), "config");
   }
-  EXPECT_EQ(records(jsonl).size(), 4u);
+  EXPECT_EQ(read_jsonl(jsonl).size(), 4u);
 }
 
 TEST_F(Run, ToolKilledMidRunResumes) {
@@ -195,11 +190,11 @@ TEST_F(Run, ToolKilledMidRunResumes) {
   }
   ::kill(pid, SIGKILL);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
-  const std::size_t at_kill = fs::exists(jsonl) ? records(jsonl).size() : 0;
+  const std::size_t at_kill = fs::exists(jsonl) ? read_jsonl(jsonl).size() : 0;
   EXPECT_GE(at_kill, 1u);
   // The rerun finishes the rest.
   ASSERT_EQ(std::system((tool + args + " > /dev/null 2>&1").c_str()), 0);
-  const auto recs = records(jsonl);
+  const auto recs = read_jsonl(jsonl);
   ASSERT_EQ(recs.size(), 4u);
   std::set<int> indices;
   for (const auto& r : recs) indices.insert(r["index"].get<int>());
@@ -213,7 +208,7 @@ TEST_F(Run, PreparedSequencesAndWorkFoldersPlugIn) {
   auto o = options("plug-synthetic");
   o.max_points = 1;
   ex::run_experiment(e, o);
-  const json want = records(o.out / "experiment.jsonl").at(0);
+  const json want = read_jsonl(o.out / "experiment.jsonl").at(0);
   fs::path seq, work;
   for (const auto& d : fs::directory_iterator(dir / "cache" / "sequences")) seq = d.path();
   for (const auto& d : fs::directory_iterator(dir / "cache" / "work")) work = d.path();
@@ -227,7 +222,7 @@ TEST_F(Run, PreparedSequencesAndWorkFoldersPlugIn) {
     po.cache = dir / (std::string("cache-") + kind);
     po.max_points = 1;
     ex::run_experiment(p, po);
-    const json got = records(po.out / "experiment.jsonl").at(0);
+    const json got = read_jsonl(po.out / "experiment.jsonl").at(0);
     EXPECT_EQ(got["confusion"], want["confusion"]) << kind;
     EXPECT_EQ(got["tree_nodes"], want["tree_nodes"]) << kind;
     // A prepared work folder keeps its own front end: the point does not claim one.
@@ -244,8 +239,8 @@ TEST_F(Run, SameRecordsWhateverTheThreadCount) {
                            cfg.string() + " -o " + (dir / "results" / (std::string("threads") + threads)).string())
                               .c_str()),
               0);
-  const auto a = records(dir / "results" / "threads1" / "experiment.jsonl");
-  const auto b = records(dir / "results" / "threads2" / "experiment.jsonl");
+  const auto a = read_jsonl(dir / "results" / "threads1" / "experiment.jsonl");
+  const auto b = read_jsonl(dir / "results" / "threads2" / "experiment.jsonl");
   ASSERT_EQ(a.size(), 4u);
   ASSERT_EQ(b.size(), 4u);
   for (std::size_t i = 0; i < a.size(); ++i)

@@ -8,6 +8,7 @@
 #include <map>
 #include <set>
 
+#include "jsonl.hpp"
 #include "run_tool.hpp"
 #include "smseg/experiments/config.hpp"
 #include "smseg/io.hpp"
@@ -21,13 +22,7 @@ using smseg::test::Outcome;
 using smseg::test::run;
 using smseg::test::tool;
 
-std::vector<json> records(const fs::path& jsonl) {
-  std::vector<json> out;
-  std::ifstream in(jsonl);
-  for (std::string line; std::getline(in, line);)
-    if (!line.empty()) out.push_back(json::parse(line));
-  return out;
-}
+using smseg::test::read_jsonl;
 
 }  // namespace
 
@@ -48,7 +43,7 @@ TEST(ThesisQuick, EveryConfigRunsInItsQuickForm) {
     const Outcome r = run(tool + " -q --quick --cache " + (dir / "cache").string() + " " + f.string() + " -o " + out.string());
     ASSERT_EQ(r.status, 0) << name << ": " << r.out;
     const auto ex = smseg::experiments::load_experiment(f, true);
-    const auto recs = records(out / "experiment.jsonl");
+    const auto recs = read_jsonl(out / "experiment.jsonl");
     ASSERT_EQ(recs.size(), ex.points.size()) << name;
     for (std::size_t i = 0; i < recs.size(); ++i) {
       EXPECT_EQ(recs[i]["point"], ex.points[i].json) << name;
