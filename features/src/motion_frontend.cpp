@@ -189,16 +189,7 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
     auto match_pair = [&](int t, const cv::Mat& a, const cv::Mat& b) {
       const auto t0 = Clock::now();
       std::vector<cv::DMatch> m = match_symmetric(a, b, norm);
-      const auto& pa = obs[t].pixels;
-      const auto& pb = obs[t + 1].pixels;
-      std::erase_if(m, [&](const cv::DMatch& d) {
-        if (o.tracking.max_descriptor_distance > 0 && d.distance > o.tracking.max_descriptor_distance) return true;
-        if (o.tracking.max_pixel_motion > 0) {
-          const cv::Point2f v = pb[d.trainIdx] - pa[d.queryIdx];
-          if (std::hypot(v.x, v.y) > o.tracking.max_pixel_motion) return true;
-        }
-        return false;
-      });
+      drop_far_matches(m, obs[t].pixels, obs[t + 1].pixels, o.tracking);
       matches[t] = std::move(m);
       t_match[t] = since(t0);
     };

@@ -452,13 +452,7 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
               o.match_radius_px > 0 ? match_gated(a, px[t], b, px[t + 1], norm, o.match_radius_px, o.lowe_ratio)
               : o.lowe_ratio > 0    ? match_ratio(a, b, norm, o.lowe_ratio)
                                     : match_symmetric(a, b, norm);
-          std::erase_if(m, [&](const cv::DMatch& d) {
-            if (o.tracking.max_descriptor_distance > 0 && d.distance > o.tracking.max_descriptor_distance) return true;
-            if (o.tracking.max_pixel_motion > 0 &&
-                cv::norm(px[t + 1][d.trainIdx] - px[t][d.queryIdx]) > o.tracking.max_pixel_motion)
-              return true;
-            return false;
-          });
+          drop_far_matches(m, px[t], px[t + 1], o.tracking);
           pairs[t] = verify_pair(m, px[t], px[t + 1], o);
           matches[t] = std::move(m);
           t_match[t] = since(t0);

@@ -158,6 +158,18 @@ std::vector<cv::Point2f> klt_step(const cv::Mat& prev_img, const std::vector<cv:
   return px;
 }
 
+void drop_far_matches(std::vector<cv::DMatch>& matches, const std::vector<cv::Point2f>& pa,
+                      const std::vector<cv::Point2f>& pb, const TrackingOptions& o) {
+  std::erase_if(matches, [&](const cv::DMatch& d) {
+    if (o.max_descriptor_distance > 0 && d.distance > o.max_descriptor_distance) return true;
+    if (o.max_pixel_motion > 0) {
+      const cv::Point2f v = pb[d.trainIdx] - pa[d.queryIdx];
+      if (std::hypot(v.x, v.y) > o.max_pixel_motion) return true;
+    }
+    return false;
+  });
+}
+
 std::vector<cv::DMatch> match_symmetric(const cv::Mat& a, const cv::Mat& b, int norm) {
   std::vector<cv::DMatch> out;
   if (a.empty() || b.empty()) return out;

@@ -178,6 +178,26 @@ TEST(Tracking, KeypointsMatchAcrossAShiftedImage) {
   EXPECT_TRUE(detect_keypoints(cv::Mat(240, 320, CV_8UC1, cv::Scalar(90)), TrackingOptions{}).keypoints.empty());
 }
 
+TEST(Tracking, DropFarMatchesAppliesBothLimits) {
+  const std::vector<cv::Point2f> pa = {{0, 0}, {10, 10}, {20, 20}};
+  const std::vector<cv::Point2f> pb = {{3, 4}, {10, 30}, {20, 21}};
+  const std::vector<cv::DMatch> all = {{0, 0, 1.f}, {1, 1, 2.f}, {2, 2, 9.f}};
+  TrackingOptions o;
+  auto m = all;
+  drop_far_matches(m, pa, pb, o);  // both limits off
+  EXPECT_EQ(m.size(), 3u);
+  o.max_pixel_motion = 5;  // (0,0)->(3,4) moves exactly 5: kept; 20 px: dropped
+  m = all;
+  drop_far_matches(m, pa, pb, o);
+  ASSERT_EQ(m.size(), 2u);
+  EXPECT_EQ(m[0].queryIdx, 0);
+  EXPECT_EQ(m[1].queryIdx, 2);
+  o.max_descriptor_distance = 5;
+  drop_far_matches(m, pa, pb, o);
+  ASSERT_EQ(m.size(), 1u);
+  EXPECT_EQ(m[0].queryIdx, 0);
+}
+
 TEST(Tracking, GfttGivesCornersWithoutDescriptors) {
   const cv::Mat a = shifted(texture(400, 300, 11), 320, 240, 0, 0);
   TrackingOptions o;

@@ -93,6 +93,11 @@ int descriptor_norm(KeypointMethod m);
 /// trainIdx indexes b; sorted by queryIdx. Empty sets give no matches.
 std::vector<cv::DMatch> match_symmetric(const cv::Mat& a, const cv::Mat& b, int norm);
 
+/// Drops the matches (queryIdx into pa, trainIdx into pb) farther apart than the options allow: in
+/// descriptor space (max_descriptor_distance) or in the image (max_pixel_motion); 0 switches a test off.
+void drop_far_matches(std::vector<cv::DMatch>& matches, const std::vector<cv::Point2f>& pa,
+                      const std::vector<cv::Point2f>& pb, const TrackingOptions& options);
+
 /// One track: a point seen in several frames. Parallel arrays, one entry per observation, frames
 /// ascending.
 struct Track {
