@@ -4,8 +4,8 @@
 
 #include <tbb/global_control.h>
 
-#include "smseg/cli.hpp"
-#include "smseg/features/stack.hpp"
+#include "smseg/common/cli.hpp"
+#include "smseg/stacks/stack.hpp"
 #include "smseg/forest/train.hpp"
 
 namespace {

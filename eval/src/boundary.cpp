@@ -4,7 +4,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 
 namespace smseg::eval {
 

@@ -10,7 +10,7 @@
 
 #include "smseg/eval/render.hpp"
 #include "smseg/forest/classify.hpp"
-#include "smseg/progress.hpp"
+#include "smseg/common/progress.hpp"
 
 namespace smseg::eval {
 

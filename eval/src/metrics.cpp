@@ -9,8 +9,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "smseg/error.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 
 namespace smseg::eval {
 

@@ -4,8 +4,8 @@
 #include <chrono>
 #include <cmath>
 
-#include "smseg/error.hpp"
-#include "smseg/features/graphcut.hpp"
+#include "smseg/common/error.hpp"
+#include "smseg/graphcut/graphcut.hpp"
 
 namespace smseg::eval {
 

@@ -5,7 +5,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace smseg::eval {
 

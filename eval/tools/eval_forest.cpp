@@ -8,7 +8,7 @@
 #include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
 
-#include "smseg/cli.hpp"
+#include "smseg/common/cli.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/sweep.hpp"
 

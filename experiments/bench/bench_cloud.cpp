@@ -6,7 +6,7 @@
 
 #include <map>
 
-#include "smseg/features/cloud_segment.hpp"
+#include "smseg/cloud/cloud_segment.hpp"
 
 using namespace smseg;
 

@@ -7,7 +7,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "smseg/features/point_features.hpp"
+#include "smseg/stacks/point_features.hpp"
 
 using namespace smseg::features;
 

@@ -12,7 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "smseg/features/motion.hpp"
+#include "smseg/frontend/motion.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg::features;

@@ -13,7 +13,7 @@
 
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/smooth.hpp"
-#include "smseg/features/graphcut.hpp"
+#include "smseg/graphcut/graphcut.hpp"
 #include "smseg/forest/synthetic.hpp"
 #include "smseg/forest/train.hpp"
 

@@ -12,8 +12,8 @@
 
 #include <Eigen/Geometry>
 
-#include "smseg/features/sfm.hpp"
-#include "smseg/features/synth.hpp"
+#include "smseg/frontend/sfm.hpp"
+#include "smseg/synth/synth.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg;

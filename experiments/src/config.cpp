@@ -5,8 +5,8 @@
 #include <set>
 #include <utility>
 
-#include "smseg/features/point_features.hpp"
-#include "smseg/io.hpp"
+#include "smseg/stacks/point_features.hpp"
+#include "smseg/common/io.hpp"
 
 namespace smseg::experiments {
 

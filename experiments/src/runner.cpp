@@ -11,12 +11,12 @@
 #include <unistd.h>
 
 #include "smseg/eval/sweep.hpp"
-#include "smseg/features/extract.hpp"
-#include "smseg/features/sfm.hpp"
-#include "smseg/features/tracks_io.hpp"
+#include "smseg/stacks/extract.hpp"
+#include "smseg/frontend/sfm.hpp"
+#include "smseg/frontend/tracks_io.hpp"
 #include "smseg/forest/train.hpp"
-#include "smseg/io.hpp"
-#include "smseg/progress.hpp"
+#include "smseg/common/io.hpp"
+#include "smseg/common/progress.hpp"
 
 namespace smseg::experiments {
 

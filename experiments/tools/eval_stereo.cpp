@@ -8,9 +8,9 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "smseg/cli.hpp"
-#include "smseg/features/stereo.hpp"
-#include "smseg/progress.hpp"
+#include "smseg/common/cli.hpp"
+#include "smseg/frontend/stereo.hpp"
+#include "smseg/common/progress.hpp"
 
 namespace {
 

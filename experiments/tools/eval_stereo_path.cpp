@@ -10,10 +10,10 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "smseg/cli.hpp"
-#include "smseg/features/trajectory.hpp"
-#include "smseg/features/tracks_io.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/cli.hpp"
+#include "smseg/frontend/trajectory.hpp"
+#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace {
 

@@ -18,10 +18,10 @@
 #include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
-#include "smseg/cli.hpp"
+#include "smseg/common/cli.hpp"
 #include "smseg/forest/rng.hpp"
 #include "smseg/forest/train.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace {
 

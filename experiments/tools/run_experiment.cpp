@@ -7,7 +7,7 @@
 #include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
 
-#include "smseg/cli.hpp"
+#include "smseg/common/cli.hpp"
 #include "smseg/experiments/runner.hpp"
 
 namespace {

@@ -6,7 +6,7 @@
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
 
 namespace smseg::forest {

@@ -4,9 +4,9 @@
 #include <set>
 #include <utility>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/forest.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace smseg::forest {
 

@@ -2,7 +2,7 @@
 #include <algorithm>
 #include <set>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/data.hpp"
 #include "smseg/forest/params.hpp"
 

@@ -5,7 +5,7 @@
 
 #include <oneapi/tbb/parallel_for.h>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/rng.hpp"
 #include "smseg/forest/synthetic.hpp"
 

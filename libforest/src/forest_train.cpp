@@ -14,10 +14,10 @@
 #include <oneapi/tbb/parallel_pipeline.h>
 #include <oneapi/tbb/parallel_reduce.h>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/train.hpp"
-#include "smseg/io.hpp"
-#include "smseg/progress.hpp"
+#include "smseg/common/io.hpp"
+#include "smseg/common/progress.hpp"
 
 namespace smseg::forest {
 

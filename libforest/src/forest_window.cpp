@@ -3,7 +3,7 @@
 #include <cmath>
 #include <numeric>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/window.hpp"
 
 namespace smseg::forest {

@@ -7,8 +7,8 @@
 #include <sstream>
 #include <unistd.h>
 
-#include "smseg/cli.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/cli.hpp"
+#include "smseg/common/io.hpp"
 #include "smseg_plots_py.hpp"
 
 namespace {

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "run_tool.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 

@@ -9,7 +9,7 @@
 #include <cstdio>
 
 #include "run_tool.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 

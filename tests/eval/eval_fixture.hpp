@@ -6,8 +6,8 @@
 #include <string>
 #include <vector>
 
-#include "smseg/features/point_features.hpp"
-#include "smseg/features/stack.hpp"
+#include "smseg/stacks/point_features.hpp"
+#include "smseg/stacks/stack.hpp"
 #include "smseg/forest/train.hpp"
 
 namespace eval_test {

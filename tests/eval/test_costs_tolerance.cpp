@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/eval/metrics.hpp"
 
 namespace fs = std::filesystem;

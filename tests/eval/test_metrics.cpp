@@ -3,7 +3,7 @@
 
 #include <cmath>
 
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/eval/metrics.hpp"
 
 using smseg::eval::Confusion;

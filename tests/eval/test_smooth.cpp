@@ -6,7 +6,7 @@
 #include <random>
 
 #include "eval_fixture.hpp"
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/smooth.hpp"
 

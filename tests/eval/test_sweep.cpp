@@ -6,7 +6,7 @@
 
 #include "eval_fixture.hpp"
 #include "smseg/eval/sweep.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg;

@@ -12,7 +12,7 @@
 #include "jsonl.hpp"
 #include "smseg/eval/sweep.hpp"
 #include "smseg/experiments/runner.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

@@ -11,7 +11,7 @@
 #include "jsonl.hpp"
 #include "run_tool.hpp"
 #include "smseg/experiments/config.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

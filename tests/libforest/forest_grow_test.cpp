@@ -5,7 +5,7 @@
 #include <numeric>
 
 #include "forest_test_util.hpp"
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 #include "smseg/forest/rng.hpp"
 
 using namespace forest_test;

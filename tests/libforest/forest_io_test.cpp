@@ -6,8 +6,8 @@
 #include <functional>
 
 #include "forest_test_util.hpp"
-#include "smseg/error.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 
 using namespace forest_test;
 

@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "forest_test_util.hpp"
-#include "smseg/error.hpp"
+#include "smseg/common/error.hpp"
 
 using namespace forest_test;
 

@@ -6,7 +6,7 @@
 #include <fstream>
 
 #include "run_tool.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;

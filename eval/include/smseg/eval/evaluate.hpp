@@ -23,7 +23,7 @@
 #include "smseg/eval/boundary.hpp"
 #include "smseg/eval/metrics.hpp"
 #include "smseg/eval/smooth.hpp"
-#include "smseg/features/stack.hpp"
+#include "smseg/stacks/stack.hpp"
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/forest.hpp"
 

@@ -7,7 +7,7 @@
 // over the 4- or 8-connected image grid (dist 1, or sqrt 2 for diagonal neighbours), a contrast-sensitive
 // Potts term (Boykov & Jolly 2001, as in GrabCut) on the frame's greyscale image I, with
 // beta = 1 / (2 <(I_i - I_j)^2>) averaged over the neighbour pairs of the frame (0 on a flat image).
-// Minimised by alpha-expansion (smseg/features/graphcut.hpp) from the per-pixel MAP labelling, so the
+// Minimised by alpha-expansion (smseg/graphcut/graphcut.hpp) from the per-pixel MAP labelling, so the
 // energy is never above that of the unsmoothed output; lambda = 0 gives the MAP labels.
 
 #include <span>

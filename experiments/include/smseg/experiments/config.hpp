@@ -41,8 +41,8 @@
 #include <nlohmann/json.hpp>
 
 #include "smseg/eval/evaluate.hpp"
-#include "smseg/features/stack.hpp"
-#include "smseg/features/synth.hpp"
+#include "smseg/stacks/stack.hpp"
+#include "smseg/synth/synth.hpp"
 #include "smseg/forest/params.hpp"
 
 namespace smseg::experiments {

@@ -34,7 +34,7 @@
 #include <nlohmann/json.hpp>
 
 #include "smseg/experiments/config.hpp"
-#include "smseg/features/sequence.hpp"
+#include "smseg/sequence/sequence.hpp"
 
 namespace smseg::experiments {
 

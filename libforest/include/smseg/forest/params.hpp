@@ -8,7 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "smseg/forest/window.hpp"
-#include "smseg/io.hpp"
+#include "smseg/common/io.hpp"
 
 namespace smseg::forest {
 

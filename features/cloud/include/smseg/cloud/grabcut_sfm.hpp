@@ -1,0 +1,170 @@
+#pragma once
+// GrabCutSFM (paper 001, He & Upcroft): unsupervised segmentation of the object nearest the camera in one
+// frame of a video, from the structure-and-motion cloud and the frame's camera pose:
+//   0. (options, not in 001) only the points within max_distance of the camera and / or projecting into the
+//      frame (frustum_only) are used: a street-long SfM cloud has far and stray points that k-means would
+//      spend clusters on;
+//   1. RANSAC plane removal: the dominant plane (the ground or the table the object stands on) and its
+//      inliers within plane_distance are removed from the cloud (001 III-B, Fig. 3);
+//      (options, not in 001: several planes in turn; the first plane as the supporting plane facing the
+//      camera's up, and only the points in a height band above it, standing on it: see height_band)
+//   2. 3D k-means (k = 6, k-means++ seeding, the best of `attempts` runs) on the remaining points (option,
+//      not in 001: Euclidean clustering);
+//   3. the cluster whose centre (option: median distance or depth of its points) is nearest the camera centre, among the clusters with at least
+//      min_cluster_points points projecting into the frame in front of the camera, is projected into the
+//      frame (x = P X, 001 eq. 2);
+//   4. 2D RANSAC outlier removal (001 III-C; the paper does not give the model, ours): a hypothesis is a
+//      centre, the mean of 2 projections drawn at random; the inliers are the projections within
+//      outlier_threshold robust standard deviations of it on each axis (an ellipse: per axis 1.4826 x the
+//      median absolute deviation from the median), the hypothesis with most inliers wins, its centre is
+//      re-estimated as the inliers' mean and the inliers recounted;
+//   5. the bounding box of the inliers (001: "the maximum and minimum coordinates of inliers"), grown by
+//      box_margin of its width / height on each side (the paper notes that its boxes come out smaller than
+//      the object: the object's outline has few tracked points) and clipped to the image keeping at least a
+//      one-pixel frame outside it (GrabCut needs background pixels);
+//   6. OpenCV grabCut initialised with that rectangle (GC_INIT_WITH_RECT); foreground = GC_FGD | GC_PR_FGD.
+// Baselines of the paper's Fig. 9: 2D k-means (k = 2) on the pixels' colour, and GrabCut on a given box.
+//
+// Deterministic for a seed: every random draw comes from std::mt19937_64 seeded from `seed`, and OpenCV's
+// GrabCut, whose GMM initialisation draws from cv::theRNG(), runs with that generator reseeded from the
+// seed (and restored afterwards).
+//
+// Camera model: pinhole without distortion; poses camera-to-world (sequence.hpp's Pose: R rotates camera
+// coordinates into the world, t is the camera centre); camera x right, y down, z forward.
+
+#include <cstdint>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "smseg/frontend/motion.hpp"
+#include "smseg/sequence/sequence.hpp"
+
+namespace smseg::features {
+
+struct PinholeIntrinsics {
+  double fx = 0, fy = 0, cx = 0, cy = 0;
+  void validate() const;  ///< Error when fx or fy is not positive and finite
+};
+
+/// Projects a world point with a camera-to-world pose; false when it lies behind the camera (z <= 1e-6).
+bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
+                   double* depth = nullptr);
+
+struct GrabCutSfmParams {
+  double plane_distance = 0.05;  ///< metres, RANSAC plane inlier distance; 0: no plane removal
+  int plane_iterations = 500;    ///< RANSAC hypotheses for the plane
+  int k = 6;                     ///< 3D k-means clusters (001: 6)
+  int attempts = 3;              ///< k-means runs (k-means++ seeds); the lowest sum of squared distances wins
+  int kmeans_iterations = 100;   ///< Lloyd iterations per run at most
+  int min_cluster_points = 5;    ///< projections in the frame a cluster needs to be chosen
+  double outlier_threshold = 3;  ///< 2D RANSAC: robust standard deviations per axis
+  int ransac_iterations = 200;   ///< 2D RANSAC hypotheses
+  double box_margin = 0.1;       ///< share of the box's width / height added on each side
+  int grabcut_iterations = 5;    ///< cv::grabCut iterations
+  bool frustum_only = false;     ///< cluster only the points projecting into the frame (not in 001)
+  double max_distance = 0;       ///< metres: cluster only points this close to the camera (0: all; not in 001)
+  // Several planes and the supporting plane (not in 001, which removes one plane):
+  int planes = 1;                ///< planes removed in turn at most (001: 1)
+  double plane_min_share = 0.1;  ///< a second or later plane is removed only if it holds this share of the rest
+  double height_band = 0;        ///< metres: > 0: the first plane is the supporting plane, RANSAC hypotheses
+                                 ///< restricted to normals within max_tilt of the camera's up axis, and only
+                                 ///< the points between plane_distance and height_band above it are kept
+                                 ///< (0: no band, 001)
+  double max_tilt = 30;          ///< degrees, see height_band
+  double support_radius = 0;     ///< metres: > 0 keeps, of the band, only the points standing on the supporting
+                                 ///< plane: the foot of the point within this of a plane inlier's foot
+  // Clustering and the choice of the nearest cluster:
+  bool euclidean = false;        ///< Euclidean clustering (points within cluster_tolerance chained) instead of k-means
+  double cluster_tolerance = 0.03;  ///< metres, Euclidean clustering
+  int min_cluster_size = 10;     ///< Euclidean clustering: smaller clusters are dropped
+  bool median_distance = false;  ///< nearest by the median distance of the cluster's points (else its centre's)
+  bool median_depth = false;     ///< with median_distance: depth (along the optical axis) instead of distance
+  std::uint64_t seed = 1;
+  void validate() const;         ///< Error naming the option (--plane-distance, --k, ...)
+};
+
+struct GrabCutSfmReport {
+  int points = 0;                       ///< cloud points
+  int considered = 0;                   ///< points offered to the plane fit (all, or those in the frustum / range)
+  int plane_inliers = 0;                ///< removed as planes (all of them)
+  Eigen::Vector4d plane{0, 0, 0, 0};    ///< the first plane: n . X + d = 0, |n| = 1 (zero without plane removal)
+  std::vector<Eigen::Vector4d> planes;  ///< every plane removed, in order (normals towards the camera)
+  std::vector<int> planes_inliers;      ///< per plane, its inliers
+  int support = -1;                     ///< with height_band: the supporting plane's index in `planes` (0)
+  int in_band = 0;                      ///< with height_band: points kept in the band
+  std::vector<int> cluster_sizes;       ///< per cluster, points
+  std::vector<double> cluster_distances;  ///< per cluster, distance from the camera (metres): of its centre, or
+                                          ///< the median of its points' with median_distance
+  std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
+  int chosen = -1;                      ///< the cluster used
+  std::vector<cv::Point2f> projected;   ///< every clustered point projecting into the frame
+  std::vector<int> projected_cluster;   ///< its cluster
+  std::vector<cv::Point2f> chosen_points;  ///< the chosen cluster's projections in the frame
+  std::vector<char> chosen_inlier;      ///< per chosen projection, kept by the 2D RANSAC
+  int inliers_2d = 0;
+  cv::Rect inlier_box;                  ///< bounding box of the 2D inliers
+  cv::Rect box;                         ///< after margin and clipping: the GrabCut rectangle
+  double seconds_plane = 0, seconds_kmeans = 0, seconds_projection = 0, seconds_grabcut = 0;
+  double seconds_total = 0;
+};
+
+/// GrabCutSFM on one frame. `points` are world positions (the cloud), `image` the frame (CV_8UC3 BGR).
+/// Returns the foreground mask (CV_8UC1, 255 object, 0 background). Errors: empty cloud, empty or
+/// non-colour image, too few points left for k clusters after plane removal, no cluster with
+/// min_cluster_points projections in front of the camera inside the frame.
+cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
+                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report = nullptr);
+
+/// A cloud local to one frame (not in 001): one point per track observed with a 3D point in frames
+/// [frame - window, frame + window] (those with a pose), the mean of its world positions there (R P + t of
+/// each observation's frame). Keeps the drift and the far structure of a long sequence out of the clusters.
+std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int frame, int window);
+
+// ---- building blocks (exposed for tests) ------------------------------------------------------------
+
+/// RANSAC plane over `points` (3-point hypotheses, inliers within `distance`, the plane refitted by least
+/// squares to the best hypothesis's inliers and the inliers recounted). Returns per point 1 = inlier.
+/// Fewer than 3 points: no inliers, plane zero. With `min_cos` > 0 only hypotheses whose normal n has
+/// |n . up| >= min_cos count (a plane facing `up`, unit, within acos(min_cos)).
+std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
+                               std::uint64_t seed, Eigen::Vector4d* plane = nullptr,
+                               const Eigen::Vector3d& up = Eigen::Vector3d::Zero(), double min_cos = -1);
+
+/// k-means of n rows of `dim` floats (row-major), k-means++ seeding, Lloyd iterations until no label
+/// changes, best of `attempts` (lowest sum of squared distances). Labels 0..k-1 ordered by the first point
+/// of each cluster (so the labelling does not depend on the seeding order). Error when n < k or k < 1.
+std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int attempts, int max_iterations,
+                        std::uint64_t seed, std::vector<float>* centres = nullptr);
+
+/// Euclidean clustering: points joined when within `tolerance` of each other (transitively, single
+/// linkage, on a voxel grid of that size); clusters of fewer than `min_size` points get -1. Labels 0..m-1
+/// ordered by the first point of each cluster. Deterministic.
+std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size);
+
+/// The 2D RANSAC of step 4: per point 1 = inlier. Fewer than 3 points: all inliers.
+std::vector<char> compact_inliers_2d(const std::vector<cv::Point2f>& points, double threshold, int iterations,
+                                     std::uint64_t seed);
+
+/// OpenCV GrabCut initialised with `box` (clipped to the image leaving a one-pixel frame); 255 / 0 mask.
+/// Deterministic for the seed. Error when the clipped box is empty.
+cv::Mat grabcut_box(const cv::Mat& image, cv::Rect box, int iterations, std::uint64_t seed);
+
+/// Baseline: k-means (k = 2) on the pixels' colour (BGR, 0..255). The foreground cluster is chosen without
+/// ground truth: the one with the smaller share of the image's border pixels (the outermost row / column
+/// on each side; an object of interest is framed, the background reaches the frame's edge); on a tie the
+/// smaller cluster. `clusters` receives the raw 0 / 1 labels (CV_8UC1) when given, for reports that score
+/// both assignments.
+cv::Mat kmeans2_colour(const cv::Mat& image, std::uint64_t seed, cv::Mat* clusters = nullptr);
+
+/// F1 of `predicted` (non-zero = foreground) against `truth` (non-zero = foreground) over the pixels where
+/// `ignore` is zero (an empty `ignore`: every pixel). NaN when neither mask has a foreground pixel.
+/// Error when the sizes differ.
+double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ignore = cv::Mat());
+
+/// The frame with the mask tinted, every cluster's projections in its colour (the chosen cluster's 2D
+/// outliers as crosses), the inlier box thin and the GrabCut box thick in red (001 Fig. 5 and 6).
+cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const GrabCutSfmReport& report);
+
+}  // namespace smseg::features

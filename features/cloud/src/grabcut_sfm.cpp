@@ -1,0 +1,711 @@
+// GrabCutSFM (paper 001) and its baselines: plane RANSAC, k-means, 2D RANSAC, OpenCV GrabCut.
+// Plain Eigen / OpenCV (our own seeded RANSAC and k-means so that a seed fixes every draw); it lives
+// with the other cloud segmenters in smseg_cloud.
+#include "smseg/cloud/grabcut_sfm.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+#include <string>
+
+#include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
+
+#include "smseg/common/error.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// Uniform integer in [0, n) from the generator (its own arithmetic: std::uniform_int_distribution's
+/// draws differ between standard libraries).
+std::size_t draw(std::mt19937_64& rng, std::size_t n) { return static_cast<std::size_t>(rng() % n); }
+
+double draw_unit(std::mt19937_64& rng) { return double(rng() >> 11) * 0x1.0p-53; }
+
+/// Seeds for separate stages, so that changing one stage's draws does not shift another's.
+std::uint64_t stage_seed(std::uint64_t seed, std::uint64_t stage) {
+  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (stage + 1);
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const std::size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(m), v.end());
+  double hi = v[m];
+  if (v.size() % 2 == 1) return hi;
+  const double lo = *std::max_element(v.begin(), v.begin() + std::ptrdiff_t(m));
+  return 0.5 * (lo + hi);
+}
+
+const cv::Scalar kPalette[] = {{40, 40, 230},  {60, 180, 60},  {230, 120, 30}, {30, 200, 230},
+                               {200, 60, 200}, {230, 220, 40}, {120, 120, 255}, {20, 120, 160}};
+
+}  // namespace
+
+void PinholeIntrinsics::validate() const {
+  if (!(std::isfinite(fx) && fx > 0 && std::isfinite(fy) && fy > 0))
+    throw Error("", "intrinsics", "the focal length must be positive (fx " + std::to_string(fx) + ", fy " +
+                                      std::to_string(fy) + ")");
+  if (!std::isfinite(cx) || !std::isfinite(cy)) throw Error("", "intrinsics", "the principal point must be finite");
+}
+
+void GrabCutSfmParams::validate() const {
+  if (!(plane_distance >= 0) || !std::isfinite(plane_distance))
+    throw Error("", "--plane-distance", "must be >= 0 metres (0: no plane removal)");
+  if (plane_iterations < 1) throw Error("", "--plane-iterations", "must be >= 1");
+  if (k < 1 || k > 100) throw Error("", "--k", "must be 1..100");
+  if (attempts < 1) throw Error("", "--attempts", "must be >= 1");
+  if (kmeans_iterations < 1) throw Error("", "--kmeans-iterations", "must be >= 1");
+  if (min_cluster_points < 1) throw Error("", "--min-cluster-points", "must be >= 1");
+  if (!(outlier_threshold > 0) || !std::isfinite(outlier_threshold))
+    throw Error("", "--outlier-threshold", "must be > 0 (robust standard deviations)");
+  if (ransac_iterations < 1) throw Error("", "--ransac-iterations", "must be >= 1");
+  if (!(box_margin >= 0 && box_margin <= 1)) throw Error("", "--box-margin", "must be in [0, 1]");
+  if (!(max_distance >= 0) || !std::isfinite(max_distance))
+    throw Error("", "--max-distance", "must be >= 0 metres (0: no limit)");
+  if (grabcut_iterations < 1 || grabcut_iterations > 100) throw Error("", "--grabcut-iterations", "must be 1..100");
+  if (planes < 1 || planes > 20) throw Error("", "--planes", "must be 1..20");
+  if (!(plane_min_share >= 0 && plane_min_share <= 1)) throw Error("", "--plane-min-share", "must be in [0, 1]");
+  if (!(height_band >= 0) || !std::isfinite(height_band))
+    throw Error("", "--height-band", "must be >= 0 metres (0: no band)");
+  if (height_band > 0 && !(height_band > plane_distance))
+    throw Error("", "--height-band", "must exceed --plane-distance (the band starts there)");
+  if (height_band > 0 && !(plane_distance > 0))
+    throw Error("", "--height-band", "needs plane removal (--plane-distance > 0): the band lies above a removed plane");
+  if (!(support_radius >= 0) || !std::isfinite(support_radius))
+    throw Error("", "--support-radius", "must be >= 0 metres (0: any point in the band)");
+  if (!(max_tilt >= 0 && max_tilt <= 90)) throw Error("", "--max-tilt", "must be 0..90 degrees");
+  if (!(cluster_tolerance > 0) || !std::isfinite(cluster_tolerance))
+    throw Error("", "--cluster-tolerance", "must be > 0 metres");
+  if (min_cluster_size < 1) throw Error("", "--min-cluster-size", "must be >= 1");
+}
+
+bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
+                   double* depth) {
+  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
+  const Eigen::Vector3d c(pose.t[0], pose.t[1], pose.t[2]);
+  const Eigen::Vector3d x = R.transpose() * (world.cast<double>() - c);
+  if (depth) *depth = x.z();
+  if (!(x.z() > 1e-6)) return false;
+  if (pixel) *pixel = cv::Point2f(float(k.fx * x.x() / x.z() + k.cx), float(k.fy * x.y() / x.z() + k.cy));
+  return true;
+}
+
+std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
+                               std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
+                               double min_cos) {
+  const std::size_t n = points.size();
+  std::vector<char> inlier(n, 0);
+  if (plane_out) plane_out->setZero();
+  if (n < 3) return inlier;
+  std::mt19937_64 rng(seed);
+  const auto count = [&](const Eigen::Vector4d& pl) {
+    int c = 0;
+    for (const auto& p : points)
+      if (std::abs(pl.head<3>().dot(p.cast<double>()) + pl[3]) <= distance) ++c;
+    return c;
+  };
+  Eigen::Vector4d best(0, 0, 0, 0);
+  int best_count = -1;
+  for (int it = 0; it < iterations; ++it) {
+    const std::size_t a = draw(rng, n), b = draw(rng, n), c = draw(rng, n);
+    if (a == b || b == c || a == c) continue;
+    const Eigen::Vector3d pa = points[a].cast<double>(), pb = points[b].cast<double>(), pc = points[c].cast<double>();
+    Eigen::Vector3d nrm = (pb - pa).cross(pc - pa);
+    const double len = nrm.norm();
+    if (!(len > 1e-12)) continue;
+    nrm /= len;
+    if (std::abs(nrm.dot(up)) < min_cos) continue;  // not facing `up` closely enough
+    const Eigen::Vector4d pl(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(pa));
+    const int cnt = count(pl);
+    if (cnt > best_count) {
+      best_count = cnt;
+      best = pl;
+    }
+  }
+  if (best_count < 3) return inlier;
+  // Least-squares refit to the inliers: the normal is the covariance's smallest eigenvector.
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  int m = 0;
+  for (const auto& p : points)
+    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
+      mean += p.cast<double>();
+      ++m;
+    }
+  mean /= m;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points)
+    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
+      const Eigen::Vector3d d = p.cast<double>() - mean;
+      cov += d * d.transpose();
+    }
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
+  const Eigen::Vector3d nrm = es.eigenvectors().col(0).normalized();
+  const Eigen::Vector4d refit(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(mean));
+  const Eigen::Vector4d& pl = count(refit) >= best_count ? refit : best;
+  for (std::size_t i = 0; i < n; ++i)
+    inlier[i] = std::abs(pl.head<3>().dot(points[i].cast<double>()) + pl[3]) <= distance ? 1 : 0;
+  if (plane_out) *plane_out = pl;
+  return inlier;
+}
+
+std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int attempts, int max_iterations,
+                        std::uint64_t seed, std::vector<float>* centres_out) {
+  if (dim < 1 || data.size() % std::size_t(dim) != 0) throw Error("", "kmeans", "data size is not a multiple of dim");
+  const std::size_t n = data.size() / std::size_t(dim);
+  if (k < 1) throw Error("", "k", "must be >= 1");
+  if (n < std::size_t(k))
+    throw Error("", "k", std::to_string(n) + " points cannot make " + std::to_string(k) + " clusters");
+  const std::size_t d = std::size_t(dim), kk = std::size_t(k);
+  const auto dist2 = [&](std::size_t i, const float* c) {
+    double s = 0;
+    for (std::size_t j = 0; j < d; ++j) {
+      const double v = double(data[i * d + j]) - double(c[j]);
+      s += v * v;
+    }
+    return s;
+  };
+  std::mt19937_64 rng(seed);
+  std::vector<int> best_labels;
+  std::vector<float> best_centres;
+  double best_cost = std::numeric_limits<double>::infinity();
+  std::vector<int> labels(n);
+  std::vector<float> centres(kk * d);
+  std::vector<double> nearest(n);
+  for (int attempt = 0; attempt < attempts; ++attempt) {
+    // k-means++ seeding.
+    std::size_t first = draw(rng, n);
+    std::copy_n(&data[first * d], d, &centres[0]);
+    for (std::size_t i = 0; i < n; ++i) nearest[i] = dist2(i, &centres[0]);
+    for (std::size_t c = 1; c < kk; ++c) {
+      double total = 0;
+      for (double v : nearest) total += v;
+      std::size_t pick = 0;
+      if (total > 0) {
+        double r = draw_unit(rng) * total;
+        pick = n - 1;
+        for (std::size_t i = 0; i < n; ++i) {
+          r -= nearest[i];
+          if (r < 0) {
+            pick = i;
+            break;
+          }
+        }
+      } else {
+        pick = draw(rng, n);
+      }
+      std::copy_n(&data[pick * d], d, &centres[c * d]);
+      for (std::size_t i = 0; i < n; ++i) nearest[i] = std::min(nearest[i], dist2(i, &centres[c * d]));
+    }
+    // Lloyd iterations.
+    std::fill(labels.begin(), labels.end(), -1);
+    double cost = 0;
+    for (int it = 0; it < max_iterations; ++it) {
+      bool changed = false;
+      cost = 0;
+      for (std::size_t i = 0; i < n; ++i) {
+        int bl = 0;
+        double bd = std::numeric_limits<double>::infinity();
+        for (std::size_t c = 0; c < kk; ++c) {
+          const double v = dist2(i, &centres[c * d]);
+          if (v < bd) {
+            bd = v;
+            bl = int(c);
+          }
+        }
+        nearest[i] = bd;
+        cost += bd;
+        if (labels[i] != bl) {
+          labels[i] = bl;
+          changed = true;
+        }
+      }
+      if (!changed) break;
+      std::vector<double> sum(kk * d, 0.0);
+      std::vector<std::size_t> cnt(kk, 0);
+      for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t c = std::size_t(labels[i]);
+        ++cnt[c];
+        for (std::size_t j = 0; j < d; ++j) sum[c * d + j] += data[i * d + j];
+      }
+      for (std::size_t c = 0; c < kk; ++c) {
+        if (cnt[c] == 0) {
+          // An empty cluster takes the point farthest from its centre.
+          const std::size_t far = std::size_t(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
+          std::copy_n(&data[far * d], d, &centres[c * d]);
+          nearest[far] = 0;
+          continue;
+        }
+        for (std::size_t j = 0; j < d; ++j) centres[c * d + j] = float(sum[c * d + j] / double(cnt[c]));
+      }
+    }
+    if (cost < best_cost) {
+      best_cost = cost;
+      best_labels = labels;
+      best_centres = centres;
+    }
+  }
+  // Canonical order: clusters numbered by their first point.
+  std::vector<int> order(kk, -1);
+  int next = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (order[std::size_t(best_labels[i])] < 0) order[std::size_t(best_labels[i])] = next++;
+  for (auto& o : order)
+    if (o < 0) o = next++;
+  std::vector<int> out(n);
+  for (std::size_t i = 0; i < n; ++i) out[i] = order[std::size_t(best_labels[i])];
+  if (centres_out) {
+    centres_out->assign(kk * d, 0.f);
+    for (std::size_t c = 0; c < kk; ++c)
+      std::copy_n(&best_centres[c * d], d, &(*centres_out)[std::size_t(order[c]) * d]);
+  }
+  return out;
+}
+
+std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size) {
+  const std::size_t n = points.size();
+  std::vector<int> parent(n);
+  for (std::size_t i = 0; i < n; ++i) parent[i] = int(i);
+  const auto find = [&](int a) {
+    while (parent[std::size_t(a)] != a) {
+      parent[std::size_t(a)] = parent[std::size_t(parent[std::size_t(a)])];
+      a = parent[std::size_t(a)];
+    }
+    return a;
+  };
+  // Voxel grid of the tolerance's size: neighbours within the tolerance lie in the 27 surrounding cells.
+  const auto cell_of = [&](const Eigen::Vector3f& p) {
+    return Eigen::Vector3i(int(std::floor(p.x() / tolerance)), int(std::floor(p.y() / tolerance)),
+                           int(std::floor(p.z() / tolerance)));
+  };
+  const auto key = [](const Eigen::Vector3i& c) {
+    return (std::uint64_t(std::uint32_t(c.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(c.y()) & 0x1FFFFF) << 21) |
+           std::uint64_t(std::uint32_t(c.z()) & 0x1FFFFF);
+  };
+  std::vector<std::pair<std::uint64_t, int>> cells(n);
+  for (std::size_t i = 0; i < n; ++i) cells[i] = {key(cell_of(points[i])), int(i)};
+  std::sort(cells.begin(), cells.end());
+  const double t2 = tolerance * tolerance;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Eigen::Vector3i c = cell_of(points[i]);
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dz = -1; dz <= 1; ++dz) {
+          const std::uint64_t kk = key(c + Eigen::Vector3i(dx, dy, dz));
+          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(kk, -1));
+          for (; it != cells.end() && it->first == kk; ++it) {
+            const std::size_t j = std::size_t(it->second);
+            if (j <= i || (points[i] - points[j]).squaredNorm() > t2) continue;
+            const int a = find(int(i)), b = find(int(j));
+            if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
+          }
+        }
+  }
+  std::vector<int> size(n, 0);
+  for (std::size_t i = 0; i < n; ++i) ++size[std::size_t(find(int(i)))];
+  std::vector<int> label(n, -1), id(n, -1);
+  int next = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const int r = find(int(i));
+    if (size[std::size_t(r)] < min_size) continue;
+    if (id[std::size_t(r)] < 0) id[std::size_t(r)] = next++;
+    label[i] = id[std::size_t(r)];
+  }
+  return label;
+}
+
+std::vector<char> compact_inliers_2d(const std::vector<cv::Point2f>& points, double threshold, int iterations,
+                                     std::uint64_t seed) {
+  const std::size_t n = points.size();
+  std::vector<char> inlier(n, 1);
+  if (n < 3) return inlier;
+  std::vector<double> xs(n), ys(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    xs[i] = points[i].x;
+    ys[i] = points[i].y;
+  }
+  const double mx = median(xs), my = median(ys);
+  std::vector<double> ax(n), ay(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    ax[i] = std::abs(xs[i] - mx);
+    ay[i] = std::abs(ys[i] - my);
+  }
+  // Robust standard deviations, at least half a pixel (a cluster on one image row or column).
+  const double sx = std::max(0.5, 1.4826 * median(ax)), sy = std::max(0.5, 1.4826 * median(ay));
+  const double t2 = threshold * threshold;
+  const auto inside = [&](std::size_t i, double cx, double cy) {
+    const double u = (xs[i] - cx) / sx, v = (ys[i] - cy) / sy;
+    return u * u + v * v <= t2;
+  };
+  std::mt19937_64 rng(seed);
+  double bx = mx, by = my;
+  int best = -1;
+  for (int it = 0; it < iterations; ++it) {
+    const std::size_t a = draw(rng, n), b = draw(rng, n);
+    const double cx = 0.5 * (xs[a] + xs[b]), cy = 0.5 * (ys[a] + ys[b]);
+    int cnt = 0;
+    for (std::size_t i = 0; i < n; ++i) cnt += inside(i, cx, cy) ? 1 : 0;
+    if (cnt > best) {
+      best = cnt;
+      bx = cx;
+      by = cy;
+    }
+  }
+  // Refit the centre to the inliers, recount.
+  double sxs = 0, sys = 0;
+  int m = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    if (inside(i, bx, by)) {
+      sxs += xs[i];
+      sys += ys[i];
+      ++m;
+    }
+  if (m > 0) {
+    const double cx = sxs / m, cy = sys / m;
+    int cnt = 0;
+    for (std::size_t i = 0; i < n; ++i) cnt += inside(i, cx, cy) ? 1 : 0;
+    if (cnt >= best) {
+      bx = cx;
+      by = cy;
+    }
+  }
+  for (std::size_t i = 0; i < n; ++i) inlier[i] = inside(i, bx, by) ? 1 : 0;
+  return inlier;
+}
+
+cv::Mat grabcut_box(const cv::Mat& image, cv::Rect box, int iterations, std::uint64_t seed) {
+  if (image.empty() || image.type() != CV_8UC3) throw Error("", "image", "GrabCut needs an 8-bit colour image");
+  if (image.cols < 3 || image.rows < 3) throw Error("", "image", "too small for GrabCut (under 3 x 3 pixels)");
+  const int x0 = std::max(box.x, 1), y0 = std::max(box.y, 1);
+  const int x1 = std::min(box.x + box.width, image.cols - 1), y1 = std::min(box.y + box.height, image.rows - 1);
+  if (x1 - x0 < 2 || y1 - y0 < 2)
+    throw Error("", "box", "the box [" + std::to_string(box.x) + ", " + std::to_string(box.y) + ", " +
+                               std::to_string(box.width) + " x " + std::to_string(box.height) +
+                               "] leaves under 2 x 2 pixels inside the image");
+  const cv::Rect rect(x0, y0, x1 - x0, y1 - y0);
+  cv::Mat mask(image.size(), CV_8UC1, cv::Scalar(cv::GC_BGD));
+  cv::Mat bgd, fgd;
+  cv::RNG& rng = cv::theRNG();
+  const cv::RNG saved = rng;
+  rng = cv::RNG(stage_seed(seed, 7) | 1u);
+  try {
+    cv::grabCut(image, mask, rect, bgd, fgd, iterations, cv::GC_INIT_WITH_RECT);
+  } catch (const cv::Exception& e) {
+    rng = saved;
+    throw Error("", "grabcut", std::string("OpenCV grabCut failed: ") + e.what());
+  }
+  rng = saved;
+  cv::Mat out = (mask == cv::GC_FGD) | (mask == cv::GC_PR_FGD);
+  return out;
+}
+
+cv::Mat kmeans2_colour(const cv::Mat& image, std::uint64_t seed, cv::Mat* clusters) {
+  if (image.empty() || image.type() != CV_8UC3) throw Error("", "image", "k-means on colour needs an 8-bit colour image");
+  const std::size_t n = std::size_t(image.total());
+  if (n < 2) throw Error("", "image", "k-means (k = 2) needs at least 2 pixels");
+  std::vector<float> data(n * 3);
+  std::size_t i = 0;
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x, ++i) {
+      const cv::Vec3b p = image.at<cv::Vec3b>(y, x);
+      data[i * 3] = p[0];
+      data[i * 3 + 1] = p[1];
+      data[i * 3 + 2] = p[2];
+    }
+  const std::vector<int> labels = kmeans(data, 3, 2, 3, 100, stage_seed(seed, 11));
+  cv::Mat lab(image.size(), CV_8UC1);
+  std::size_t size[2] = {0, 0}, border[2] = {0, 0};
+  i = 0;
+  for (int y = 0; y < image.rows; ++y)
+    for (int x = 0; x < image.cols; ++x, ++i) {
+      const int l = labels[i];
+      lab.at<std::uint8_t>(y, x) = std::uint8_t(l);
+      ++size[l];
+      if (x == 0 || y == 0 || x == image.cols - 1 || y == image.rows - 1) ++border[l];
+    }
+  int fg = border[0] < border[1] ? 0 : border[1] < border[0] ? 1 : (size[0] <= size[1] ? 0 : 1);
+  if (clusters) *clusters = lab.clone();
+  return lab == fg;
+}
+
+double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ignore) {
+  if (predicted.size() != truth.size() || (!ignore.empty() && ignore.size() != truth.size()))
+    throw Error("", "mask", "the masks differ in size (" + std::to_string(predicted.cols) + " x " +
+                                std::to_string(predicted.rows) + " against " + std::to_string(truth.cols) + " x " +
+                                std::to_string(truth.rows) + ")");
+  if (predicted.type() != CV_8UC1 || truth.type() != CV_8UC1 || (!ignore.empty() && ignore.type() != CV_8UC1))
+    throw Error("", "mask", "masks must be 8-bit single-channel");
+  long tp = 0, fp = 0, fn = 0;
+  for (int y = 0; y < truth.rows; ++y) {
+    const std::uint8_t* p = predicted.ptr<std::uint8_t>(y);
+    const std::uint8_t* t = truth.ptr<std::uint8_t>(y);
+    const std::uint8_t* g = ignore.empty() ? nullptr : ignore.ptr<std::uint8_t>(y);
+    for (int x = 0; x < truth.cols; ++x) {
+      if (g && g[x]) continue;
+      const bool pp = p[x] != 0, tt = t[x] != 0;
+      tp += pp && tt;
+      fp += pp && !tt;
+      fn += !pp && tt;
+    }
+  }
+  if (tp + fp + fn == 0) return std::numeric_limits<double>::quiet_NaN();
+  return 2.0 * double(tp) / double(2 * tp + fp + fn);
+}
+
+std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, int window) {
+  std::vector<Eigen::Vector3f> out;
+  const int first = fe.first_frame, n = static_cast<int>(fe.poses.size());
+  for (const Track& t : fe.tracks) {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    int count = 0;
+    for (std::size_t i = 0; i < t.frames.size(); ++i) {
+      const int f = t.frames[i];
+      if (f < frame - window || f > frame + window || f < first || f >= first + n) continue;
+      if (i >= t.disparities.size() || !(t.disparities[i] > 0) || i >= t.points.size()) continue;
+      const Pose& p = fe.poses[std::size_t(f - first)];
+      const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p.R.data());
+      sum += R * t.points[i] + Eigen::Vector3d(p.t[0], p.t[1], p.t[2]);
+      ++count;
+    }
+    if (count > 0) out.push_back((sum / count).cast<float>());
+  }
+  return out;
+}
+
+cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
+                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report_out) {
+  params.validate();
+  intrinsics.validate();
+  if (points.empty()) throw Error("", "cloud", "the cloud is empty");
+  if (image.empty() || image.type() != CV_8UC3) throw Error("", "image", "GrabCutSFM needs an 8-bit colour image");
+  const auto t_start = Clock::now();
+  GrabCutSfmReport rep;
+  rep.points = int(points.size());
+  const cv::Rect frame(0, 0, image.cols, image.rows);
+  const auto in_frame = [&](const Eigen::Vector3f& p, cv::Point2f* px) {
+    cv::Point2f q;
+    if (!project_point(p, pose, intrinsics, &q)) return false;
+    if (px) *px = q;
+    return q.x >= 0 && q.y >= 0 && q.x < float(image.cols) && q.y < float(image.rows);
+  };
+
+  // 1. Plane removal.
+  auto t0 = Clock::now();
+  std::vector<Eigen::Vector3f> considered;
+  considered.reserve(points.size());
+  const Eigen::Vector3f cam_f(float(pose.t[0]), float(pose.t[1]), float(pose.t[2]));
+  for (const auto& p : points) {
+    if (params.max_distance > 0 && (p - cam_f).norm() > params.max_distance) continue;
+    if (!params.frustum_only || in_frame(p, nullptr)) considered.push_back(p);
+  }
+  rep.considered = int(considered.size());
+  std::vector<Eigen::Vector3f> rest = considered;
+  const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
+  // The camera's up axis in the world (camera y points down). Used instead of world +Y: a chained
+  // camera path drifts (on the tabletop sequence world +Y and the camera's up differ by 18 and 24 degrees
+  // at frames 100 and 200).
+  const Eigen::Matrix3d Rcw = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
+  const Eigen::Vector3d up = -Rcw.col(1);
+  const double min_cos = params.height_band > 0 ? std::cos(params.max_tilt * 3.14159265358979323846 / 180) : -1;
+  std::vector<Eigen::Vector3f> support_points;  // the first plane's inliers
+  if (params.plane_distance > 0) {
+    // Planes in turn (001: one): the first always (with height_band, facing up: the supporting plane), a
+    // later one while it holds plane_min_share of the rest.
+    for (int pi = 0; pi < params.planes; ++pi) {
+      Eigen::Vector4d pl;
+      const std::vector<char> on_plane =
+          ransac_plane(rest, params.plane_distance, params.plane_iterations,
+                       stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1);
+      const int count = int(std::count(on_plane.begin(), on_plane.end(), char(1)));
+      if (count < 3 || (pi > 0 && double(count) < params.plane_min_share * double(rest.size()))) break;
+      if (pi == 0) rep.plane = pl;
+      if (pl.head<3>().dot(cam) + pl[3] < 0) pl = -pl;  // normal towards the camera
+      rep.planes.push_back(pl);
+      rep.planes_inliers.push_back(count);
+      std::vector<Eigen::Vector3f> kept;
+      kept.reserve(rest.size() - std::size_t(count));
+      for (std::size_t i = 0; i < rest.size(); ++i)
+        if (!on_plane[i])
+          kept.push_back(rest[i]);
+        else if (pi == 0)
+          support_points.push_back(rest[i]);
+      rest.swap(kept);
+    }
+    rep.plane_inliers = int(considered.size() - rest.size());
+  }
+  if (params.height_band > 0) {
+    if (rep.planes.empty() || rep.planes[0].head<3>().dot(up) < min_cos)
+      throw Error("", "cloud",
+                  "no plane facing up within --max-tilt " + std::to_string(params.max_tilt) +
+                      " degrees below the camera, so --height-band has no supporting plane");
+    rep.support = 0;
+    const Eigen::Vector4d& sp = rep.planes[0];
+    const Eigen::Vector3d n = sp.head<3>();
+    const double r2 = params.support_radius * params.support_radius;
+    // Standing on the plane: the point's foot (its projection onto the plane) within support_radius of a
+    // plane inlier's foot.
+    const auto on_support = [&](const Eigen::Vector3d& p) {
+      const Eigen::Vector3d foot = p - (n.dot(p) + sp[3]) * n;
+      for (const auto& q : support_points) {
+        const Eigen::Vector3d qd = q.cast<double>();
+        if ((qd - (n.dot(qd) + sp[3]) * n - foot).squaredNorm() <= r2) return true;
+      }
+      return false;
+    };
+    std::vector<Eigen::Vector3f> kept;
+    for (const auto& p : rest) {
+      const double h = n.dot(p.cast<double>()) + sp[3];
+      if (h > params.plane_distance && h <= params.height_band &&
+          (params.support_radius <= 0 || on_support(p.cast<double>())))
+        kept.push_back(p);
+    }
+    rest.swap(kept);
+    rep.in_band = int(rest.size());
+  }
+  rep.seconds_plane = seconds_since(t0);
+  if (!params.euclidean && int(rest.size()) < params.k)
+    throw Error("", "cloud",
+                std::to_string(rest.size()) + " points are left " +
+                    (params.frustum_only ? "in the frame " : "") +
+                    (params.max_distance > 0 ? "within --max-distance " : "") + "after plane removal" +
+                    (params.height_band > 0 ? " and the height band" : "") + " (of " +
+                    std::to_string(points.size()) + "), fewer than k = " + std::to_string(params.k) + " clusters");
+
+  // 2. 3D k-means (or Euclidean clustering).
+  t0 = Clock::now();
+  std::vector<int> cluster;
+  std::size_t K = 0;
+  std::vector<float> centres;
+  if (params.euclidean) {
+    cluster = euclidean_clusters(rest, params.cluster_tolerance, params.min_cluster_size);
+    for (int c : cluster) K = std::max(K, std::size_t(c + 1));
+    if (K == 0)
+      throw Error("", "cloud", "no Euclidean cluster of " + std::to_string(params.min_cluster_size) + " or more points among the " +
+                                   std::to_string(rest.size()) + " points left");
+    centres.assign(K * 3, 0.f);
+    std::vector<double> sum(K * 3, 0.0);
+    std::vector<int> cnt(K, 0);
+    for (std::size_t i = 0; i < rest.size(); ++i) {
+      if (cluster[i] < 0) continue;
+      const std::size_t c = std::size_t(cluster[i]);
+      for (int j = 0; j < 3; ++j) sum[c * 3 + std::size_t(j)] += rest[i][j];
+      ++cnt[c];
+    }
+    for (std::size_t c = 0; c < K; ++c)
+      for (std::size_t j = 0; j < 3; ++j) centres[c * 3 + j] = float(sum[c * 3 + j] / cnt[c]);
+  } else {
+    std::vector<float> data(rest.size() * 3);
+    for (std::size_t i = 0; i < rest.size(); ++i)
+      for (int j = 0; j < 3; ++j) data[i * 3 + std::size_t(j)] = rest[i][j];
+    cluster = kmeans(data, 3, params.k, params.attempts, params.kmeans_iterations, stage_seed(params.seed, 2), &centres);
+    K = std::size_t(params.k);
+  }
+  rep.seconds_kmeans = seconds_since(t0);
+
+  // 3. The nearest cluster with enough projections in the frame.
+  t0 = Clock::now();
+  rep.cluster_sizes.assign(K, 0);
+  rep.cluster_in_frame.assign(K, 0);
+  rep.cluster_distances.assign(K, 0);
+  std::vector<std::vector<double>> point_distances(params.median_distance ? K : 0);
+  for (std::size_t i = 0; i < rest.size(); ++i) {
+    if (cluster[i] < 0) continue;
+    ++rep.cluster_sizes[std::size_t(cluster[i])];
+    if (params.median_distance)
+      point_distances[std::size_t(cluster[i])].push_back(params.median_depth ? (rest[i].cast<double>() - cam).dot(Rcw.col(2))
+                                                                              : (rest[i].cast<double>() - cam).norm());
+    cv::Point2f q;
+    if (in_frame(rest[i], &q)) {
+      ++rep.cluster_in_frame[std::size_t(cluster[i])];
+      rep.projected.push_back(q);
+      rep.projected_cluster.push_back(cluster[i]);
+    }
+  }
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t c = 0; c < K; ++c) {
+    const Eigen::Vector3d ctr(centres[c * 3], centres[c * 3 + 1], centres[c * 3 + 2]);
+    rep.cluster_distances[c] = params.median_distance ? median(point_distances[c]) : (ctr - cam).norm();
+    if (rep.cluster_in_frame[c] >= params.min_cluster_points && rep.cluster_distances[c] < best) {
+      best = rep.cluster_distances[c];
+      rep.chosen = int(c);
+    }
+  }
+  if (rep.chosen < 0)
+    throw Error("", "cloud",
+                "no cluster has " + std::to_string(params.min_cluster_points) +
+                    " or more points in front of the camera inside the frame (is the pose right?)");
+  for (std::size_t i = 0; i < rep.projected.size(); ++i)
+    if (rep.projected_cluster[i] == rep.chosen) rep.chosen_points.push_back(rep.projected[i]);
+
+  // 4. 2D RANSAC, 5. box.
+  rep.chosen_inlier =
+      compact_inliers_2d(rep.chosen_points, params.outlier_threshold, params.ransac_iterations, stage_seed(params.seed, 3));
+  float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
+    if (rep.chosen_inlier[i]) {
+      ++rep.inliers_2d;
+      x0 = std::min(x0, rep.chosen_points[i].x);
+      y0 = std::min(y0, rep.chosen_points[i].y);
+      x1 = std::max(x1, rep.chosen_points[i].x);
+      y1 = std::max(y1, rep.chosen_points[i].y);
+    }
+  if (rep.inliers_2d == 0) throw Error("", "cloud", "the 2D RANSAC kept no projection of the nearest cluster");
+  const int ix0 = int(std::floor(x0)), iy0 = int(std::floor(y0));
+  rep.inlier_box = cv::Rect(ix0, iy0, int(std::ceil(x1)) + 1 - ix0, int(std::ceil(y1)) + 1 - iy0) & frame;
+  const double mx = params.box_margin * rep.inlier_box.width, my = params.box_margin * rep.inlier_box.height;
+  const int bx0 = std::max(1, int(std::floor(rep.inlier_box.x - mx)));
+  const int by0 = std::max(1, int(std::floor(rep.inlier_box.y - my)));
+  const int bx1 = std::min(image.cols - 1, int(std::ceil(rep.inlier_box.br().x + mx)));
+  const int by1 = std::min(image.rows - 1, int(std::ceil(rep.inlier_box.br().y + my)));
+  rep.box = cv::Rect(bx0, by0, std::max(0, bx1 - bx0), std::max(0, by1 - by0));
+  rep.seconds_projection = seconds_since(t0);
+
+  // 6. GrabCut.
+  t0 = Clock::now();
+  cv::Mat mask = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
+  rep.seconds_grabcut = seconds_since(t0);
+  rep.seconds_total = seconds_since(t_start);
+  if (report_out) *report_out = std::move(rep);
+  return mask;
+}
+
+cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const GrabCutSfmReport& rep) {
+  cv::Mat out = image.clone();
+  if (!mask.empty() && mask.size() == image.size()) {
+    cv::Mat tint(image.size(), CV_8UC3, cv::Scalar(60, 220, 60));
+    cv::Mat mixed;
+    cv::addWeighted(image, 0.55, tint, 0.45, 0, mixed);
+    mixed.copyTo(out, mask);
+    std::vector<std::vector<cv::Point>> contours;
+    cv::findContours(mask.clone(), contours, cv::RETR_EXTERNAL, cv::CHAIN_APPROX_SIMPLE);
+    cv::drawContours(out, contours, -1, cv::Scalar(40, 255, 40), 1, cv::LINE_AA);
+  }
+  const std::size_t palette = sizeof kPalette / sizeof kPalette[0];
+  for (std::size_t i = 0; i < rep.projected.size(); ++i) {
+    if (rep.projected_cluster[i] == rep.chosen) continue;
+    cv::circle(out, rep.projected[i], 1, kPalette[std::size_t(rep.projected_cluster[i]) % palette], cv::FILLED);
+  }
+  const cv::Scalar chosen_colour(0, 255, 255);
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i) {
+    const cv::Point2f p = rep.chosen_points[i];
+    if (i < rep.chosen_inlier.size() && !rep.chosen_inlier[i])
+      cv::drawMarker(out, p, cv::Scalar(255, 0, 255), cv::MARKER_CROSS, 7, 1);
+    else
+      cv::circle(out, p, 2, chosen_colour, cv::FILLED);
+  }
+  if (rep.inlier_box.area() > 0) cv::rectangle(out, rep.inlier_box, cv::Scalar(0, 0, 200), 1);
+  if (rep.box.area() > 0) cv::rectangle(out, rep.box, cv::Scalar(0, 0, 255), 2);
+  return out;
+}
+
+}  // namespace smseg::features

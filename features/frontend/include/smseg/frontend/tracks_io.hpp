@@ -1,0 +1,46 @@
+#pragma once
+// The tracks-and-poses file (DESIGN 3.2), format "smseg-tracks" version 1, e.g. work/tracks.json:
+//
+// {
+//   "format": "smseg-tracks", "version": 1,
+//   "sequence": "<name>", "image_size": [W, H], "first_frame": f0, "frame_count": n,
+//   "pose_convention": "...", "options": {...front-end options...},
+//   "poses": [{"R": [9 numbers, row-major camera-to-world], "t": [camera centre]}, ...]      (n)
+//   "pair_motions": [{"R": [9], "t": [3], "points": p, "inliers": k, "ok": b, "bridged": b,
+//                     "rms": m}, ...]                     (n-1; X_{t+1} = R X_t + t, camera frames)
+//   "tracks": [{"frames": [...], "x": [...], "y": [...], "d": [...],
+//               "P": [X0, Y0, Z0, X1, ...] (camera frame, metres), "labels": [...] (-1 = none),
+//               "label": c}, ...]
+//   "summary": {...filter counts, valid points per frame, track lengths, inliers, seconds...}
+// }
+//
+// Parallel arrays per track keep it compact (about 60 bytes per observation): pixels and disparities
+// are rounded to 1/1000 pixel, points to 1/100 mm. The reader validates format, version and every
+// field (types, lengths, ascending frames inside the frame range) and names the file and field.
+
+#include <string>
+
+#include "smseg/frontend/motion.hpp"
+
+namespace smseg::features {
+
+inline constexpr const char* kTracksFormat = "smseg-tracks";
+inline constexpr int kTracksVersion = 1;
+
+struct TracksFile {
+  std::string sequence_name;
+  cv::Size image_size;
+  Json options = Json::object();  ///< the front-end options as written (free-form provenance)
+  FrontEndResult result;
+};
+
+Json front_end_options_to_json(const FrontEndOptions& options);
+Json summary_to_json(const FrontEndSummary& summary);
+FrontEndSummary summary_from_json(const JsonView& j);
+
+/// Writes the file atomically.
+void write_tracks(const fs::path& path, const FrontEndResult& result, const std::string& sequence_name,
+                  cv::Size image_size, const Json& options = Json::object());
+TracksFile read_tracks(const fs::path& path);
+
+}  // namespace smseg::features

@@ -1,0 +1,243 @@
+// The stereo front end: disparity -> keypoints -> matching -> tracks -> filters -> motion -> path.
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <memory>
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include "smseg/frontend/motion.hpp"
+#include "smseg/common/progress.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr int kChunk = 32;  // frames whose descriptors are held at once
+
+}  // namespace
+
+void FrontEndOptions::validate() const {
+  stereo.validate();
+  tracking.validate();
+  klt.validate("front_end");
+  if (tracker == FrameTracker::Descriptors && tracking.detector == KeypointMethod::Gftt)
+    throw Error("", "tracking.detector", "gftt corners have no descriptors: use them with the klt tracker (--tracker klt)");
+  filters.validate();
+  motion.validate();
+  refine.validate();
+  if (camera_height && !(*camera_height > 0)) throw Error("", "camera_height", "must be positive (metres)");
+  if (first_frame < 0) throw Error("", "first_frame", "must be >= 0");
+  if (last_frame != -1 && last_frame <= first_frame)
+    throw Error("", "last_frame", "must be -1 (to the end) or greater than first_frame");
+}
+
+void summarise_tracks_and_motion(FrontEndResult& res, int n, const std::function<bool(std::size_t)>& counted) {
+  FrontEndSummary& s = res.summary;
+  const int first = res.first_frame;
+  std::vector<int> per_frame(n, 0);
+  std::vector<int> lengths;
+  for (const auto& tr : res.tracks) {
+    lengths.push_back(static_cast<int>(tr.size()));
+    for (int f : tr.frames) ++per_frame[f - first];
+  }
+  if (n > 0) {
+    long total = 0;
+    for (int v : per_frame) total += v;
+    s.valid_points_per_frame_mean = static_cast<double>(total) / n;
+    s.valid_points_per_frame_min = *std::min_element(per_frame.begin(), per_frame.end());
+  }
+  if (!lengths.empty()) {
+    std::sort(lengths.begin(), lengths.end());
+    double sum = 0;
+    for (int l : lengths) sum += l;
+    s.track_length_mean = sum / static_cast<double>(lengths.size());
+    s.track_length_median = lengths[lengths.size() / 2];
+    s.track_length_max = lengths.back();
+  }
+  int good = 0;
+  double ratio_sum = 0, ratio_min = 1;
+  for (std::size_t k = 0; k < res.pair_motions.size(); ++k) {
+    const auto& pm = res.pair_motions[k];
+    if (pm.bridged) {
+      ++s.bad_pairs;
+      s.bridged_pairs.push_back(first + static_cast<int>(k));
+      continue;
+    }
+    if (counted && !counted(k)) continue;
+    const double r = pm.points > 0 ? static_cast<double>(pm.inliers) / pm.points : 0;
+    ++good;
+    ratio_sum += r;
+    ratio_min = std::min(ratio_min, r);
+  }
+  s.inlier_ratio_mean = good ? ratio_sum / good : 0;
+  s.inlier_ratio_min = good ? ratio_min : 0;
+}
+
+FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& o) {
+  const auto wall0 = Clock::now();
+  o.validate();
+  const std::string manifest = seq.manifest.string();
+  if (seq.kind != SequenceKind::Stereo) throw Error(manifest, "kind", "the stereo front end needs a stereo sequence");
+  if (!seq.calibration.fx || !(*seq.calibration.fx > 0))
+    throw Error(manifest, "calibration.fx", "the stereo front end needs the focal length");
+  if (!seq.calibration.baseline || !(*seq.calibration.baseline > 0))
+    throw Error(manifest, "calibration.baseline", "the stereo front end needs the stereo baseline");
+  const std::optional<double> height = o.camera_height ? o.camera_height : seq.camera_height;
+  if (!height)
+    throw Error(manifest, "camera_height",
+                "needed to put the world origin on the ground under the first camera (give it in the manifest "
+                "or as an option)");
+  const int first = o.first_frame;
+  const int last = seq.range_end(first, o.last_frame);
+  const int n = last - first;
+  const int norm = descriptor_norm(o.tracking.detector);
+
+  std::vector<FrameObservations> obs(n);
+  std::vector<std::vector<cv::DMatch>> matches(std::max(0, n - 1));
+  std::vector<double> t_disp(n), t_kp(n), t_match(std::max(0, n - 1));
+  long keypoints = 0;
+  Progress progress("front end", n, o.progress);
+  std::atomic<int> done{0};
+
+  // Per frame, in parallel: the left image, its disparity (timed), the keypoints (timed) and the labels.
+  struct FrameInput {
+    cv::Mat left, disparity, labels;
+    FrameKeypoints keypoints;
+  };
+  auto load_frame = [&](int i) {
+    const int f = first + i;
+    FrameInput in;
+    auto t0 = Clock::now();
+    in.left = seq.load_left_gray(f);
+    if (o.stereo.method == StereoMethod::Given) {
+      in.disparity = frame_disparity(seq, f, o.stereo);
+    } else {
+      try {
+        in.disparity = compute_disparity(in.left, seq.load_right_gray(f), o.stereo);
+      } catch (const Error& e) {
+        if (!e.file().empty()) throw;
+        throw Error(manifest, "frames[" + std::to_string(f) + "]", e.what());
+      }
+    }
+    t_disp[i] = since(t0);
+    t0 = Clock::now();
+    in.keypoints = detect_keypoints(in.left, o.tracking);
+    if (seq.is_labelled(f)) in.labels = seq.load_labels(f);
+    t_kp[i] = since(t0);
+    progress.tick();
+    if (o.on_frame) o.on_frame(++done, n);
+    return in;
+  };
+
+  if (o.tracker == FrameTracker::Klt) {
+    // A pipeline: frames loaded, matched in stereo and detected in parallel, then followed by KLT in
+    // order (each frame's points are those followed from the previous frame plus new ones). At most
+    // `tokens` frames are in flight.
+    int next = 0;
+    cv::Mat prev_img;
+    std::vector<cv::Point2f> prev_px;
+    const int tokens = 4 * std::max(1, tbb::this_task_arena::max_concurrency());
+    tbb::parallel_pipeline(
+        static_cast<std::size_t>(tokens),
+        tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
+                                    [&](tbb::flow_control& fc) {
+                                      if (next >= n) fc.stop();
+                                      return next++;
+                                    }) &
+            tbb::make_filter<int, std::pair<int, std::shared_ptr<FrameInput>>>(
+                tbb::filter_mode::parallel,
+                [&](int i) { return std::make_pair(i, std::make_shared<FrameInput>(load_frame(i))); }) &
+            tbb::make_filter<std::pair<int, std::shared_ptr<FrameInput>>, void>(
+                tbb::filter_mode::serial_in_order, [&](const std::pair<int, std::shared_ptr<FrameInput>>& item) {
+                  const auto& [i, in] = item;
+                  const auto t0 = Clock::now();
+                  std::vector<cv::Point2f> detected;
+                  detected.reserve(in->keypoints.keypoints.size());
+                  for (const auto& k : in->keypoints.keypoints) detected.push_back(k.pt);
+                  std::vector<cv::DMatch> m;
+                  prev_px = klt_step(prev_img, prev_px, in->left, detected, o.tracking.max_keypoints, o.klt, m);
+                  obs[i] = observe_points(prev_px, in->disparity, in->labels, seq.calibration);
+                  prev_img = in->left;
+                  if (i > 0) {
+                    matches[i - 1] = std::move(m);
+                    t_match[i - 1] = since(t0);
+                  }
+                }));
+  }
+
+  cv::Mat prev_desc;  // descriptors of the last frame of the previous chunk
+  for (int c0 = 0; o.tracker == FrameTracker::Descriptors && c0 < n; c0 += kChunk) {
+    const int c1 = std::min(n, c0 + kChunk);
+    std::vector<cv::Mat> desc(c1 - c0);
+    tbb::parallel_for(tbb::blocked_range<int>(c0, c1, 1), [&](const tbb::blocked_range<int>& r) {
+      for (int i = r.begin(); i < r.end(); ++i) {
+        FrameInput in = load_frame(i);
+        obs[i] = observe_keypoints(in.keypoints.keypoints, in.disparity, in.labels, seq.calibration);
+        desc[i - c0] = in.keypoints.descriptors;
+      }
+    });
+    // Descriptors. Matching: the pair joining the previous chunk, then the pairs inside this chunk.
+    auto match_pair = [&](int t, const cv::Mat& a, const cv::Mat& b) {
+      const auto t0 = Clock::now();
+      std::vector<cv::DMatch> m = match_symmetric(a, b, norm);
+      drop_far_matches(m, obs[t].pixels, obs[t + 1].pixels, o.tracking);
+      matches[t] = std::move(m);
+      t_match[t] = since(t0);
+    };
+    if (c0 > 0) match_pair(c0 - 1, prev_desc, desc[0]);
+    tbb::parallel_for(tbb::blocked_range<int>(c0, c1 - 1, 1), [&](const tbb::blocked_range<int>& r) {
+      for (int t = r.begin(); t < r.end(); ++t) match_pair(t, desc[t - c0], desc[t + 1 - c0]);
+    });
+    prev_desc = desc.back();
+  }
+  progress.finish();
+  for (const auto& f : obs) keypoints += static_cast<long>(f.pixels.size());
+
+  FrontEndResult res;
+  res.first_frame = first;
+  auto t0 = Clock::now();
+  std::vector<Track> for_motion;
+  FilterCounts counts;
+  res.tracks = build_tracks(obs, matches, o.filters, counts, &for_motion);
+  // Frame indices in the tracks are the sequence's.
+  if (first != 0) {
+    for (auto* list : {&res.tracks, &for_motion})
+      for (auto& tr : *list)
+        for (int& f : tr.frames) f += first;
+  }
+  const double t_tracks = since(t0);
+  t0 = Clock::now();
+  res.pair_motions = estimate_pair_motions(for_motion, first, n, o.motion, StereoCamera::from(seq.calibration), o.refine);
+  res.poses = chain_poses(res.pair_motions, *height);
+  const double t_motion = since(t0);
+
+  // Summary.
+  FrontEndSummary& s = res.summary;
+  s.frames = n;
+  s.keypoints = keypoints;
+  s.filters = counts;
+  summarise_tracks_and_motion(res, n);
+  auto mean = [](const std::vector<double>& v, int denom) {
+    double a = 0;
+    for (double x : v) a += x;
+    return denom > 0 ? a / denom : 0.0;
+  };
+  s.seconds.disparity = mean(t_disp, n);
+  s.seconds.keypoints = mean(t_kp, n);
+  s.seconds.matching = mean(t_match, n);
+  s.seconds.tracks = n > 0 ? t_tracks / n : 0;
+  s.seconds.motion = n > 0 ? t_motion / n : 0;
+  s.seconds.total_wall = since(wall0);
+  return res;
+}
+
+}  // namespace smseg::features

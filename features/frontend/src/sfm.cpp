@@ -1,0 +1,1056 @@
+// The monocular SfM front end (see sfm.hpp for the pipeline and its decisions).
+
+#include "smseg/frontend/sfm.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <numeric>
+
+#include <Eigen/Geometry>
+#include <Eigen/SVD>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/core/eigen.hpp>
+#include <opencv2/video/tracking.hpp>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include "smseg/common/progress.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+constexpr int kChunk = 32;  // frames whose descriptors are held at once
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// World-to-camera pose in the reconstruction frame: X_c = R X + t.
+struct CamPose {
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  Eigen::Vector3d centre() const { return -R.transpose() * t; }
+};
+
+enum class FrameStatus : std::uint8_t { None, Init, Pnp, Still, Bridged };
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+struct Intrinsics {
+  double f = 1, cx = 0, cy = 0;
+  cv::Mat K() const { return (cv::Mat_<double>(3, 3) << f, 0, cx, 0, f, cy, 0, 0, 1); }
+};
+
+double reprojection_error(const CamPose& P, const Eigen::Vector3d& X, const cv::Point2f& px, const Intrinsics& in) {
+  const Eigen::Vector3d xc = P.R * X + P.t;
+  if (!(xc.z() > 1e-9)) return kInf;
+  const double u = in.f * xc.x() / xc.z() + in.cx, v = in.f * xc.y() / xc.z() + in.cy;
+  return std::hypot(u - px.x, v - px.y);
+}
+
+/// Linear two-view triangulation (DLT on normalised coordinates), then the checks: positive depth,
+/// reprojection error below thr in both views, angle between the rays at least min_angle (radians).
+bool triangulate(const CamPose& A, const CamPose& B, const cv::Point2f& pa, const cv::Point2f& pb,
+                 const Intrinsics& in, double thr, double min_angle, Eigen::Vector3d& X) {
+  const Eigen::Vector2d a((pa.x - in.cx) / in.f, (pa.y - in.cy) / in.f);
+  const Eigen::Vector2d b((pb.x - in.cx) / in.f, (pb.y - in.cy) / in.f);
+  Eigen::Matrix<double, 3, 4> Pa, Pb;
+  Pa << A.R, A.t;
+  Pb << B.R, B.t;
+  Eigen::Matrix4d M;
+  M.row(0) = a.x() * Pa.row(2) - Pa.row(0);
+  M.row(1) = a.y() * Pa.row(2) - Pa.row(1);
+  M.row(2) = b.x() * Pb.row(2) - Pb.row(0);
+  M.row(3) = b.y() * Pb.row(2) - Pb.row(1);
+  const Eigen::Vector4d h = Eigen::JacobiSVD<Eigen::Matrix4d>(M, Eigen::ComputeFullV).matrixV().col(3);
+  if (!(std::abs(h(3)) > 1e-12)) return false;
+  X = h.head<3>() / h(3);
+  if (!X.allFinite()) return false;
+  const Eigen::Vector3d ra = X - A.centre(), rb = X - B.centre();
+  const double c = ra.dot(rb) / (ra.norm() * rb.norm());
+  if (!(std::acos(std::clamp(c, -1.0, 1.0)) >= min_angle)) return false;
+  return reprojection_error(A, X, pa, in) <= thr && reprojection_error(B, X, pb, in) <= thr;
+}
+
+/// Symmetric matches that also pass Lowe's ratio test in both directions.
+std::vector<cv::DMatch> match_ratio(const cv::Mat& a, const cv::Mat& b, int norm, double ratio) {
+  std::vector<cv::DMatch> out;
+  if (a.empty() || b.empty() || a.rows < 2 || b.rows < 2) return out;
+  cv::BFMatcher bf(norm, false);
+  std::vector<std::vector<cv::DMatch>> ab, ba;
+  bf.knnMatch(a, b, ab, 2);
+  bf.knnMatch(b, a, ba, 2);
+  auto passes = [&](const std::vector<cv::DMatch>& m) {
+    return m.size() == 1 || (m.size() >= 2 && m[0].distance < ratio * m[1].distance);
+  };
+  for (const auto& m : ab) {
+    if (m.empty() || !passes(m)) continue;
+    const auto& back = ba[m[0].trainIdx];
+    if (back.empty() || !passes(back) || back[0].trainIdx != m[0].queryIdx) continue;
+    out.push_back(m[0]);
+  }
+  std::sort(out.begin(), out.end(), [](const cv::DMatch& x, const cv::DMatch& y) { return x.queryIdx < y.queryIdx; });
+  return out;
+}
+
+/// Symmetric nearest-neighbour matching restricted to candidates within `radius` pixels (the camera
+/// moves little between consecutive frames; the gate removes most ambiguity of repetitive texture):
+/// (i, j) is kept when j is i's nearest descriptor among b's keypoints within the radius and i is j's
+/// nearest among a's within it; with ratio > 0 the nearest must also beat the second by that ratio.
+std::vector<cv::DMatch> match_gated(const cv::Mat& da, const std::vector<cv::Point2f>& pa, const cv::Mat& db,
+                                    const std::vector<cv::Point2f>& pb, int norm, double radius, double ratio) {
+  std::vector<cv::DMatch> out;
+  const int na = da.rows, nb = db.rows;
+  if (na == 0 || nb == 0) return out;
+  // Bucket b's keypoints on a grid of radius-sized cells.
+  const double cell = radius;
+  auto key = [&](const cv::Point2f& p) {
+    return std::pair<int, int>(static_cast<int>(std::floor(p.x / cell)), static_cast<int>(std::floor(p.y / cell)));
+  };
+  std::map<std::pair<int, int>, std::vector<int>> grid;
+  for (int j = 0; j < nb; ++j) grid[key(pb[j])].push_back(j);
+  const double r2 = radius * radius;
+  std::vector<int> best_ab(na, -1);
+  std::vector<float> dist_ab(na, std::numeric_limits<float>::max());
+  std::vector<int> best_ba(nb, -1);
+  std::vector<float> dist_ba(nb, std::numeric_limits<float>::max()), second_ba(nb, std::numeric_limits<float>::max());
+  std::vector<char> ok_a(na, 0);
+  for (int i = 0; i < na; ++i) {
+    const auto [gx, gy] = key(pa[i]);
+    float d1 = std::numeric_limits<float>::max(), d2 = d1;
+    int b1 = -1;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = grid.find({gx + dx, gy + dy});
+        if (it == grid.end()) continue;
+        for (int j : it->second) {
+          const cv::Point2f v = pb[j] - pa[i];
+          if (v.x * v.x + v.y * v.y > r2) continue;
+          const float d = static_cast<float>(cv::norm(da.row(i), db.row(j), norm));
+          if (d < d1 || (d == d1 && j < b1)) {
+            d2 = d1;
+            d1 = d;
+            b1 = j;
+          } else if (d < d2) {
+            d2 = d;
+          }
+          if (d < dist_ba[j] || (d == dist_ba[j] && i < best_ba[j])) {
+            second_ba[j] = dist_ba[j];
+            dist_ba[j] = d;
+            best_ba[j] = i;
+          } else if (d < second_ba[j]) {
+            second_ba[j] = d;
+          }
+        }
+      }
+    best_ab[i] = b1;
+    dist_ab[i] = d1;
+    ok_a[i] = b1 >= 0 && (ratio <= 0 || d2 == std::numeric_limits<float>::max() || d1 < ratio * d2);
+  }
+  for (int i = 0; i < na; ++i) {
+    const int j = best_ab[i];
+    if (j < 0 || !ok_a[i] || best_ba[j] != i) continue;
+    if (ratio > 0 && second_ba[j] != std::numeric_limits<float>::max() && !(dist_ba[j] < ratio * second_ba[j])) continue;
+    out.emplace_back(i, j, dist_ab[i]);
+  }
+  return out;
+}
+
+struct PairInfo {
+  double median_motion = 0;  ///< of the verified matches, pixels
+  bool still = false;
+  bool has_f = false;
+  cv::Matx33d F;
+};
+
+/// Geometric verification of one consecutive pair's matches (in place).
+PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>& pa, const std::vector<cv::Point2f>& pb,
+                     const SfmOptions& o) {
+  PairInfo info;
+  std::vector<double> motion;
+  for (const auto& d : m) motion.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
+  if (m.size() < 8) {
+    m.clear();
+    return info;
+  }
+  const double med = median(motion);
+  if (med < o.still_motion_px) {
+    // Standing still: the epipolar geometry is undefined; keep the matches that did not move.
+    const double keep = std::max(2.0, 4 * o.still_motion_px);
+    std::vector<cv::DMatch> kept;
+    for (std::size_t k = 0; k < m.size(); ++k)
+      if (motion[k] <= keep) kept.push_back(m[k]);
+    m = std::move(kept);
+    info.still = true;
+  } else {
+    std::vector<cv::Point2f> a, b;
+    for (const auto& d : m) {
+      a.push_back(pa[d.queryIdx]);
+      b.push_back(pb[d.trainIdx]);
+    }
+    std::vector<std::uint8_t> mask;
+    const cv::Mat F = cv::findFundamentalMat(a, b, cv::FM_RANSAC, o.fundamental_threshold_px, 0.999, 2000, mask);
+    if (F.rows != 3 || F.cols != 3) {
+      m.clear();
+      return info;
+    }
+    std::vector<cv::DMatch> kept;
+    for (std::size_t k = 0; k < m.size(); ++k)
+      if (mask[k]) kept.push_back(m[k]);
+    m = std::move(kept);
+    info.has_f = m.size() >= 30;
+    info.F = cv::Matx33d(F.ptr<double>());
+  }
+  std::vector<double> mv;
+  for (const auto& d : m) mv.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
+  info.median_motion = median(mv);
+  return info;
+}
+
+Pose to_pose(const Eigen::Matrix3d& R_cw, const Eigen::Vector3d& c) {
+  Pose p;
+  for (int r = 0; r < 3; ++r) {
+    for (int k = 0; k < 3; ++k) p.R[3 * r + k] = R_cw(r, k);
+    p.t[r] = c(r);
+  }
+  return p;
+}
+
+}  // namespace
+
+const char* focal_source_name(FocalSource s) {
+  switch (s) {
+    case FocalSource::Option: return "option";
+    case FocalSource::Manifest: return "manifest";
+    case FocalSource::Estimated: return "estimated";
+    case FocalSource::Fallback: return "fallback";
+  }
+  return "?";
+}
+
+const char* sfm_tracker_name(SfmTracker t) {
+  switch (t) {
+    case SfmTracker::Auto: return "auto";
+    case SfmTracker::Klt: return "klt";
+    case SfmTracker::Descriptors: return "descriptors";
+  }
+  return "?";
+}
+
+SfmTracker parse_sfm_tracker(const std::string& name, const std::string& field) {
+  if (name == "auto") return SfmTracker::Auto;
+  if (name == "klt") return SfmTracker::Klt;
+  if (name == "descriptors") return SfmTracker::Descriptors;
+  throw Error("", field, "expected auto, klt or descriptors, got '" + name + "'");
+}
+
+SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {
+  SfmOptions o = options;
+  if (o.tracker != SfmTracker::Auto) return o;
+  std::vector<double> dt;
+  for (int i = 1; i < seq.frame_count(); ++i) dt.push_back(seq.frames[i].time - seq.frames[i - 1].time);
+  if (!dt.empty() && median(dt) > 0.25) {
+    o.tracker = SfmTracker::Descriptors;
+    o.match_radius_px = 0;
+    if (o.lowe_ratio == 0) o.lowe_ratio = 0.8;
+  } else {
+    o.tracker = SfmTracker::Klt;
+  }
+  return o;
+}
+
+Json sfm_options_to_json(const SfmOptions& o) {
+  Json j{{"tracker", sfm_tracker_name(o.tracker)},
+         {"klt_window", o.klt.window},
+         {"klt_max_backward_px", o.klt.max_backward_px},
+         {"klt_min_distance_px", o.klt.min_distance_px},
+         {"tracking",
+          {{"detector", keypoint_method_name(o.tracking.detector)},
+           {"max_keypoints", o.tracking.max_keypoints},
+           {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
+           {"akaze_threshold", o.tracking.akaze_threshold},
+           {"gftt_quality", o.tracking.gftt_quality},
+           {"max_descriptor_distance", o.tracking.max_descriptor_distance},
+           {"max_pixel_motion", o.tracking.max_pixel_motion}}},
+         {"filters", {{"min_frames", o.filters.min_frames}, {"require_label", o.filters.require_label}}},
+         {"match_radius_px", o.match_radius_px},
+         {"lowe_ratio", o.lowe_ratio},
+         {"fundamental_threshold_px", o.fundamental_threshold_px},
+         {"still_motion_px", o.still_motion_px},
+         {"init_motion_px", o.init_motion_px},
+         {"init_min_angle_deg", o.init_min_angle_deg},
+         {"keyframe_motion_px", o.keyframe_motion_px},
+         {"min_triangulation_angle_deg", o.min_triangulation_angle_deg},
+         {"reprojection_threshold_px", o.reprojection_threshold_px},
+         {"min_pnp_points", o.min_pnp_points},
+         {"ba_window", o.ba_window},
+         {"ba_iterations", o.ba_iterations},
+         {"final_ba", o.final_ba},
+         {"final_ba_iterations", o.final_ba_iterations},
+         {"ground_min_angle_deg", o.ground_min_angle_deg},
+         {"ground_min_row_share", o.ground_min_row_share},
+         {"ground_threshold", o.ground_threshold},
+         {"ground_max_tilt_deg", o.ground_max_tilt_deg},
+         {"ground_iterations", o.ground_iterations},
+         {"seed", o.seed},
+         {"first_frame", o.first_frame},
+         {"last_frame", o.last_frame}};
+  if (o.focal) j["focal"] = *o.focal;
+  if (o.camera_height) j["camera_height"] = *o.camera_height;
+  return j;
+}
+
+SfmSummary sfm_summary(const SfmReport& r) {
+  SfmSummary s;
+  s.tracker = sfm_tracker_name(r.tracker);
+  s.focal = r.focal;
+  s.focal_source = focal_source_name(r.focal_source);
+  s.focal_pairs = r.focal_pairs;
+  s.init_frame_a = r.init_frame_a;
+  s.init_frame_b = r.init_frame_b;
+  s.keyframes = r.keyframes;
+  s.posed_frames = r.pnp_frames + (r.init_frame_a >= 0 ? 2 : 0);
+  s.still_frames = r.still_frames;
+  s.bridged_frames = r.bridged_frames;
+  s.points_3d = r.points_3d;
+  s.observations = r.observations;
+  s.reprojection_rms_px = r.reprojection_rms_px;
+  s.scale = r.scale;
+  s.ground_inliers = r.ground_inliers;
+  s.ground_candidates = r.ground_candidates;
+  s.seconds_sfm = r.seconds_sfm;
+  s.seconds_ba = r.seconds_ba;
+  return s;
+}
+
+void SfmOptions::validate() const {
+  tracking.validate();
+  filters.validate();
+  auto positive = [](double v, const char* name) {
+    if (!(v > 0)) throw Error("", std::string("sfm.") + name, "must be positive");
+  };
+  if (focal) positive(*focal, "focal");
+  if (camera_height) positive(*camera_height, "camera_height");
+  if (first_frame < 0) throw Error("", "sfm.first_frame", "must be >= 0");
+  if (last_frame != -1 && last_frame <= first_frame)
+    throw Error("", "sfm.last_frame", "must be -1 (to the end) or greater than first_frame");
+  klt.validate("sfm");
+  if (!(match_radius_px >= 0)) throw Error("", "sfm.match_radius_px", "must be >= 0 (0 = whole image)");
+  if (!(lowe_ratio >= 0 && lowe_ratio < 1)) throw Error("", "sfm.lowe_ratio", "must be in [0, 1) (0 = off)");
+  positive(fundamental_threshold_px, "fundamental_threshold_px");
+  if (!(still_motion_px >= 0)) throw Error("", "sfm.still_motion_px", "must be >= 0");
+  positive(init_motion_px, "init_motion_px");
+  if (!(init_min_angle_deg >= 0 && init_min_angle_deg < 45))
+    throw Error("", "sfm.init_min_angle_deg", "must be in [0, 45)");
+  positive(keyframe_motion_px, "keyframe_motion_px");
+  if (!(min_triangulation_angle_deg >= 0 && min_triangulation_angle_deg < 45))
+    throw Error("", "sfm.min_triangulation_angle_deg", "must be in [0, 45)");
+  positive(reprojection_threshold_px, "reprojection_threshold_px");
+  if (min_pnp_points < 6) throw Error("", "sfm.min_pnp_points", "must be >= 6");
+  if (ba_window < 3) throw Error("", "sfm.ba_window", "must be >= 3");
+  if (ba_iterations < 0) throw Error("", "sfm.ba_iterations", "must be >= 0");
+  if (final_ba_iterations < 0) throw Error("", "sfm.final_ba_iterations", "must be >= 0");
+  positive(ground_threshold, "ground_threshold");
+  if (!(ground_min_angle_deg >= 0 && ground_min_angle_deg < 45))
+    throw Error("", "sfm.ground_min_angle_deg", "must be in [0, 45)");
+  if (!(ground_min_row_share >= 0 && ground_min_row_share < 0.5))
+    throw Error("", "sfm.ground_min_row_share", "must be in [0, 0.5)");
+  if (!(ground_max_tilt_deg > 0 && ground_max_tilt_deg <= 90))
+    throw Error("", "sfm.ground_max_tilt_deg", "must be in (0, 90]");
+  if (ground_iterations < 1) throw Error("", "sfm.ground_iterations", "must be >= 1");
+}
+
+FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report_out) {
+  const auto wall0 = Clock::now();
+  options.validate();
+  const SfmOptions o = resolve_tracker(options, seq);
+  const std::string manifest = seq.manifest.string();
+  if (o.tracker == SfmTracker::Descriptors && o.tracking.detector == KeypointMethod::Gftt)
+    throw Error(manifest, "tracking.detector",
+                "gftt corners have no descriptors, and this sequence's frames call for descriptor matching; use "
+                "--tracker klt or another detector");
+  const std::optional<double> height = o.camera_height ? o.camera_height : seq.camera_height;
+  if (!height)
+    throw Error(manifest, "camera_height",
+                "monocular SfM takes its metric scale from the camera height (give it in the manifest or as an "
+                "option)");
+  const int first = o.first_frame;
+  const int last = seq.range_end(first, o.last_frame);
+  const int n = last - first;
+  const int norm = descriptor_norm(o.tracking.detector);
+  SfmReport rep;
+  rep.tracker = o.tracker;
+
+  // ---- 1. keypoints, matches, geometric verification (parallel per frame / pair) ----
+  std::vector<std::vector<cv::Point2f>> px(n);
+  std::vector<std::vector<cv::DMatch>> matches(std::max(0, n - 1));
+  std::vector<PairInfo> pairs(std::max(0, n - 1));
+  std::vector<double> t_kp(n, 0.0), t_match(std::max(0, n - 1), 0.0);
+  if (o.tracker == SfmTracker::Klt) {
+    // Detection in parallel (positions only), then sequential KLT propagation.
+    std::vector<std::vector<cv::Point2f>> detected(n);
+    {
+      Progress progress("sfm keypoints", n, o.progress);
+      tbb::parallel_for(tbb::blocked_range<int>(0, n, 1), [&](const tbb::blocked_range<int>& r) {
+        for (int i = r.begin(); i < r.end(); ++i) {
+          const auto t0 = Clock::now();
+          FrameKeypoints kp = detect_keypoints(seq.load_left_gray(first + i), o.tracking);
+          for (const auto& k : kp.keypoints) detected[i].push_back(k.pt);
+          t_kp[i] = since(t0);
+          progress.tick();
+        }
+      });
+      progress.finish();
+    }
+    Progress progress("sfm tracking", n, o.progress);
+    cv::Mat prev_img;
+    for (int t = 0; t < n; ++t) {
+      const cv::Mat img = seq.load_left_gray(first + t);
+      const auto t0 = Clock::now();
+      std::vector<cv::DMatch> m;
+      px[t] = klt_step(prev_img, t > 0 ? px[t - 1] : std::vector<cv::Point2f>(), img, detected[t],
+                       o.tracking.max_keypoints, o.klt, m);
+      if (t > 0) {
+        pairs[t - 1] = verify_pair(m, px[t - 1], px[t], o);
+        matches[t - 1] = std::move(m);
+        t_match[t - 1] = since(t0);
+      }
+      prev_img = img;
+      progress.tick();
+    }
+    progress.finish();
+  } else {
+  {
+      Progress progress("sfm keypoints", n, o.progress);
+      cv::Mat prev_desc;
+      for (int c0 = 0; c0 < n; c0 += kChunk) {
+        const int c1 = std::min(n, c0 + kChunk);
+        std::vector<cv::Mat> desc(c1 - c0);
+        tbb::parallel_for(tbb::blocked_range<int>(c0, c1, 1), [&](const tbb::blocked_range<int>& r) {
+          for (int i = r.begin(); i < r.end(); ++i) {
+            const auto t0 = Clock::now();
+            FrameKeypoints kp = detect_keypoints(seq.load_left_gray(first + i), o.tracking);
+            for (const auto& k : kp.keypoints) px[i].push_back(k.pt);
+            desc[i - c0] = kp.descriptors;
+            t_kp[i] = since(t0);
+            progress.tick();
+          }
+        });
+        auto match_pair = [&](int t, const cv::Mat& a, const cv::Mat& b) {
+          const auto t0 = Clock::now();
+          std::vector<cv::DMatch> m =
+              o.match_radius_px > 0 ? match_gated(a, px[t], b, px[t + 1], norm, o.match_radius_px, o.lowe_ratio)
+              : o.lowe_ratio > 0    ? match_ratio(a, b, norm, o.lowe_ratio)
+                                    : match_symmetric(a, b, norm);
+          drop_far_matches(m, px[t], px[t + 1], o.tracking);
+          pairs[t] = verify_pair(m, px[t], px[t + 1], o);
+          matches[t] = std::move(m);
+          t_match[t] = since(t0);
+        };
+        if (c0 > 0) match_pair(c0 - 1, prev_desc, desc[0]);
+        tbb::parallel_for(tbb::blocked_range<int>(c0, c1 - 1, 1), [&](const tbb::blocked_range<int>& r) {
+          for (int t = r.begin(); t < r.end(); ++t) match_pair(t, desc[t - c0], desc[t + 1 - c0]);
+        });
+        prev_desc = desc.back();
+      }
+      progress.finish();
+    }
+  }
+  long keypoints = 0;
+  std::vector<int> counts(n);
+  for (int i = 0; i < n; ++i) {
+    counts[i] = static_cast<int>(px[i].size());
+    keypoints += counts[i];
+  }
+  int ntracks = 0;
+  const std::vector<std::vector<int>> tid = chain_matches(counts, matches, &ntracks);
+  // Observations of each track: (frame, keypoint), frames ascending.
+  std::vector<std::vector<std::pair<int, int>>> tobs(ntracks);
+  for (int t = 0; t < n; ++t)
+    for (int i = 0; i < counts[t]; ++i) tobs[tid[t][i]].push_back({t, i});
+
+  const auto sfm0 = Clock::now();
+  double t_ba = 0;
+
+  // ---- 2. focal length ----
+  Intrinsics in;
+  in.cx = seq.calibration.cx;
+  in.cy = seq.calibration.cy;
+  if (in.cx == 0 && in.cy == 0) {
+    in.cx = (seq.size.width - 1) / 2.0;
+    in.cy = (seq.size.height - 1) / 2.0;
+  }
+  if (o.focal) {
+    in.f = *o.focal;
+    rep.focal_source = FocalSource::Option;
+  } else if (seq.calibration.fx && *seq.calibration.fx > 0) {
+    in.f = *seq.calibration.fx;
+    rep.focal_source = FocalSource::Manifest;
+  } else {
+    // Fundamental matrices between frames a and b up to 30 frames later that share >= 50 tracks and
+    // moved >= 10 px (median), sampled along the sequence, plus every consecutive verified pair.
+    std::vector<cv::Matx33d> Fs;
+    for (const auto& p : pairs)
+      if (p.has_f && p.median_motion >= 10) Fs.push_back(p.F);
+    const int step = std::max(1, n / 40);
+    for (int a = 0; a + 1 < n; a += step) {
+      std::vector<cv::Point2f> best_a, best_b;
+      for (int b = a + 1; b < std::min(n, a + 31); ++b) {
+        std::vector<cv::Point2f> qa, qb;
+        std::vector<double> mv;
+        for (int i = 0; i < counts[a]; ++i) {
+          for (const auto& [f, k] : tobs[tid[a][i]])
+            if (f == b) {
+              qa.push_back(px[a][i]);
+              qb.push_back(px[b][k]);
+              mv.push_back(cv::norm(px[b][k] - px[a][i]));
+            }
+        }
+        if (qa.size() < 50) break;
+        if (median(mv) >= 10) {
+          best_a = std::move(qa);
+          best_b = std::move(qb);
+        }
+      }
+      if (best_a.size() < 50) continue;
+      std::vector<std::uint8_t> mask;
+      const cv::Mat F =
+          cv::findFundamentalMat(best_a, best_b, cv::FM_RANSAC, o.fundamental_threshold_px, 0.999, 2000, mask);
+      if (F.rows == 3 && F.cols == 3 && cv::countNonZero(mask) >= 30) Fs.push_back(cv::Matx33d(F.ptr<double>()));
+    }
+    const auto f = estimate_focal_from_fundamentals(Fs, seq.size, &rep.focal_pairs);
+    if (f) {
+      in.f = *f;
+      rep.focal_source = FocalSource::Estimated;
+    } else {
+      in.f = seq.size.width;
+      rep.focal_source = FocalSource::Fallback;
+    }
+  }
+  rep.focal = in.f;
+  const cv::Mat K = in.K();
+  const double thr = o.reprojection_threshold_px;
+  const double min_angle = o.min_triangulation_angle_deg * M_PI / 180;
+
+  // ---- 3-5. incremental reconstruction ----
+  std::vector<CamPose> pose(n);
+  std::vector<FrameStatus> status(n, FrameStatus::None);
+  std::vector<int> pnp_points(n, 0), pnp_inliers(n, 0);
+  std::vector<Eigen::Vector3d> X(ntracks, Eigen::Vector3d::Zero());
+  std::vector<char> hasX(ntracks, 0);
+  std::vector<int> keyframes;
+
+  // Tracks common to frames a and b: (keypoint in a, keypoint in b).
+  auto common = [&](int a, int b) {
+    std::vector<std::pair<int, int>> c;
+    for (int i = 0; i < counts[a]; ++i)
+      for (const auto& [f, k] : tobs[tid[a][i]])
+        if (f == b) c.push_back({i, k});
+    return c;
+  };
+  auto median_motion = [&](int a, int b) {
+    std::vector<double> mv;
+    for (const auto& [i, k] : common(a, b)) mv.push_back(cv::norm(px[b][k] - px[a][i]));
+    return std::pair<double, int>(median(mv), static_cast<int>(mv.size()));
+  };
+
+  // Local / global bundle adjustment over the given key frames, the first n_fixed held.
+  std::vector<int> point_index(ntracks, -1);
+  auto adjust = [&](const std::vector<int>& frames, int n_fixed, int iterations) {
+    if (iterations <= 0 || frames.empty()) return;
+    const auto t0 = Clock::now();
+    std::vector<BaCamera> cams(frames.size());
+    std::vector<Eigen::Vector3d> pts;
+    std::vector<int> pt_track;
+    std::vector<BaObservation> bobs;
+    for (std::size_t c = 0; c < frames.size(); ++c) {
+      const int t = frames[c];
+      cams[c].R = pose[t].R;
+      cams[c].t = pose[t].t;
+      cams[c].fixed = static_cast<int>(c) < n_fixed;
+      for (int i = 0; i < counts[t]; ++i) {
+        const int tr = tid[t][i];
+        if (!hasX[tr]) continue;
+        // Gross outliers stay out of the adjustment.
+        if (reprojection_error(pose[t], X[tr], px[t][i], in) > 4 * thr) continue;
+        if (point_index[tr] < 0) {
+          point_index[tr] = static_cast<int>(pts.size());
+          pts.push_back(X[tr]);
+          pt_track.push_back(tr);
+        }
+        bobs.push_back({static_cast<int>(c), point_index[tr], Eigen::Vector2d(px[t][i].x, px[t][i].y)});
+      }
+    }
+    BaOptions bo;
+    bo.iterations = iterations;
+    bo.huber_px = thr;
+    bundle_adjust(cams, pts, bobs, in.f, in.cx, in.cy, bo);
+    for (std::size_t c = 0; c < frames.size(); ++c) {
+      pose[frames[c]].R = cams[c].R;
+      pose[frames[c]].t = cams[c].t;
+    }
+    for (std::size_t j = 0; j < pts.size(); ++j) {
+      X[pt_track[j]] = pts[j];
+      point_index[pt_track[j]] = -1;
+    }
+    t_ba += since(t0);
+  };
+
+  // PnP from the frame's tracks with 3D points; `guess` seeds the iterative refinement.
+  auto pnp = [&](int t, const CamPose& guess, CamPose& out) {
+    std::vector<cv::Point3d> obj;
+    std::vector<cv::Point2d> img;
+    for (int i = 0; i < counts[t]; ++i) {
+      const int tr = tid[t][i];
+      if (!hasX[tr]) continue;
+      obj.emplace_back(X[tr].x(), X[tr].y(), X[tr].z());
+      img.emplace_back(px[t][i].x, px[t][i].y);
+    }
+    pnp_points[t] = static_cast<int>(obj.size());
+    pnp_inliers[t] = 0;
+    if (static_cast<int>(obj.size()) < o.min_pnp_points) return false;
+    cv::Mat Rg, rvec, tvec;
+    cv::eigen2cv(guess.R, Rg);
+    cv::Rodrigues(Rg, rvec);
+    cv::eigen2cv(guess.t, tvec);
+    std::vector<int> inl;
+    bool ok = cv::solvePnPRansac(obj, img, K, cv::noArray(), rvec, tvec, false, 300, static_cast<float>(thr), 0.999, inl,
+                                 cv::SOLVEPNP_EPNP);
+    if (!ok || static_cast<int>(inl.size()) < o.min_pnp_points) return false;
+    std::vector<cv::Point3d> o2;
+    std::vector<cv::Point2d> i2;
+    for (int k : inl) {
+      o2.push_back(obj[k]);
+      i2.push_back(img[k]);
+    }
+    // Candidates: the RANSAC pose (OpenCV re-estimates it by EPnP on all inliers, which can come out
+    // wrong, mirrored, with many far points as on CamVid), and Levenberg-Marquardt refinements on the
+    // inliers started from it and from the guess (the previous frame's pose). The one explaining the
+    // most RANSAC inliers within the threshold is kept.
+    auto cv_pose = [](const cv::Mat& rv, const cv::Mat& tv, CamPose& P) {
+      cv::Mat R;
+      cv::Rodrigues(rv, R);
+      cv::cv2eigen(R, P.R);
+      cv::cv2eigen(tv, P.t);
+      return P.R.allFinite() && P.t.allFinite();
+    };
+    auto explained = [&](const CamPose& P) {
+      int c = 0;
+      for (int k : inl)
+        c += reprojection_error(P, Eigen::Vector3d(obj[k].x, obj[k].y, obj[k].z),
+                                cv::Point2f(static_cast<float>(img[k].x), static_cast<float>(img[k].y)), in) <= thr;
+      return c;
+    };
+    int confirmed = -1;
+    auto consider = [&](const cv::Mat& rv, const cv::Mat& tv) {
+      CamPose P;
+      if (!cv_pose(rv, tv, P)) return;
+      const int c = explained(P);
+      if (c > confirmed) {
+        confirmed = c;
+        out = P;
+      }
+    };
+    consider(rvec, tvec);
+    cv::Mat rv = rvec.clone(), tv = tvec.clone();
+    cv::solvePnPRefineLM(o2, i2, K, cv::noArray(), rv, tv);
+    consider(rv, tv);
+    cv::Mat rg, tg;
+    cv::Rodrigues(Rg, rg);
+    cv::eigen2cv(guess.t, tg);
+    cv::solvePnPRefineLM(o2, i2, K, cv::noArray(), rg, tg);
+    consider(rg, tg);
+    if (confirmed < std::max(o.min_pnp_points, static_cast<int>(0.8 * static_cast<double>(inl.size())))) return false;
+    pnp_inliers[t] = confirmed;
+    return true;
+  };
+
+  // Triangulates the tracks of frame t that have no point yet, from their first posed observation.
+  auto triangulate_new = [&](int t) {
+    for (int i = 0; i < counts[t]; ++i) {
+      const int tr = tid[t][i];
+      if (hasX[tr] || tobs[tr].size() < 2) continue;
+      for (const auto& [f, k] : tobs[tr]) {
+        if (f >= t) break;
+        if (status[f] == FrameStatus::None) continue;
+        Eigen::Vector3d P;
+        if (triangulate(pose[f], pose[t], px[f][k], px[t][i], in, thr, min_angle, P)) {
+          X[tr] = P;
+          hasX[tr] = 1;
+        }
+        break;  // only the first posed observation: the widest baseline
+      }
+    }
+  };
+
+  Progress progress("sfm", n, o.progress);
+  // Initial pair.
+  int ia = -1, ib = -1;
+  {
+    int a = 0;
+    for (int b = 1; b < n && ib < 0; ++b) {
+      const auto [mm, nc] = median_motion(a, b);
+      if (nc < 50) {  // the first frame's tracks died before enough motion: start later
+        a = b;
+        continue;
+      }
+      if (mm < o.init_motion_px) continue;
+      std::vector<cv::Point2d> qa, qb;
+      const auto cm = common(a, b);
+      for (const auto& [i, k] : cm) {
+        qa.emplace_back(px[a][i].x, px[a][i].y);
+        qb.emplace_back(px[b][k].x, px[b][k].y);
+      }
+      std::vector<std::uint8_t> mask;
+      const cv::Mat E = cv::findEssentialMat(qa, qb, K, cv::RANSAC, 0.999, 1.0, 1000, mask);
+      if (E.rows != 3 || E.cols != 3) continue;
+      cv::Mat R, tv;
+      const int good = cv::recoverPose(E, qa, qb, K, R, tv, mask);
+      if (good < 30) continue;
+      CamPose A, B;
+      cv::cv2eigen(R, B.R);
+      cv::cv2eigen(tv, B.t);
+      std::vector<double> angles;
+      std::vector<std::pair<int, Eigen::Vector3d>> made;
+      for (std::size_t k = 0; k < cm.size(); ++k) {
+        if (!mask[k]) continue;
+        Eigen::Vector3d P;
+        if (!triangulate(A, B, px[a][cm[k].first], px[b][cm[k].second], in, thr, 0.0, P)) continue;
+        const Eigen::Vector3d ra = P - A.centre(), rb = P - B.centre();
+        angles.push_back(std::acos(std::clamp(ra.dot(rb) / (ra.norm() * rb.norm()), -1.0, 1.0)));
+        made.push_back({tid[a][cm[k].first], P});
+      }
+      if (made.size() < 30 || median(angles) < o.init_min_angle_deg * M_PI / 180) continue;
+      ia = a;
+      ib = b;
+      pose[a] = A;
+      pose[b] = B;
+      status[a] = status[b] = FrameStatus::Init;
+      for (std::size_t k = 0; k < made.size(); ++k) {
+        if (angles[k] < min_angle) continue;
+        X[made[k].first] = made[k].second;
+        hasX[made[k].first] = 1;
+      }
+      keyframes = {a, b};
+      adjust(keyframes, 2, o.ba_iterations);  // points only
+    }
+  }
+
+  if (ib >= 0) {
+    rep.init_frame_a = first + ia;
+    rep.init_frame_b = first + ib;
+    // Frames inside the initial pair, then before it (backwards), by PnP.
+    auto pose_by_pnp = [&](int t, int neighbour, bool still_pair) {
+      if (still_pair && status[neighbour] != FrameStatus::None) {
+        pose[t] = pose[neighbour];
+        status[t] = FrameStatus::Still;
+        return;
+      }
+      CamPose P;
+      if (pnp(t, pose[neighbour], P)) {
+        pose[t] = P;
+        status[t] = FrameStatus::Pnp;
+      } else {
+        pose[t] = pose[neighbour];
+        status[t] = FrameStatus::Bridged;
+      }
+    };
+    for (int t = ia + 1; t < ib; ++t) pose_by_pnp(t, t - 1, pairs[t - 1].still);
+    for (int t = ia - 1; t >= 0; --t) pose_by_pnp(t, t + 1, pairs[t].still);
+    progress.tick(ib + 1);
+    int last_kf = ib;
+    for (int t = ib + 1; t < n; ++t) {
+      progress.tick();
+      if (pairs[t - 1].still) {
+        pose[t] = pose[t - 1];
+        status[t] = FrameStatus::Still;
+        continue;
+      }
+      CamPose P;
+      if (pnp(t, pose[t - 1], P)) {
+        pose[t] = P;
+        status[t] = FrameStatus::Pnp;
+      } else {
+        // Bridge by the essential matrix to the previous frame, with the previous step's length.
+        status[t] = FrameStatus::Bridged;
+        pose[t] = pose[t - 1];
+        std::vector<cv::Point2d> qa, qb;
+        for (const auto& d : matches[t - 1]) {
+          qa.emplace_back(px[t - 1][d.queryIdx].x, px[t - 1][d.queryIdx].y);
+          qb.emplace_back(px[t][d.trainIdx].x, px[t][d.trainIdx].y);
+        }
+        if (qa.size() >= 8) {
+          std::vector<std::uint8_t> mask;
+          const cv::Mat E = cv::findEssentialMat(qa, qb, K, cv::RANSAC, 0.999, 1.0, 1000, mask);
+          cv::Mat R, tv;
+          if (E.rows == 3 && E.cols == 3 && cv::recoverPose(E, qa, qb, K, R, tv, mask) >= 15) {
+            Eigen::Matrix3d Rr;
+            Eigen::Vector3d tr;
+            cv::cv2eigen(R, Rr);
+            cv::cv2eigen(tv, tr);
+            // The last step that moved (frames bridged without motion, e.g. across textureless
+            // frames, would otherwise freeze the path for good).
+            double step = 0;
+            for (int k = t - 1; k >= 1 && step == 0; --k)
+              if (status[k] != FrameStatus::Still) step = (pose[k].centre() - pose[k - 1].centre()).norm();
+            pose[t].R = Rr * pose[t - 1].R;
+            pose[t].t = Rr * pose[t - 1].t + step * tr;
+          }
+        }
+      }
+      const auto [mm, nc] = median_motion(last_kf, t);
+      const bool weak = pnp_inliers[t] < std::max(3 * o.min_pnp_points, pnp_inliers[last_kf] * 2 / 5);
+      if (mm >= o.keyframe_motion_px || status[t] == FrameStatus::Bridged || (weak && mm >= 2 * o.still_motion_px) ||
+          nc < 30) {
+        triangulate_new(t);
+        keyframes.push_back(t);
+        last_kf = t;
+        const int w = std::min<int>(o.ba_window, static_cast<int>(keyframes.size()));
+        std::vector<int> window(keyframes.end() - w, keyframes.end());
+        adjust(window, 2, o.ba_iterations);
+        if (status[t] == FrameStatus::Bridged) pnp_inliers[t] = 0;
+      }
+    }
+    // ---- 6. final adjustment, re-posing, remaining points ----
+    if (o.final_ba && keyframes.size() >= 3) adjust(keyframes, 2, o.final_ba_iterations);
+    std::vector<char> is_kf(n, 0);
+    for (int k : keyframes) is_kf[k] = 1;
+    for (int t = 0; t < n; ++t) {
+      if (is_kf[t]) continue;
+      if (status[t] == FrameStatus::Still) {
+        const int nb = t < ia ? t + 1 : t - 1;
+        pose[t] = pose[nb];
+        continue;
+      }
+      CamPose P;
+      if (pnp(t, pose[t], P)) {
+        pose[t] = P;
+        if (status[t] == FrameStatus::Bridged) status[t] = FrameStatus::Pnp;
+      }
+    }
+    // Still frames again, in order (their neighbours may have moved).
+    for (int t = ia - 1; t >= 0; --t)
+      if (status[t] == FrameStatus::Still) pose[t] = pose[t + 1];
+    for (int t = ia + 1; t < n; ++t)
+      if (status[t] == FrameStatus::Still && !is_kf[t]) pose[t] = pose[t - 1];
+    for (int tr = 0; tr < ntracks; ++tr) {
+      if (hasX[tr] || tobs[tr].size() < 2) continue;
+      const auto& [fa, ka] = tobs[tr].front();
+      const auto& [fb, kb] = tobs[tr].back();
+      if (status[fa] == FrameStatus::None || status[fb] == FrameStatus::None) continue;
+      Eigen::Vector3d P;
+      if (triangulate(pose[fa], pose[fb], px[fa][ka], px[fb][kb], in, thr, min_angle, P)) {
+        X[tr] = P;
+        hasX[tr] = 1;
+      }
+    }
+  } else {
+    progress.tick(n);
+  }
+  progress.finish();
+
+  // Final observation filter.
+  std::vector<std::vector<char>> keep(n);
+  double sq = 0;
+  long kept = 0;
+  for (int t = 0; t < n; ++t) {
+    keep[t].assign(counts[t], 0);
+    if (status[t] == FrameStatus::None) continue;
+    for (int i = 0; i < counts[t]; ++i) {
+      const int tr = tid[t][i];
+      if (!hasX[tr]) continue;
+      const double e = reprojection_error(pose[t], X[tr], px[t][i], in);
+      if (e <= thr) {
+        keep[t][i] = 1;
+        sq += e * e;
+        ++kept;
+      }
+    }
+  }
+  // A track needs at least two kept observations to count as a 3D point.
+  for (int tr = 0; tr < ntracks; ++tr) {
+    if (!hasX[tr]) continue;
+    int k = 0;
+    for (const auto& [f, i] : tobs[tr]) k += keep[f][i];
+    if (k < 2) {
+      for (const auto& [f, i] : tobs[tr])
+        if (keep[f][i]) {
+          const double e = reprojection_error(pose[f], X[tr], px[f][i], in);
+          sq -= e * e;
+          --kept;
+          keep[f][i] = 0;
+        }
+      hasX[tr] = 0;
+    }
+  }
+  rep.observations = kept;
+  rep.reprojection_rms_px = kept > 0 ? std::sqrt(std::max(0.0, sq) / static_cast<double>(kept)) : 0;
+  rep.points_3d = std::count(hasX.begin(), hasX.end(), 1);
+  rep.keyframes = static_cast<int>(keyframes.size());
+  for (auto s : status) {
+    rep.still_frames += s == FrameStatus::Still;
+    rep.pnp_frames += s == FrameStatus::Pnp;
+    rep.bridged_frames += s == FrameStatus::Bridged || s == FrameStatus::None;
+  }
+
+  // ---- 7. ground plane, metric scale, world frame ----
+  double scale = 1;
+  Eigen::Matrix3d B = Eigen::Matrix3d::Identity();  // rows: world X, Y, Z in reconstruction coordinates
+  Eigen::Vector3d origin = Eigen::Vector3d::Zero();
+  if (ib >= 0) {
+    Eigen::Vector3d up = Eigen::Vector3d::Zero();
+    for (int t = 0; t < n; ++t)
+      if (status[t] != FrameStatus::None) up += -pose[t].R.transpose().col(1);  // camera -y in the world
+    up.normalize();
+    std::vector<Eigen::Vector3d> cand;
+    std::vector<double> below;
+    for (int tr = 0; tr < ntracks; ++tr) {
+      if (!hasX[tr]) continue;
+      // Only well-triangulated points: the rays of the first and last kept observations must be at
+      // least ground_min_angle_deg apart (depth errors of far points would bias the plane).
+      int fa = -1, fb = -1;
+      for (const auto& [f, i] : tobs[tr])
+        if (keep[f][i]) {
+          if (fa < 0) fa = f;
+          fb = f;
+        }
+      if (fa < 0) continue;
+      const Eigen::Vector3d ra = X[tr] - pose[fa].centre(), rb = X[tr] - pose[fb].centre();
+      if (std::acos(std::clamp(ra.dot(rb) / (ra.norm() * rb.norm()), -1.0, 1.0)) < o.ground_min_angle_deg * M_PI / 180)
+        continue;
+      for (const auto& [f, i] : tobs[tr]) {
+        if (!keep[f][i]) continue;
+        const Eigen::Vector3d xc = pose[f].R * X[tr] + pose[f].t;
+        const Eigen::Vector3d c_up = -pose[f].R.transpose().col(1);
+        const double h = (pose[f].centre() - X[tr]).dot(c_up);
+        if (px[f][i].y > in.cy + o.ground_min_row_share * seq.size.height && xc.z() > 0 && h > 0) {
+          cand.push_back(X[tr]);
+          below.push_back(h);
+        }
+        break;
+      }
+    }
+    rep.ground_candidates = static_cast<int>(cand.size());
+    const double h_typ = median(below);
+    const PlaneFit plane = fit_ground_plane(cand, up, o.ground_threshold * h_typ, o.ground_max_tilt_deg,
+                                            o.ground_iterations, o.seed);
+    Eigen::Vector3d n_up = up;
+    double d = 0;
+    if (plane.ok) {
+      n_up = plane.normal;
+      d = plane.d;
+      rep.ground_inliers = plane.inliers;
+      std::vector<double> hs;
+      for (int t = 0; t < n; ++t)
+        if (status[t] != FrameStatus::None) hs.push_back(n_up.dot(pose[t].centre()) + d);
+      const double h = median(hs);
+      if (h > 0) scale = *height / h;
+    } else {
+      // No plane: keep the reconstruction's scale, put the ground camera_height below the first camera.
+      d = -n_up.dot(pose[0].centre()) + 1.0;
+      scale = *height;
+    }
+    rep.ground_normal = n_up;
+    const Eigen::Vector3d c0 = pose[0].centre();
+    origin = c0 - (n_up.dot(c0) + d) * n_up;
+    Eigen::Vector3d z = pose[0].R.transpose().col(2);
+    z -= z.dot(n_up) * n_up;
+    if (!(z.norm() > 1e-6)) z = Eigen::Vector3d::UnitZ() - Eigen::Vector3d::UnitZ().dot(n_up) * n_up;
+    z.normalize();
+    B.row(1) = n_up.transpose();
+    B.row(2) = z.transpose();
+    B.row(0) = n_up.cross(z).transpose();
+  } else {
+    // Never initialised: every frame at the first pose of the stereo convention.
+    const Pose p0 = initial_pose(*height);
+    Eigen::Matrix3d R0;
+    for (int r = 0; r < 3; ++r)
+      for (int k = 0; k < 3; ++k) R0(r, k) = p0.R[3 * r + k];
+    for (auto& p : pose) {
+      p.R = R0.transpose();
+      p.t = Eigen::Vector3d::Zero();
+    }
+    B = Eigen::Matrix3d::Identity();
+    origin = Eigen::Vector3d(0, -*height, 0);
+    scale = 1;
+  }
+  rep.scale = scale;
+
+  // ---- output ----
+  FrontEndResult res;
+  res.first_frame = first;
+  res.poses.resize(n);
+  for (int t = 0; t < n; ++t)
+    res.poses[t] = to_pose(B * pose[t].R.transpose(), scale * B * (pose[t].centre() - origin));
+  std::vector<FrameObservations> fobs(n);
+  for (int t = 0; t < n; ++t) {
+    auto& fo = fobs[t];
+    fo.pixels = px[t];
+    fo.disparities.assign(counts[t], kInvalidDisparity);
+    fo.points.assign(counts[t], Eigen::Vector3d::Zero());
+    const cv::Mat labels = seq.is_labelled(first + t) ? seq.load_labels(first + t) : cv::Mat();
+    if (!labels.empty()) fo.labels.assign(counts[t], -1);
+    for (int i = 0; i < counts[t]; ++i) {
+      if (!labels.empty()) {
+        const int x = std::clamp(static_cast<int>(std::lround(px[t][i].x)), 0, labels.cols - 1);
+        const int y = std::clamp(static_cast<int>(std::lround(px[t][i].y)), 0, labels.rows - 1);
+        const std::uint8_t l = labels.at<std::uint8_t>(y, x);
+        fo.labels[i] = l == kVoid ? -1 : l;
+      }
+      if (!keep[t][i] || !hasX[tid[t][i]]) continue;
+      const Eigen::Vector3d xc = scale * (pose[t].R * X[tid[t][i]] + pose[t].t);
+      fo.points[i] = xc;
+      fo.disparities[i] = static_cast<float>(1.0 / xc.z());
+    }
+  }
+  FilterCounts fc;
+  res.tracks = build_tracks(fobs, matches, o.filters, fc);
+  for (auto& tr : res.tracks)
+    for (int& f : tr.frames) f += first;
+  res.pair_motions.resize(std::max(0, n - 1));
+  for (int t = 0; t + 1 < n; ++t) {
+    auto& pm = res.pair_motions[t];
+    const Eigen::Matrix3d Ra = B * pose[t].R.transpose(), Rb = B * pose[t + 1].R.transpose();
+    const Eigen::Vector3d ca = scale * B * (pose[t].centre() - origin), cb = scale * B * (pose[t + 1].centre() - origin);
+    pm.motion.R = Rb.transpose() * Ra;
+    pm.motion.t = Rb.transpose() * (ca - cb);
+    pm.points = pnp_points[t + 1];
+    pm.inliers = pnp_inliers[t + 1];
+    pm.bridged = status[t + 1] == FrameStatus::Bridged || status[t + 1] == FrameStatus::None;
+    pm.ok = !pm.bridged;
+  }
+  const double t_sfm = since(sfm0);
+
+  // Summary (as the stereo front end's).
+  FrontEndSummary& s = res.summary;
+  s.frames = n;
+  s.keypoints = keypoints;
+  s.filters = fc;
+  summarise_tracks_and_motion(res, n, [&](std::size_t k) {
+    return status[k + 1] != FrameStatus::Still && res.pair_motions[k].points > 0;
+  });
+  auto mean = [](const std::vector<double>& v, int denom) {
+    return denom > 0 ? std::accumulate(v.begin(), v.end(), 0.0) / denom : 0.0;
+  };
+  s.seconds.keypoints = mean(t_kp, n);
+  s.seconds.matching = mean(t_match, n);
+  s.seconds.motion = n > 0 ? t_sfm / n : 0;
+  s.seconds.total_wall = since(wall0);
+  rep.seconds_sfm = s.seconds.motion;
+  rep.seconds_ba = n > 0 ? t_ba / n : 0;
+  s.sfm = sfm_summary(rep);
+  if (report_out) *report_out = rep;
+  return res;
+}
+
+}  // namespace smseg::features

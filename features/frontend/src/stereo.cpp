@@ -1,0 +1,170 @@
+#include "smseg/frontend/stereo.hpp"
+
+#include <cmath>
+#include <string>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace smseg::features {
+
+namespace {
+
+[[noreturn]] void bad_option(const std::string& field, const std::string& reason) {
+  throw Error("", "stereo." + field, reason);
+}
+
+cv::Mat to_gray(const cv::Mat& m, const char* which) {
+  if (m.empty()) throw Error("", which, "empty image");
+  if (m.depth() != CV_8U) throw Error("", which, "expected an 8-bit image");
+  if (m.channels() == 1) return m;
+  cv::Mat g;
+  if (m.channels() == 3) {
+    cv::cvtColor(m, g, cv::COLOR_BGR2GRAY);
+  } else if (m.channels() == 4) {
+    cv::cvtColor(m, g, cv::COLOR_BGRA2GRAY);
+  } else {
+    throw Error("", which, "expected 1, 3 or 4 channels");
+  }
+  return g;
+}
+
+cv::Ptr<cv::StereoMatcher> make_matcher(const StereoOptions& o) {
+  if (o.method == StereoMethod::BM) {
+    auto bm = cv::StereoBM::create(o.num_disparities, o.block_size);
+    bm->setMinDisparity(o.min_disparity);
+    bm->setTextureThreshold(o.texture_threshold);
+    bm->setUniquenessRatio(o.uniqueness_ratio);
+    bm->setPreFilterCap(o.prefilter_cap);
+    bm->setSpeckleWindowSize(o.speckle_window);
+    bm->setSpeckleRange(o.speckle_range);
+    bm->setDisp12MaxDiff(-1);  // the explicit left-right check below does this job
+    return bm;
+  }
+  const int cn = 1;
+  const int b2 = o.block_size * o.block_size;
+  auto sg = cv::StereoSGBM::create(o.min_disparity, o.num_disparities, o.block_size, 8 * cn * b2, 32 * cn * b2,
+                                   o.lr_max_diff >= 0 ? o.lr_max_diff : -1, o.prefilter_cap, o.uniqueness_ratio,
+                                   o.speckle_window, o.speckle_range, cv::StereoSGBM::MODE_SGBM);
+  return sg;
+}
+
+// Fixed-point (x16) CV_16S disparity -> CV_32F pixels, -1 where invalid or <= 0.
+cv::Mat fixed_to_float(const cv::Mat& raw) {
+  cv::Mat out(raw.size(), CV_32FC1);
+  for (int y = 0; y < raw.rows; ++y) {
+    const auto* r = raw.ptr<std::int16_t>(y);
+    auto* o = out.ptr<float>(y);
+    for (int x = 0; x < raw.cols; ++x) o[x] = r[x] > 0 ? static_cast<float>(r[x]) / 16.0f : kInvalidDisparity;
+  }
+  return out;
+}
+
+}  // namespace
+
+StereoMethod parse_stereo_method(const std::string& name, const std::string& field) {
+  if (name == "bm") return StereoMethod::BM;
+  if (name == "sgbm") return StereoMethod::SGBM;
+  if (name == "given") return StereoMethod::Given;
+  throw Error("", field, "unknown stereo method '" + name + "' (expected bm, sgbm or given)");
+}
+
+const char* stereo_method_name(StereoMethod m) {
+  switch (m) {
+    case StereoMethod::BM: return "bm";
+    case StereoMethod::SGBM: return "sgbm";
+    case StereoMethod::Given: return "given";
+  }
+  return "?";
+}
+
+void StereoOptions::validate() const {
+  if (method == StereoMethod::Given) return;  // the matcher's parameters are not used
+  if (num_disparities <= 0 || num_disparities % 16 != 0)
+    bad_option("num_disparities", "must be a positive multiple of 16, got " + std::to_string(num_disparities));
+  if (min_disparity < 0 || min_disparity > 1000)
+    bad_option("min_disparity", "must be in 0..1000, got " + std::to_string(min_disparity));
+  if (block_size % 2 == 0) bad_option("block_size", "must be odd, got " + std::to_string(block_size));
+  if (method == StereoMethod::BM && (block_size < 5 || block_size > 255))
+    bad_option("block_size", "must be in 5..255 for bm, got " + std::to_string(block_size));
+  if (method == StereoMethod::SGBM && (block_size < 1 || block_size > 21))
+    bad_option("block_size", "must be in 1..21 for sgbm, got " + std::to_string(block_size));
+  if (texture_threshold < 0) bad_option("texture_threshold", "must be >= 0");
+  if (uniqueness_ratio < 0 || uniqueness_ratio > 100) bad_option("uniqueness_ratio", "must be in 0..100 (percent)");
+  if (speckle_window < 0) bad_option("speckle_window", "must be >= 0");
+  if (speckle_range < 0) bad_option("speckle_range", "must be >= 0");
+  if (prefilter_cap < 1 || prefilter_cap > 63) bad_option("prefilter_cap", "must be in 1..63");
+}
+
+long left_right_check(cv::Mat& dl, const cv::Mat& dr, double max_diff) {
+  if (dl.type() != CV_32FC1 || dr.type() != CV_32FC1 || dl.size() != dr.size())
+    throw Error("", "disparity", "left-right check needs two CV_32FC1 maps of one size");
+  long removed = 0;
+  for (int y = 0; y < dl.rows; ++y) {
+    auto* l = dl.ptr<float>(y);
+    const auto* r = dr.ptr<float>(y);
+    for (int x = 0; x < dl.cols; ++x) {
+      const float d = l[x];
+      if (!(d > 0)) continue;
+      const int xr = static_cast<int>(std::lround(x - d));
+      const bool ok = xr >= 0 && r[xr] > 0 && std::abs(r[xr] - d) <= max_diff;
+      if (!ok) {
+        l[x] = kInvalidDisparity;
+        ++removed;
+      }
+    }
+  }
+  return removed;
+}
+
+cv::Mat compute_disparity(const cv::Mat& left_in, const cv::Mat& right_in, const StereoOptions& o) {
+  o.validate();
+  if (o.method == StereoMethod::Given)
+    throw Error("", "stereo.method", "'given' reads disparities from the sequence; nothing to compute");
+  const cv::Mat left = to_gray(left_in, "left image");
+  const cv::Mat right = to_gray(right_in, "right image");
+  if (left.size() != right.size())
+    throw Error("", "right image",
+                "size " + std::to_string(right.cols) + "x" + std::to_string(right.rows) + " differs from the left " +
+                    std::to_string(left.cols) + "x" + std::to_string(left.rows));
+  auto matcher = make_matcher(o);
+  // BM and SGBM leave the first min_disparity + num_disparities columns without a disparity (their search
+  // would leave the image). Padding both images on the left by that much (edge replicated, textureless)
+  // lets those columns be matched against the real image where their match lies inside it.
+  const int pad = o.min_disparity + o.num_disparities;
+  auto match = [&](const cv::Mat& a, const cv::Mat& b) {
+    cv::Mat pa, pb, raw;
+    cv::copyMakeBorder(a, pa, 0, 0, pad, 0, cv::BORDER_REPLICATE);
+    cv::copyMakeBorder(b, pb, 0, 0, pad, 0, cv::BORDER_REPLICATE);
+    matcher->compute(pa, pb, raw);
+    return fixed_to_float(raw(cv::Rect(pad, 0, a.cols, a.rows)));
+  };
+  cv::Mat dl = match(left, right);
+  if (o.method == StereoMethod::BM && o.lr_max_diff >= 0) {
+    // Right-image disparity: the same matcher on the mirrored pair (right mirrored as the left image).
+    cv::Mat lf, rf, dr;
+    cv::flip(right, lf, 1);
+    cv::flip(left, rf, 1);
+    cv::flip(match(lf, rf), dr, 1);
+    left_right_check(dl, dr, o.lr_max_diff);
+  }
+  return dl;
+}
+
+cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) {
+  if (seq.kind != SequenceKind::Stereo)
+    throw Error(seq.manifest.string(), "kind", "the stereo front end needs a stereo sequence");
+  if (o.method == StereoMethod::Given) {
+    cv::Mat d = seq.load_disparity(frame);
+    d.setTo(kInvalidDisparity, ~(d > 0));
+    return d;
+  }
+  try {
+    return compute_disparity(seq.load_left_gray(frame), seq.load_right_gray(frame), o);
+  } catch (const Error& e) {
+    if (!e.file().empty()) throw;
+    throw Error(seq.manifest.string(), "frames[" + std::to_string(frame) + "]", e.what());
+  }
+}
+
+}  // namespace smseg::features

@@ -1,0 +1,216 @@
+#include "smseg/sequence/camvid.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+
+namespace smseg::features {
+
+namespace {
+
+struct CsvTable {
+  fs::path file;
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  std::vector<int> line_of_row;
+
+  int column(const std::string& name) const {
+    auto it = std::find(header.begin(), header.end(), name);
+    if (it == header.end()) throw Error(file.string(), name, "missing column");
+    return static_cast<int>(it - header.begin());
+  }
+};
+
+std::vector<std::string> split_csv_line(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream ss(line);
+  while (std::getline(ss, cell, ',')) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+CsvTable read_csv(const fs::path& file) {
+  const std::string text = read_file(file);
+  CsvTable t;
+  t.file = file;
+  std::istringstream in(text);
+  std::string line;
+  int lineno = 0;
+  while (std::getline(in, line)) {
+    ++lineno;
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    if (line.empty()) continue;
+    auto cells = split_csv_line(line);
+    if (t.header.empty()) {
+      t.header = std::move(cells);
+      continue;
+    }
+    if (cells.size() != t.header.size())
+      throw Error(file.string(), "line " + std::to_string(lineno),
+                  "has " + std::to_string(cells.size()) + " cells, the header has " + std::to_string(t.header.size()));
+    t.rows.push_back(std::move(cells));
+    t.line_of_row.push_back(lineno);
+  }
+  if (t.header.empty()) throw Error(file.string(), "", "empty CSV file");
+  return t;
+}
+
+long parse_long(const CsvTable& t, std::size_t row, int col) {
+  const std::string& s = t.rows[row][col];
+  try {
+    std::size_t used = 0;
+    const long v = std::stol(s, &used);
+    if (used == s.size()) return v;
+  } catch (const std::exception&) {
+  }
+  throw Error(t.file.string(), "line " + std::to_string(t.line_of_row[row]) + ", " + t.header[col],
+              "expected an integer, found \"" + s + "\"");
+}
+
+}  // namespace
+
+void CamvidImportOptions::validate() const {
+  if (splits.empty()) throw Error("", "--split", "name at least one split");
+  if (!(video_fps > 0)) throw Error("", "video_fps", "must be positive");
+  if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
+  if (focal && !(*focal > 0)) throw Error("", "--focal", "must be positive (pixels)");
+  if (max_gap < 1) throw Error("", "max_gap", "must be at least 1");
+}
+
+std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, const CamvidImportOptions& opt) {
+  opt.validate();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw Error(dir.string(), "", "no such folder");
+  const fs::path root = fs::canonical(dir);
+
+  // Classes: index,name,r,g,b; the row named Void (any case) is the ignore label.
+  const CsvTable classes = read_csv(root / "classes.csv");
+  const int ci = classes.column("index"), cn = classes.column("name"), cr = classes.column("r"),
+            cg = classes.column("g"), cb = classes.column("b");
+  std::vector<ClassInfo> class_list;
+  std::optional<ClassInfo> void_class;
+  for (std::size_t r = 0; r < classes.rows.size(); ++r) {
+    ClassInfo c;
+    c.name = classes.rows[r][cn];
+    c.file_value = static_cast<int>(parse_long(classes, r, ci));
+    const long rgb[3] = {parse_long(classes, r, cr), parse_long(classes, r, cg), parse_long(classes, r, cb)};
+    for (int k = 0; k < 3; ++k) {
+      if (rgb[k] < 0 || rgb[k] > 255)
+        throw Error(classes.file.string(), "line " + std::to_string(classes.line_of_row[r]), "colour out of 0..255");
+      c.rgb[k] = static_cast<std::uint8_t>(rgb[k]);
+    }
+    std::string lower = c.name;
+    std::transform(lower.begin(), lower.end(), lower.begin(), [](unsigned char ch) { return std::tolower(ch); });
+    if (lower == "void") {
+      void_class = c;
+    } else {
+      class_list.push_back(c);
+    }
+  }
+  if (!void_class) throw Error(classes.file.string(), "name", "no Void class (the ignore label)");
+  if (class_list.empty()) throw Error(classes.file.string(), "", "no classes");
+
+  // Frames: sequence,frame,split,image,label,gap...
+  const CsvTable frames = read_csv(root / "frames.csv");
+  const int fs_ = frames.column("sequence"), ff = frames.column("frame"), fsp = frames.column("split"),
+            fi = frames.column("image"), fl = frames.column("label");
+  const std::set<std::string> wanted(opt.splits.begin(), opt.splits.end());
+  std::set<std::string> seen_splits;
+  for (const auto& row : frames.rows) seen_splits.insert(row[fsp]);
+  for (const auto& s : wanted)
+    if (!seen_splits.count(s)) {
+      std::string have;
+      for (const auto& x : seen_splits) have += (have.empty() ? "" : ", ") + x;
+      throw Error(frames.file.string(), "split", "no frames of split \"" + s + "\" (it has: " + have + ")");
+    }
+
+  struct Pending {
+    CamvidRun run;
+    std::vector<std::size_t> rows;
+    long last_frame = 0;
+  };
+  std::vector<Pending> runs;
+  for (std::size_t r = 0; r < frames.rows.size(); ++r) {
+    const auto& row = frames.rows[r];
+    if (!wanted.count(row[fsp])) continue;
+    const long frame = parse_long(frames, r, ff);
+    bool extend = false;
+    if (!runs.empty()) {
+      Pending& p = runs.back();
+      const long gap = frame - p.last_frame;
+      extend = p.run.camvid_sequence == row[fs_] && p.run.split == row[fsp] && gap > 0 && gap <= opt.max_gap &&
+               (p.run.frame_gap == 0 || (gap * 2 > p.run.frame_gap && gap < p.run.frame_gap * 2));
+      // The rows of one split must be contiguous in frames.csv to be one run; a gap of another rate
+      // (2 vs 30 video frames) starts a new run.
+      if (extend && p.run.frame_gap == 0) p.run.frame_gap = static_cast<int>(gap);
+    }
+    if (!extend) {
+      Pending p;
+      p.run.camvid_sequence = row[fs_];
+      p.run.split = row[fsp];
+      runs.push_back(std::move(p));
+    }
+    runs.back().rows.push_back(r);
+    runs.back().last_frame = frame;
+  }
+  if (runs.empty()) throw Error(frames.file.string(), "", "no frames for the splits asked for");
+
+  std::vector<CamvidRun> result;
+  Json index = {{"format", "smseg-camvid-import"}, {"version", 1}, {"source", root.string()},
+                {"splits", opt.splits}, {"sequences", Json::array()}};
+  for (auto& p : runs) {
+    Sequence seq;
+    const auto stem = [&](std::size_t r) { return fs::path(frames.rows[r][fi]).stem().string(); };
+    const std::string first = stem(p.rows.front()), last = stem(p.rows.back());
+    const auto us = last.rfind('_');
+    p.run.name = first + "-" + (us == std::string::npos ? last : last.substr(us + 1));
+    p.run.frames = static_cast<int>(p.rows.size());
+    p.run.folder = out / p.run.name;
+    seq.root = p.run.folder;
+    seq.manifest = seq.root / kManifestName;
+    seq.name = p.run.name;
+    seq.kind = SequenceKind::Mono;
+    seq.label_encoding = LabelEncoding::Index;
+    seq.classes = class_list;
+    seq.void_class = *void_class;
+    seq.camera_height = opt.camera_height;
+    const long frame0 = parse_long(frames, p.rows.front(), ff);
+    for (std::size_t k = 0; k < p.rows.size(); ++k) {
+      const std::size_t r = p.rows[k];
+      const auto& row = frames.rows[r];
+      FrameEntry e;
+      e.left = root / row[fi];
+      e.label = root / row[fl];
+      const std::string where = "line " + std::to_string(frames.line_of_row[r]);
+      if (!fs::is_regular_file(e.left, ec)) throw Error(frames.file.string(), where, "image " + e.left.string() + " does not exist");
+      if (!fs::is_regular_file(e.label, ec)) throw Error(frames.file.string(), where, "label " + e.label.string() + " does not exist");
+      e.time = double(parse_long(frames, r, ff) - frame0) / opt.video_fps;
+      seq.frames.push_back(e);
+      seq.labelled_frames.push_back(static_cast<int>(k));
+    }
+    const cv::Mat first_image = cv::imread(seq.frames.front().left.string(), cv::IMREAD_UNCHANGED);
+    if (first_image.empty()) throw Error(seq.frames.front().left.string(), "", "cannot be decoded as an image");
+    seq.size = first_image.size();
+    seq.calibration.cx = (seq.size.width - 1) / 2.0;
+    seq.calibration.cy = (seq.size.height - 1) / 2.0;
+    if (opt.focal) seq.calibration.fx = seq.calibration.fy = *opt.focal;
+    seq.extra = {{"source", "camvid"}, {"camvid_sequence", p.run.camvid_sequence}, {"split", p.run.split},
+                 {"video_frames", {frame0, p.last_frame}}, {"frame_gap", p.run.frame_gap},
+                 {"camera_height_note", "assumed, not measured (CamVid gives no height)"}};
+    save_sequence(seq);
+    index["sequences"].push_back({{"name", p.run.name}, {"split", p.run.split}, {"frames", p.run.frames},
+                                  {"frame_gap", p.run.frame_gap}, {"camvid_sequence", p.run.camvid_sequence},
+                                  {"path", p.run.name + "/" + kManifestName}});
+    result.push_back(p.run);
+  }
+  write_json_atomic(out / "index.json", index);
+  return result;
+}
+
+}  // namespace smseg::features

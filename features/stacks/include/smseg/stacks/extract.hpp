@@ -1,0 +1,55 @@
+#pragma once
+// The whole front end of a sequence into feature stacks (`extract-features`): tracks and camera
+// motion from stereo (run_stereo_front_end) or from the left images alone by monocular structure from
+// motion (run_mono_front_end, sfm.hpp: always for mono sequences, on request for stereo ones), then the structure-and-motion features of each frame as summed-area
+// tables, written as a work folder (stack.hpp), plus WORK/tracks.json (tracks, camera path and the
+// front-end summary, tracks_io.hpp) and WORK/path.png (top-down camera path and cloud; the ground-truth
+// path too when the sequence has one, aligned at the first frame). Parallel over frames; resumable.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "smseg/stacks/track_cloud.hpp"
+#include "smseg/frontend/motion.hpp"
+#include "smseg/stacks/point_features.hpp"
+#include "smseg/frontend/sfm.hpp"
+#include "smseg/stacks/stack.hpp"
+
+namespace smseg::features {
+
+/// Where tracks and camera motion come from. Auto: stereo for stereo sequences, SfM for mono ones.
+enum class MotionMethod { Auto, Stereo, Sfm };
+MotionMethod parse_motion_method(const std::string& name, const std::string& field);  ///< auto | stereo | sfm
+const char* motion_method_name(MotionMethod m);
+
+struct ExtractOptions {
+  MotionMethod motion = MotionMethod::Auto;
+  FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)
+  SfmOptions sfm;              ///< the monocular front end (its camera_height defaults to front_end's)
+  FeatureOptions features;     ///< causal fC, future frames
+  FrameRange frames;           ///< frames whose stacks are written (the front end always sees all)
+  bool force = false;          ///< rewrite frames already done
+  std::vector<int> preview;    ///< frames to write false-colour PNGs of (WORK/preview/)
+  bool progress = true;
+};
+
+struct ExtractReport {
+  int frames_written = 0, frames_skipped = 0;
+  double front_end_seconds = 0, features_seconds_per_frame = 0;
+  std::size_t bytes_per_frame = 0;
+  FrontEndSummary summary;
+  std::vector<CloudPoint> cloud;  ///< one point per track (cloud.hpp); the tool writes it with PCL
+};
+
+/// The point observations of each frame, from the front end's tracks (track id = index in tracks).
+PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_count);
+
+/// Runs everything for `seq` into the work folder `work`. A work folder made with other options is an
+/// Error unless force is set (then it is rebuilt). MotionMethod::Stereo on a mono sequence is an Error. Frames whose stacks exist are skipped unless force.
+ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& options);
+
+/// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.
+cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names);
+
+}  // namespace smseg::features

@@ -1,0 +1,74 @@
+#pragma once
+// The structure-and-motion features of thesis 2.3.2 / 3.2.3 (DESIGN section 4, "Features"), rasters of
+// the image size that are then turned into summed-area tables:
+//   fH  height of the point above the ground (world Y), at the point's pixel
+//   fC  closest approach of the point to the camera path: over the frames it is seen in plus the next
+//       `future_frames` frames of camera motion applied to its last position (causal: only frames up to
+//       the current one)
+//   fOx, fOy  Delaunay triangulation of the frame's points in image coordinates; each triangle's world
+//       unit normal n = (v3-v1)x(v2-v1)/|...|, oriented towards the camera; n.x and n.y on every pixel
+//       inside the triangle
+//   fD  1 at each tracked point's pixel
+//   fR  back-projection residual: distance between the point's world position from the previous frame
+//       and its world position from the current observation and the current pose (0 in a track's first
+//       frame)
+// Point features are added at the point's (rounded) pixel, so two points on one pixel add up.
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "smseg/sequence/sequence.hpp"
+
+namespace smseg::features {
+
+/// One tracked point seen in one frame.
+struct Observation {
+  int track = -1;              ///< track id, unique within the sequence
+  float x = 0, y = 0;          ///< pixel position
+  Eigen::Vector3d cam{0, 0, 0};  ///< 3D point in the camera frame, metres (x right, y down, z forward)
+};
+
+/// What the features are computed from: the camera path and the points seen in each frame.
+struct PointCloudVideo {
+  std::vector<Pose> poses;                             ///< camera-to-world, one per frame
+  std::vector<std::vector<Observation>> observations;  ///< per frame
+  int frame_count() const { return static_cast<int>(poses.size()); }
+};
+
+/// The feature names in stack order.
+const std::vector<std::string>& structure_feature_names();  // {"fH","fC","fOx","fOy","fD","fR"}
+
+struct FeatureOptions {
+  bool causal = false;      ///< fC from the camera path up to the current frame only (on-line use)
+  int future_frames = 100;  ///< frames of camera motion applied to a point's last position (thesis: 100)
+  void validate() const;    ///< Error naming the option when out of range
+};
+
+/// Per-observation values that need the whole video (world position, fH, fC, fR), aligned with
+/// PointCloudVideo::observations.
+struct PointAttributes {
+  std::vector<std::vector<Eigen::Vector3d>> world;
+  std::vector<std::vector<double>> fH, fC, fR;
+};
+
+PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt);
+
+/// The six rasters (CV_64FC1, `size`) of one frame, in structure_feature_names() order.
+std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame,
+                                        cv::Size size);
+/// The same into `rasters`, reusing its buffers (the hot path: no allocation per frame).
+void rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame, cv::Size size,
+                        std::vector<cv::Mat>& rasters);
+
+/// Summed-area table in cv::integral's layout: (H+1) x (W+1) CV_64FC1, sat(y, x) = sum over rows < y and
+/// columns < x. The sum over a rectangle is four reads, whatever its size.
+cv::Mat summed_area_table(const cv::Mat& raster);
+void summed_area_table(const cv::Mat& raster, cv::Mat& sat);  ///< into sat, reusing its buffer
+
+/// Sum of the raster over the rectangle [x0, x1) x [y0, y1), clipped to the image, from its SAT.
+double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1);
+
+}  // namespace smseg::features

@@ -1,0 +1,271 @@
+#include "smseg/stacks/extract.hpp"
+
+#include <atomic>
+#include <chrono>
+
+#include <Eigen/LU>
+#include <opencv2/imgproc.hpp>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for_each.h>
+
+#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/common/progress.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+double seconds_since(std::chrono::steady_clock::time_point t0) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+bool uses_sfm(const Sequence& seq, const ExtractOptions& o) {
+  return o.motion == MotionMethod::Sfm || (o.motion == MotionMethod::Auto && seq.kind == SequenceKind::Mono);
+}
+
+// The SfM options as run: the camera height from the extract options when not set.
+SfmOptions effective_sfm(const ExtractOptions& o) {
+  SfmOptions s = o.sfm;
+  if (!s.camera_height) s.camera_height = o.front_end.camera_height;
+  s.progress = o.progress;
+  return s;
+}
+
+Json options_json(const Sequence& seq, const ExtractOptions& o) {
+  Json fe;
+  if (uses_sfm(seq, o)) {
+    const SfmOptions s = effective_sfm(o);
+    fe = {{"method", "sfm"}, {"sfm", sfm_options_to_json(s)}};
+    if (s.camera_height) fe["camera_height"] = *s.camera_height;
+  } else {
+    fe = front_end_options_to_json(o.front_end);
+  }
+  if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
+  return {{"front_end", fe}, {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
+}
+
+// False colour over the raster's range. A sparse feature is shown only where there are points (`points`,
+// the dilated fD raster, non-empty), enlarged to 3x3 so that they are visible at a glance.
+cv::Mat false_colour(const cv::Mat& raster, const cv::Mat& points) {
+  cv::Mat src = raster;
+  cv::Mat mask;
+  if (!points.empty()) {
+    cv::dilate(raster, src, cv::Mat(), cv::Point(-1, -1), 1);
+    cv::Mat lo_src;
+    cv::erode(raster, lo_src, cv::Mat(), cv::Point(-1, -1), 1);
+    src = cv::max(src, 0.0) + cv::min(lo_src, 0.0);  // keep negative values (below the ground) visible
+    mask = points > 0;
+  }
+  double lo, hi;
+  cv::minMaxLoc(src, &lo, &hi, nullptr, nullptr, mask);
+  cv::Mat u8;
+  src.convertTo(u8, CV_8U, hi > lo ? 255.0 / (hi - lo) : 0.0, hi > lo ? -255.0 * lo / (hi - lo) : 128.0);
+  cv::Mat out;
+  cv::applyColorMap(u8, out, cv::COLORMAP_VIRIDIS);
+  if (!mask.empty()) out.setTo(cv::Scalar::all(0), ~mask);
+  return out;
+}
+
+// The ground-truth path moved rigidly so that its pose at `first` coincides with `estimated_first`.
+std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, const Pose& estimated_first) {
+  const auto mat = [](const Pose& p) {
+    Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) m(r, c) = p.R[r * 3 + c];
+      m(r, 3) = p.t[r];
+    }
+    return m;
+  };
+  const Eigen::Matrix4d A = mat(estimated_first) * mat(gt[first]).inverse();
+  std::vector<Pose> out;
+  for (std::size_t i = first; i < gt.size(); ++i) {
+    const Eigen::Matrix4d m = A * mat(gt[i]);
+    Pose p;
+    for (int r = 0; r < 3; ++r) {
+      for (int c = 0; c < 3; ++c) p.R[r * 3 + c] = m(r, c);
+      p.t[r] = m(r, 3);
+    }
+    out.push_back(p);
+  }
+  return out;
+}
+
+}  // namespace
+
+MotionMethod parse_motion_method(const std::string& name, const std::string& field) {
+  if (name == "auto") return MotionMethod::Auto;
+  if (name == "stereo") return MotionMethod::Stereo;
+  if (name == "sfm") return MotionMethod::Sfm;
+  throw Error("", field, "expected auto, stereo or sfm, got '" + name + "'");
+}
+
+const char* motion_method_name(MotionMethod m) {
+  switch (m) {
+    case MotionMethod::Auto: return "auto";
+    case MotionMethod::Stereo: return "stereo";
+    case MotionMethod::Sfm: return "sfm";
+  }
+  return "?";
+}
+
+PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count) {
+  PointCloudVideo v;
+  v.poses.assign(frame_count, Pose{});
+  v.observations.resize(frame_count);
+  for (std::size_t i = 0; i < fe.poses.size(); ++i) {
+    const int f = fe.first_frame + static_cast<int>(i);
+    if (f >= 0 && f < frame_count) v.poses[f] = fe.poses[i];
+  }
+  for (std::size_t k = 0; k < fe.tracks.size(); ++k) {
+    const Track& t = fe.tracks[k];
+    for (std::size_t i = 0; i < t.size(); ++i) {
+      const int f = t.frames[i];
+      if (f < 0 || f >= frame_count) continue;
+      Observation o;
+      o.track = static_cast<int>(k);
+      o.x = t.pixels[i].x;
+      o.y = t.pixels[i].y;
+      o.cam = t.points[i];
+      v.observations[f].push_back(o);
+    }
+  }
+  return v;
+}
+
+cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names) {
+  CV_Assert(!rasters.empty() && rasters.size() == names.size());
+  const int cols = 3, rows = (static_cast<int>(rasters.size()) + cols - 1) / cols;
+  const int W = rasters[0].cols, H = rasters[0].rows, gap = 4;
+  cv::Mat out(rows * (H + gap) - gap, cols * (W + gap) - gap, CV_8UC3, cv::Scalar::all(255));
+  cv::Mat points;
+  const auto fd = std::find(names.begin(), names.end(), "fD");
+  if (fd != names.end()) cv::dilate(rasters[fd - names.begin()], points, cv::Mat(), cv::Point(-1, -1), 1);
+  for (std::size_t k = 0; k < rasters.size(); ++k) {
+    const bool sparse = names[k] != "fOx" && names[k] != "fOy";
+    cv::Mat tile = false_colour(rasters[k], sparse ? points : cv::Mat());
+    cv::putText(tile, names[k], cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar::all(255), 2);
+    const int r = static_cast<int>(k) / cols, c = static_cast<int>(k) % cols;
+    tile.copyTo(out(cv::Rect(c * (W + gap), r * (H + gap), W, H)));
+  }
+  return out;
+}
+
+ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
+  opt.features.validate();
+  const bool sfm = uses_sfm(seq, opt);
+  if (sfm)
+    effective_sfm(opt).validate();
+  else if (seq.kind != SequenceKind::Stereo)
+    throw Error(seq.manifest.string(), "kind",
+                "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
+                "--motion sfm or auto)");
+  for (int f : opt.preview)
+    if (f < 0 || f >= seq.frame_count())
+      throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
+                                       std::to_string(seq.frame_count() - 1) + ")");
+  ExtractReport report;
+  const Json options = options_json(seq, opt);
+
+  // A work folder made with other options is rebuilt only when asked.
+  StackManifest m;
+  std::error_code ec;
+  if (fs::exists(work / "stacks.json", ec)) {
+    StackManifest old = load_stack_manifest(work);
+    const bool same = old.options == options && old.size == seq.size && fs::weakly_canonical(old.sequence) == fs::weakly_canonical(seq.root);
+    if (!same && !opt.force)
+      throw Error((work / "stacks.json").string(), "options",
+                  "this work folder was made from another sequence or with other options; use --force to rebuild it");
+    if (same && !opt.force) m = old;
+  }
+  m.work = work;
+  m.sequence = fs::absolute(seq.root);
+  m.sequence_name = seq.name;
+  m.size = seq.size;
+  m.features = structure_feature_names();
+  m.classes.clear();
+  for (const auto& c : seq.classes) m.classes.push_back(c.name);
+  m.options = options;
+  if (opt.force) {
+    m.frames.clear();
+    m.labelled_frames.clear();
+  }
+  save_stack_manifest(m);  // options first: an interrupted run can resume
+
+  // The front end always sees the whole sequence: fC needs the future path.
+  const auto t0 = std::chrono::steady_clock::now();
+  FrontEndOptions fe_opt = opt.front_end;
+  fe_opt.progress = opt.progress;
+  const FrontEndResult fe = sfm ? run_mono_front_end(seq, effective_sfm(opt)) : run_stereo_front_end(seq, fe_opt);
+  report.front_end_seconds = seconds_since(t0);
+  report.summary = fe.summary;
+  write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
+  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
+  const PointAttributes attrs = compute_point_attributes(video, opt.features);
+  report.cloud = track_cloud(fe, video, attrs);
+  {
+    std::vector<Pose> gt;
+    if (static_cast<int>(seq.gt_poses.size()) == seq.frame_count() && !fe.poses.empty())
+      gt = align_at_first_frame(seq.gt_poses, fe.first_frame, fe.poses.front());
+    write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, report.cloud, seq));
+  }
+
+  std::vector<int> todo;
+  for (int f = 0; f < seq.frame_count(); ++f) {
+    if (!opt.frames.contains(f)) continue;
+    const bool done = m.has_frame(f) && fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
+                      (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
+    if (done && !opt.force) {
+      ++report.frames_skipped;
+      continue;
+    }
+    todo.push_back(f);
+  }
+
+  Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
+  struct Buffers {
+    std::vector<cv::Mat> rasters, sats;
+  };
+  tbb::enumerable_thread_specific<Buffers> buffers;
+  std::atomic<double> feature_seconds{0};
+  tbb::parallel_for_each(todo.begin(), todo.end(), [&](int f) {
+    Buffers& b = buffers.local();
+    const auto tf = std::chrono::steady_clock::now();
+    rasterise_features(video, attrs, f, seq.size, b.rasters);
+    b.sats.resize(b.rasters.size());
+    for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
+    double s = feature_seconds.load();
+    const double dt = seconds_since(tf);
+    while (!feature_seconds.compare_exchange_weak(s, s + dt)) {
+    }
+    const cv::Mat gray = seq.load_left_gray(f);
+    const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
+    write_frame_stack(work, f, b.sats, gray, labels);
+    progress.tick();
+  });
+  progress.finish();
+  // Previews of the frames asked for, whether their stacks were written now or earlier.
+  for (int f : opt.preview) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06d_features.png", f);
+    write_image_atomic(work / "preview" / name,
+                       feature_preview(rasterise_features(video, attrs, f, seq.size), m.features));
+  }
+  report.frames_written = static_cast<int>(todo.size());
+  report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());
+
+  // Record the frames now on disk (all of them, including earlier runs').
+  std::vector<int> frames = m.frames;
+  frames.insert(frames.end(), todo.begin(), todo.end());
+  std::sort(frames.begin(), frames.end());
+  frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
+  m.frames = frames;
+  m.labelled_frames.clear();
+  for (int f : frames)
+    if (seq.is_labelled(f)) m.labelled_frames.push_back(f);
+  save_stack_manifest(m);
+  report.bytes_per_frame = std::size_t(m.features.size()) * (seq.size.height + 1) * (seq.size.width + 1) * 8 +
+                           std::size_t(seq.size.area());
+  return report;
+}
+
+}  // namespace smseg::features

@@ -1,0 +1,211 @@
+#include "smseg/stacks/point_features.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+
+#include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
+
+namespace smseg::features {
+
+namespace {
+
+Eigen::Matrix3d rotation(const Pose& p) {
+  Eigen::Matrix3d R;
+  R << p.R[0], p.R[1], p.R[2], p.R[3], p.R[4], p.R[5], p.R[6], p.R[7], p.R[8];
+  return R;
+}
+Eigen::Vector3d centre(const Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
+
+// Sets a and b to va and vb on every pixel whose centre lies inside the triangle t (x0,y0,x1,y1,x2,y2),
+// edges included: one pass over the triangle's bounding box with edge functions.
+void fill_triangle(cv::Mat& a, cv::Mat& b, const cv::Vec6f& t, double va, double vb) {
+  const double x0 = t[0], y0 = t[1], x1 = t[2], y1 = t[3], x2 = t[4], y2 = t[5];
+  double area = (x1 - x0) * (y2 - y0) - (x2 - x0) * (y1 - y0);
+  if (area == 0) return;
+  const double s = area > 0 ? 1.0 : -1.0;  // orient the edge functions so that inside is >= 0
+  const int xmin = std::max(0, static_cast<int>(std::ceil(std::min({x0, x1, x2}))));
+  const int xmax = std::min(a.cols - 1, static_cast<int>(std::floor(std::max({x0, x1, x2}))));
+  const int ymin = std::max(0, static_cast<int>(std::ceil(std::min({y0, y1, y2}))));
+  const int ymax = std::min(a.rows - 1, static_cast<int>(std::floor(std::max({y0, y1, y2}))));
+  const double eps = -1e-9;
+  for (int y = ymin; y <= ymax; ++y) {
+    double* pa = a.ptr<double>(y);
+    double* pb = b.ptr<double>(y);
+    for (int x = xmin; x <= xmax; ++x) {
+      const double e0 = s * ((x1 - x0) * (y - y0) - (y1 - y0) * (x - x0));
+      const double e1 = s * ((x2 - x1) * (y - y1) - (y2 - y1) * (x - x1));
+      const double e2 = s * ((x0 - x2) * (y - y2) - (y0 - y2) * (x - x2));
+      if (e0 >= eps && e1 >= eps && e2 >= eps) {
+        pa[x] = va;
+        pb[x] = vb;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+const std::vector<std::string>& structure_feature_names() {
+  static const std::vector<std::string> names = {"fH", "fC", "fOx", "fOy", "fD", "fR"};
+  return names;
+}
+
+void FeatureOptions::validate() const {
+  if (future_frames < 0 || future_frames > 100000)
+    throw Error("", "--future-frames", "must be in 0..100000 (got " + std::to_string(future_frames) + ")");
+}
+
+PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt) {
+  opt.validate();
+  const int n = video.frame_count();
+  if (static_cast<int>(video.observations.size()) != n)
+    throw Error("", "observations", "one list of observations per pose is needed");
+  PointAttributes a;
+  a.world.resize(n);
+  a.fH.resize(n);
+  a.fC.resize(n);
+  a.fR.resize(n);
+  std::vector<Eigen::Matrix3d> R(n);
+  std::vector<Eigen::Vector3d> C(n);
+  for (int f = 0; f < n; ++f) {
+    R[f] = rotation(video.poses[f]);
+    C[f] = centre(video.poses[f]);
+  }
+
+  // Per track: last frame seen, last world position, running minimum of the distance to the camera.
+  struct TrackState {
+    int last_frame = -1;
+    Eigen::Vector3d last_world{0, 0, 0};
+    double running_min = std::numeric_limits<double>::infinity();
+    std::vector<std::pair<int, int>> seen;  // (frame, index in that frame)
+  };
+  std::unordered_map<int, TrackState> tracks;
+  for (int f = 0; f < n; ++f) {
+    const auto& obs = video.observations[f];
+    a.world[f].resize(obs.size());
+    a.fH[f].resize(obs.size());
+    a.fC[f].resize(obs.size());
+    a.fR[f].resize(obs.size());
+    for (std::size_t i = 0; i < obs.size(); ++i) {
+      const Eigen::Vector3d w = R[f] * obs[i].cam + C[f];
+      a.world[f][i] = w;
+      a.fH[f][i] = w.y();
+      TrackState& t = tracks[obs[i].track];
+      a.fR[f][i] = t.last_frame >= 0 ? (w - t.last_world).norm() : 0.0;
+      t.running_min = std::min(t.running_min, (w - C[f]).norm());
+      a.fC[f][i] = t.running_min;  // causal value: camera path up to this frame
+      t.last_frame = f;
+      t.last_world = w;
+      t.seen.emplace_back(f, static_cast<int>(i));
+    }
+  }
+  if (!opt.causal) {
+    // Whole track plus the next future_frames frames of camera motion applied to its last position.
+    for (auto& [id, t] : tracks) {
+      double best = t.running_min;
+      const int end = std::min(n - 1, t.last_frame + opt.future_frames);
+      for (int f = t.last_frame + 1; f <= end; ++f) best = std::min(best, (t.last_world - C[f]).norm());
+      for (const auto& [f, i] : t.seen) a.fC[f][i] = best;
+    }
+  }
+  return a;
+}
+
+std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame,
+                                        cv::Size size) {
+  std::vector<cv::Mat> r;
+  rasterise_features(video, attrs, frame, size, r);
+  return r;
+}
+
+void rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame, cv::Size size,
+                        std::vector<cv::Mat>& r) {
+  r.resize(6);
+  for (auto& m : r) {
+    m.create(size, CV_64FC1);  // reuses the buffer when the size matches: no page faults per frame
+    m.setTo(0.0);
+  }
+  const auto& obs = video.observations.at(frame);
+  const Eigen::Vector3d cam_centre = centre(video.poses.at(frame));
+
+  // Point features at the point's pixel.
+  std::vector<cv::Point2f> pts;
+  std::vector<int> index_of_pt;
+  pts.reserve(obs.size());
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    const int x = static_cast<int>(std::lround(obs[i].x)), y = static_cast<int>(std::lround(obs[i].y));
+    if (x < 0 || y < 0 || x >= size.width || y >= size.height) continue;
+    r[0].at<double>(y, x) += attrs.fH[frame][i];
+    r[1].at<double>(y, x) += attrs.fC[frame][i];
+    r[4].at<double>(y, x) += 1.0;
+    r[5].at<double>(y, x) += attrs.fR[frame][i];
+    pts.emplace_back(obs[i].x, obs[i].y);
+    index_of_pt.push_back(static_cast<int>(i));
+  }
+
+  // Orientation: Delaunay triangulation of the image positions, world normals filled per triangle.
+  if (pts.size() >= 3) {
+    cv::Subdiv2D subdiv(cv::Rect(-1, -1, size.width + 2, size.height + 2));
+    // getTriangleList returns the inserted coordinates exactly, so they identify the observation.
+    std::unordered_map<std::uint64_t, int> obs_at;  // a duplicate position keeps its first point
+    const auto key = [](float x, float y) {
+      std::uint32_t bx, by;
+      std::memcpy(&bx, &x, 4);
+      std::memcpy(&by, &y, 4);
+      return (std::uint64_t(bx) << 32) | by;
+    };
+    for (std::size_t k = 0; k < pts.size(); ++k) {
+      subdiv.insert(pts[k]);
+      obs_at.emplace(key(pts[k].x, pts[k].y), index_of_pt[k]);
+    }
+    std::vector<cv::Vec6f> tris;
+    subdiv.getTriangleList(tris);
+    for (const auto& t : tris) {
+      int ids[3];
+      bool ok = true;
+      for (int k = 0; k < 3 && ok; ++k) {
+        auto it = obs_at.find(key(t[2 * k], t[2 * k + 1]));
+        ok = it != obs_at.end();  // false for the outer virtual vertices
+        if (ok) ids[k] = it->second;
+      }
+      if (!ok) continue;
+      const Eigen::Vector3d& v1 = attrs.world[frame][ids[0]];
+      const Eigen::Vector3d& v2 = attrs.world[frame][ids[1]];
+      const Eigen::Vector3d& v3 = attrs.world[frame][ids[2]];
+      Eigen::Vector3d nrm = (v3 - v1).cross(v2 - v1);
+      const double len = nrm.norm();
+      if (!(len > 1e-12)) continue;  // degenerate (collinear) triangle
+      nrm /= len;
+      if (nrm.dot(cam_centre - (v1 + v2 + v3) / 3.0) < 0) nrm = -nrm;  // face the camera
+      fill_triangle(r[2], r[3], t, nrm.x(), nrm.y());
+    }
+  }
+}
+
+cv::Mat summed_area_table(const cv::Mat& raster) {
+  cv::Mat sat;
+  summed_area_table(raster, sat);
+  return sat;
+}
+
+void summed_area_table(const cv::Mat& raster, cv::Mat& sat) {
+  CV_Assert(raster.type() == CV_64FC1);
+  cv::integral(raster, sat, CV_64F);
+}
+
+double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1) {
+  const int w = sat.cols - 1, h = sat.rows - 1;
+  x0 = std::clamp(x0, 0, w);
+  x1 = std::clamp(x1, 0, w);
+  y0 = std::clamp(y0, 0, h);
+  y1 = std::clamp(y1, 0, h);
+  if (x1 <= x0 || y1 <= y0) return 0.0;
+  return sat.at<double>(y1, x1) - sat.at<double>(y0, x1) - sat.at<double>(y1, x0) + sat.at<double>(y0, x0);
+}
+
+}  // namespace smseg::features

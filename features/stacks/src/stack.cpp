@@ -1,0 +1,292 @@
+#include "smseg/stacks/stack.hpp"
+
+#include <fcntl.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+
+namespace smseg::features {
+
+namespace {
+
+std::string frame_stem(int frame) {
+  char buf[16];
+  std::snprintf(buf, sizeof buf, "%06d", frame);
+  return buf;
+}
+
+std::string npy_bytes(const std::string& descr, const std::vector<std::size_t>& shape, const void* data,
+                      std::size_t n) {
+  std::string out = make_npy_header(descr, shape);
+  out.append(static_cast<const char*>(data), n);
+  return out;
+}
+
+}  // namespace
+
+fs::path sat_path(const fs::path& work, int frame) { return work / "stacks" / (frame_stem(frame) + ".sat.npy"); }
+fs::path gray_path(const fs::path& work, int frame) { return work / "stacks" / (frame_stem(frame) + ".gray.npy"); }
+fs::path labels_path(const fs::path& work, int frame) {
+  return work / "stacks" / (frame_stem(frame) + ".labels.npy");
+}
+
+bool StackManifest::has_frame(int f) const { return std::binary_search(frames.begin(), frames.end(), f); }
+bool StackManifest::is_labelled(int f) const {
+  return std::binary_search(labelled_frames.begin(), labelled_frames.end(), f);
+}
+
+void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Mat>& sats, const cv::Mat& gray,
+                       const cv::Mat& labels) {
+  CV_Assert(!sats.empty() && gray.type() == CV_8UC1);
+  const int H = gray.rows, W = gray.cols;
+  std::string body;
+  body.reserve(sats.size() * (H + 1) * (W + 1) * 8);
+  for (const cv::Mat& s : sats) {
+    CV_Assert(s.type() == CV_64FC1 && s.rows == H + 1 && s.cols == W + 1);
+    const cv::Mat c = s.isContinuous() ? s : s.clone();
+    body.append(reinterpret_cast<const char*>(c.data), c.total() * 8);
+  }
+  write_file_atomic(sat_path(work, frame),
+                    make_npy_header("<f8", {sats.size(), std::size_t(H + 1), std::size_t(W + 1)}) + body);
+  const cv::Mat g = gray.isContinuous() ? gray : gray.clone();
+  write_file_atomic(gray_path(work, frame), npy_bytes("|u1", {std::size_t(H), std::size_t(W)}, g.data, g.total()));
+  if (!labels.empty()) {
+    CV_Assert(labels.type() == CV_8UC1 && labels.size() == gray.size());
+    const cv::Mat l = labels.isContinuous() ? labels : labels.clone();
+    write_file_atomic(labels_path(work, frame), npy_bytes("|u1", {std::size_t(H), std::size_t(W)}, l.data, l.total()));
+  }
+}
+
+void save_stack_manifest(const StackManifest& m) {
+  Json j = {{"format", kStacksFormat},
+            {"version", kStacksVersion},
+            {"sequence", m.sequence.string()},
+            {"sequence_name", m.sequence_name},
+            {"image_size", {{"width", m.size.width}, {"height", m.size.height}}},
+            {"features", m.features},
+            {"classes", m.classes},
+            {"frames", m.frames},
+            {"labelled_frames", m.labelled_frames},
+            {"options", m.options},
+            {"files", {{"sat", "stacks/NNNNNN.sat.npy (float64, F x (H+1) x (W+1))"},
+                       {"gray", "stacks/NNNNNN.gray.npy (uint8, H x W)"},
+                       {"labels", "stacks/NNNNNN.labels.npy (uint8, H x W, 255 = void)"}}}};
+  write_json_atomic(m.manifest_path(), j);
+}
+
+StackManifest load_stack_manifest(const fs::path& work) {
+  StackManifest m;
+  m.work = work;
+  std::error_code ec;
+  if (!fs::exists(m.manifest_path(), ec)) {
+    if (fs::is_directory(work, ec))
+      throw Error(work.string(), "", "not a work folder: no stacks.json (run extract-features first)");
+    throw Error(work.string(), "", "no such work folder");
+  }
+  const Json doc = read_json(m.manifest_path());
+  const JsonView j(doc, m.manifest_path());
+  check_format(j, kStacksFormat, {kStacksVersion});
+  m.sequence = j.str("sequence");
+  m.sequence_name = j.has("sequence_name") ? j.str("sequence_name") : std::string();
+  const JsonView size = j.at("image_size");
+  const auto w = size.integer("width"), h = size.integer("height");
+  if (w <= 0 || h <= 0) size.fail("width and height must be positive");
+  m.size = cv::Size(static_cast<int>(w), static_cast<int>(h));
+  const auto strings = [&](const char* key) {
+    std::vector<std::string> out;
+    const JsonView a = j.at(key);
+    for (std::size_t i = 0; i < a.size(); ++i) out.push_back(a.at(i).as_str());
+    if (out.empty()) a.fail("must not be empty");
+    return out;
+  };
+  m.features = strings("features");
+  m.classes = strings("classes");
+  const auto ints = [&](const char* key) {
+    std::vector<int> out;
+    const JsonView a = j.at(key);
+    for (std::size_t i = 0; i < a.size(); ++i) {
+      const auto v = a.at(i).as_integer();
+      if (v < 0 || (!out.empty() && v <= out.back())) a.at(i).fail("frames must be ascending, non-negative");
+      out.push_back(static_cast<int>(v));
+    }
+    return out;
+  };
+  m.frames = ints("frames");
+  m.labelled_frames = ints("labelled_frames");
+  for (int f : m.labelled_frames)
+    if (!m.has_frame(f)) j.fail("labelled frame " + std::to_string(f) + " has no stack", "labelled_frames");
+  if (j.has("options")) m.options = j.at("options").json();
+  return m;
+}
+
+// A read-only memory mapping of one .npy file, checked against the expected dtype and shape.
+struct FrameStack::Mapping {
+  void* base = MAP_FAILED;
+  std::size_t length = 0;
+  const char* data = nullptr;
+
+  Mapping(const fs::path& path, const std::string& descr, const std::vector<std::size_t>& shape) {
+    const int fd = ::open(path.c_str(), O_RDONLY);
+    if (fd < 0) throw Error(path.string(), "", std::string("cannot be opened: ") + std::strerror(errno));
+    struct stat st {};
+    if (::fstat(fd, &st) != 0 || st.st_size <= 0) {
+      ::close(fd);
+      throw Error(path.string(), "", "empty or unreadable file");
+    }
+    length = static_cast<std::size_t>(st.st_size);
+    base = ::mmap(nullptr, length, PROT_READ, MAP_PRIVATE, fd, 0);
+    ::close(fd);
+    if (base == MAP_FAILED) throw Error(path.string(), "", std::string("cannot be mapped: ") + std::strerror(errno));
+    try {
+      const std::string_view bytes(static_cast<const char*>(base), length);
+      const NpyHeader h = parse_npy_header(bytes.substr(0, std::min<std::size_t>(length, 65536 + 12)), path);
+      if (h.descr != descr) throw Error(path.string(), "descr", "is '" + h.descr + "', expected '" + descr + "'");
+      if (h.shape != shape) {
+        std::string got, want;
+        for (auto s : h.shape) got += (got.empty() ? "" : "x") + std::to_string(s);
+        for (auto s : shape) want += (want.empty() ? "" : "x") + std::to_string(s);
+        throw Error(path.string(), "shape", "is " + got + ", the work folder's stacks.json says " + want);
+      }
+      std::size_t n = descr == "<f8" ? 8 : 1;
+      for (auto s : shape) n *= s;
+      if (length != h.data_offset + n) throw Error(path.string(), "", "size does not match its shape (truncated?)");
+      if (h.data_offset % 8 != 0) throw Error(path.string(), "", "data is not 8-byte aligned");
+      data = static_cast<const char*>(base) + h.data_offset;
+    } catch (...) {
+      ::munmap(base, length);
+      throw;
+    }
+  }
+  ~Mapping() {
+    if (base != MAP_FAILED) ::munmap(base, length);
+  }
+};
+
+FrameStack::FrameStack(FrameStack&&) noexcept = default;
+FrameStack& FrameStack::operator=(FrameStack&&) noexcept = default;
+FrameStack::~FrameStack() = default;
+
+FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels) {
+  if (!m.has_frame(frame))
+    throw Error(m.manifest_path().string(), "frames", "frame " + std::to_string(frame) + " has no feature stack");
+  if (with_labels && !m.is_labelled(frame))
+    throw Error(m.manifest_path().string(), "labelled_frames", "frame " + std::to_string(frame) + " is not labelled");
+  FrameStack s;
+  s.frame_ = frame;
+  s.size_ = m.size;
+  s.features_ = static_cast<int>(m.features.size());
+  const std::size_t H = m.size.height, W = m.size.width;
+  s.sat_ = std::make_unique<Mapping>(sat_path(m.work, frame), "<f8",
+                                     std::vector<std::size_t>{m.features.size(), H + 1, W + 1});
+  s.gray_ = std::make_unique<Mapping>(gray_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
+  if (with_labels) s.labels_ = std::make_unique<Mapping>(labels_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
+  return s;
+}
+
+const double* FrameStack::sat(int feature) const {
+  return reinterpret_cast<const double*>(sat_->data) + std::size_t(feature) * (size_.height + 1) * (size_.width + 1);
+}
+const std::uint8_t* FrameStack::gray() const { return reinterpret_cast<const std::uint8_t*>(gray_->data); }
+const std::uint8_t* FrameStack::labels() const {
+  return labels_ ? reinterpret_cast<const std::uint8_t*>(labels_->data) : nullptr;
+}
+
+forest::FrameData FrameStack::view() const {
+  forest::FrameData d;
+  d.width = size_.width;
+  d.height = size_.height;
+  for (int f = 0; f < features_; ++f) d.sats.push_back(sat(f));
+  d.gray = gray();
+  d.labels = labels();
+  return d;
+}
+
+FrameRange FrameRange::parse(const std::string& text, const std::string& option) {
+  FrameRange r;
+  const auto colon = text.find(':');
+  const auto num = [&](const std::string& s, int fallback) {
+    if (s.empty()) return fallback;
+    try {
+      std::size_t used = 0;
+      const long v = std::stol(s, &used);
+      if (used == s.size() && v >= 0 && v < std::numeric_limits<int>::max()) return static_cast<int>(v);
+    } catch (const std::exception&) {
+    }
+    throw Error("", option, "\"" + text + "\" is not a frame range (A:B, A:, :B or A; frames >= 0)");
+  };
+  if (colon == std::string::npos) {
+    if (text.empty()) throw Error("", option, "empty frame range");
+    r.begin = num(text, 0);
+    r.end = r.begin + 1;
+  } else {
+    r.begin = num(text.substr(0, colon), 0);
+    r.end = num(text.substr(colon + 1), std::numeric_limits<int>::max());
+  }
+  if (r.end <= r.begin) throw Error("", option, "\"" + text + "\" is an empty range");
+  return r;
+}
+
+std::string FrameRange::str() const {
+  return std::to_string(begin) + ":" + (end == std::numeric_limits<int>::max() ? std::string() : std::to_string(end));
+}
+
+StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
+                     bool with_labels, const std::vector<std::string>& features) {
+  if (works.empty()) throw Error("", "WORK", "name at least one work folder");
+  StackSet set;
+  std::vector<std::vector<int>> feature_index;
+  for (const auto& w : works) {
+    StackManifest m = load_stack_manifest(w);
+    if (!set.manifests.empty()) {
+      const StackManifest& first = set.manifests.front();
+      if (m.size != first.size)
+        throw Error(m.manifest_path().string(), "image_size",
+                    "differs from " + first.manifest_path().string() + " (all work folders must share one size)");
+      if (m.classes != first.classes)
+        throw Error(m.manifest_path().string(), "classes", "differ from those of " + first.manifest_path().string());
+    }
+    std::vector<int> idx;
+    const auto& wanted = features.empty() ? m.features : features;
+    for (const auto& name : wanted) {
+      auto it = std::find(m.features.begin(), m.features.end(), name);
+      if (it == m.features.end()) {
+        std::string have;
+        for (const auto& f : m.features) have += (have.empty() ? "" : ",") + f;
+        throw Error(m.manifest_path().string(), "features", "has no feature \"" + name + "\" (it has " + have + ")");
+      }
+      idx.push_back(static_cast<int>(it - m.features.begin()));
+    }
+    feature_index.push_back(idx);
+    set.manifests.push_back(std::move(m));
+  }
+  set.dataset.width = set.manifests.front().size.width;
+  set.dataset.height = set.manifests.front().size.height;
+  set.dataset.classes = set.manifests.front().classes;
+  for (int i : feature_index.front()) set.dataset.features.push_back(set.manifests.front().features[i]);
+  for (std::size_t k = 0; k < set.manifests.size(); ++k) {
+    const StackManifest& m = set.manifests[k];
+    for (int f : labelled_only ? m.labelled_frames : m.frames) {
+      if (!range.contains(f)) continue;
+      set.stacks.push_back(FrameStack::open(m, f, with_labels));
+      set.origin.emplace_back(static_cast<int>(k), f);
+    }
+  }
+  if (set.stacks.empty())
+    throw Error(works.front().string(), "frames",
+                std::string("no ") + (labelled_only ? "labelled " : "") + "frame with a feature stack in " + range.str());
+  for (std::size_t i = 0; i < set.stacks.size(); ++i) {
+    const forest::FrameData full = set.stacks[i].view();
+    forest::FrameData d = full;
+    d.sats.clear();
+    for (int fi : feature_index[set.origin[i].first]) d.sats.push_back(full.sats[fi]);
+    set.dataset.frames.push_back(d);
+  }
+  return set;
+}
+
+}  // namespace smseg::features

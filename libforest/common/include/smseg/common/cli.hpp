@@ -1,0 +1,38 @@
+#pragma once
+// What every command-line tool shares: CLI11 parsing with our exit codes (2 for bad usage), and
+// errors turned into one line on stderr with exit status 1 (DESIGN section 7, "Errors").
+
+#include <exception>
+#include <iostream>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "smseg/common/error.hpp"
+
+namespace smseg {
+
+/// Parses argv into app, then runs body(); returns the process exit status.
+template <class Body>
+int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
+  const std::string name = app.get_name();
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << name << ": " << e.what() << " (see " << name << " --help)\n";
+    return 2;
+  }
+  try {
+    return body();
+  } catch (const Error& e) {
+    std::cerr << name << ": error: " << e.what() << "\n";
+  } catch (const std::bad_alloc&) {
+    std::cerr << name << ": error: out of memory\n";
+  } catch (const std::exception& e) {
+    std::cerr << name << ": error: " << e.what() << "\n";
+  }
+  return 1;
+}
+
+}  // namespace smseg

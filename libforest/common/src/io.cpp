@@ -1,0 +1,155 @@
+#include "smseg/common/io.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+
+namespace smseg {
+
+void write_file_atomic(const fs::path& path, std::string_view bytes) {
+  std::error_code ec;
+  if (path.has_parent_path()) {
+    fs::create_directories(path.parent_path(), ec);
+    if (ec) throw Error(path.string(), "", "cannot create its folder: " + ec.message());
+  }
+  static std::atomic<unsigned> counter{0};
+  fs::path tmp = path;
+  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  FILE* f = std::fopen(tmp.c_str(), "wb");
+  if (!f) throw Error(path.string(), "", std::string("cannot be written: ") + std::strerror(errno));
+  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() &&
+                  std::fflush(f) == 0;
+  const bool closed = std::fclose(f) == 0;
+  if (!ok || !closed) {
+    fs::remove(tmp, ec);
+    throw Error(path.string(), "", "write failed (disk full?)");
+  }
+  fs::rename(tmp, path, ec);
+  if (ec) {
+    fs::remove(tmp, ec);
+    throw Error(path.string(), "", "cannot be replaced: " + ec.message());
+  }
+}
+
+void write_json_atomic(const fs::path& path, const Json& j, int indent) {
+  write_file_atomic(path, j.dump(indent) + "\n");
+}
+
+std::string read_file(const fs::path& path) {
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw Error(path.string(), "", "no such file");
+  if (fs::is_directory(path, ec)) throw Error(path.string(), "", "is a folder, expected a file");
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw Error(path.string(), "", "read failed");
+  return ss.str();
+}
+
+Json read_json(const fs::path& path) {
+  const std::string text = read_file(path);
+  try {
+    return Json::parse(text);
+  } catch (const Json::parse_error& e) {
+    // Turn the byte offset into line:column for the user.
+    std::size_t line = 1, col = 1;
+    const std::size_t end = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
+    for (std::size_t i = 0; i < end; ++i) {
+      if (text[i] == '\n') {
+        ++line;
+        col = 1;
+      } else {
+        ++col;
+      }
+    }
+    throw Error(path.string(), "",
+                "malformed JSON at line " + std::to_string(line) + ", column " + std::to_string(col));
+  }
+}
+
+JsonView::JsonView(const Json& j, fs::path file, std::string where)
+    : j_(&j), file_(std::move(file)), where_(std::move(where)) {}
+
+std::string JsonView::path_of(std::string_view key) const {
+  if (key.empty()) return where_.empty() ? std::string("(top level)") : where_;
+  if (where_.empty()) return std::string(key);
+  return where_ + "." + std::string(key);
+}
+
+void JsonView::fail(std::string_view reason, std::string_view key) const {
+  throw Error(file_.string(), path_of(key), std::string(reason));
+}
+
+bool JsonView::has(std::string_view key) const {
+  return j_->is_object() && j_->contains(key) && !(*j_)[std::string(key)].is_null();
+}
+
+JsonView JsonView::at(std::string_view key) const {
+  if (!j_->is_object()) fail("expected an object");
+  auto it = j_->find(key);
+  if (it == j_->end() || it->is_null()) fail("missing (required)", key);
+  return JsonView(*it, file_, path_of(key));
+}
+
+std::optional<JsonView> JsonView::maybe(std::string_view key) const {
+  if (!has(key)) return std::nullopt;
+  return at(key);
+}
+
+JsonView JsonView::at(std::size_t index) const {
+  if (!j_->is_array()) fail("expected an array");
+  if (index >= j_->size()) fail("index " + std::to_string(index) + " out of range");
+  return JsonView((*j_)[index], file_, path_of({}) + "[" + std::to_string(index) + "]");
+}
+
+std::size_t JsonView::size() const {
+  if (!j_->is_array()) fail("expected an array");
+  return j_->size();
+}
+
+std::string JsonView::as_str() const {
+  if (!j_->is_string()) fail("expected a string, found " + std::string(j_->type_name()));
+  return j_->get<std::string>();
+}
+double JsonView::as_num() const {
+  if (!j_->is_number()) fail("expected a number, found " + std::string(j_->type_name()));
+  return j_->get<double>();
+}
+std::int64_t JsonView::as_integer() const {
+  if (!j_->is_number_integer() && !j_->is_number_unsigned())
+    fail("expected an integer, found " + (j_->is_number() ? j_->dump() : std::string(j_->type_name())));
+  return j_->get<std::int64_t>();
+}
+
+std::string JsonView::str(std::string_view key) const { return at(key).as_str(); }
+double JsonView::num(std::string_view key) const { return at(key).as_num(); }
+std::int64_t JsonView::integer(std::string_view key) const { return at(key).as_integer(); }
+bool JsonView::boolean(std::string_view key) const {
+  JsonView v = at(key);
+  if (!v.json().is_boolean()) v.fail("expected true or false");
+  return v.json().get<bool>();
+}
+
+void check_format(const JsonView& j, std::string_view format, std::initializer_list<int> versions) {
+  if (!j.json().is_object()) j.fail("expected a JSON object of format '" + std::string(format) + "'");
+  if (!j.has("format"))
+    j.fail("missing; expected \"" + std::string(format) + "\" (not a file of this toolkit?)", "format");
+  const std::string found = j.str("format");
+  if (found != format)
+    j.fail("is \"" + found + "\", expected \"" + std::string(format) + "\"", "format");
+  const auto v = j.integer("version");
+  std::string list;
+  for (int x : versions) {
+    if (v == x) return;
+    list += (list.empty() ? "" : ", ") + std::to_string(x);
+  }
+  j.fail("unsupported version " + std::to_string(v) + " (this build reads " + list + ")", "version");
+}
+
+}  // namespace smseg

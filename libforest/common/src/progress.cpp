@@ -1,0 +1,49 @@
+#include "smseg/common/progress.hpp"
+
+#include <cstdio>
+#include <unistd.h>
+
+namespace smseg {
+
+Progress::Progress(std::string label, long total, bool enabled)
+    : label_(std::move(label)), total_(total), enabled_(enabled) {
+  start_ = last_ = std::chrono::steady_clock::now();
+}
+
+Progress::~Progress() { finish(); }
+
+void Progress::tick(long n) {
+  const long done = done_ += n;
+  if (!enabled_) return;
+  const auto now = std::chrono::steady_clock::now();
+  std::lock_guard lock(mutex_);
+  if (now - start_ < std::chrono::seconds(1) || now - last_ < std::chrono::milliseconds(250)) return;
+  last_ = now;
+  print(done, false);
+}
+
+void Progress::finish() {
+  std::lock_guard lock(mutex_);
+  if (finished_) return;
+  finished_ = true;
+  if (enabled_ && printed_) print(done_.load(), true);
+}
+
+void Progress::print(long done, bool final_line) {
+  const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
+  const bool tty = ::isatty(2);
+  char buf[256];
+  if (final_line) {
+    std::snprintf(buf, sizeof buf, "%s  %ld/%ld  done in %.1fs", label_.c_str(), done, total_, secs);
+  } else {
+    const double eta = done > 0 ? secs * double(total_ - done) / double(done) : 0.0;
+    std::snprintf(buf, sizeof buf, "%s  %ld/%ld  %3.0f%%  ETA %.0fs", label_.c_str(), done, total_,
+                  total_ > 0 ? 100.0 * double(done) / double(total_) : 100.0, eta);
+  }
+  // On a terminal the line is redrawn in place; in a log each update is its own line.
+  std::fprintf(stderr, tty ? "\r%s\033[K%s" : "%s%s", buf, (final_line || !tty) ? "\n" : "");
+  std::fflush(stderr);
+  printed_ = true;
+}
+
+}  // namespace smseg

@@ -1,0 +1,253 @@
+// The sequence format: a valid manifest loads; every kind of bad input gives one Error naming the file
+// and the problem.
+#include <gtest/gtest.h>
+
+#include <fstream>
+#include <random>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include "smseg/sequence/sequence.hpp"
+
+namespace fs = std::filesystem;
+using namespace smseg::features;
+using smseg::Json;
+
+namespace {
+
+class SequenceFormat : public ::testing::Test {
+ protected:
+  fs::path dir;
+  Json manifest;
+
+  void SetUp() override {
+    dir = fs::temp_directory_path() / ("smseg_seq_test_" + std::to_string(::getpid()) + "_" +
+                                       ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(dir);
+    fs::create_directories(dir / "left");
+    fs::create_directories(dir / "right");
+    fs::create_directories(dir / "labels");
+    Json frames = Json::array();
+    for (int i = 0; i < 3; ++i) {
+      cv::Mat img(12, 16, CV_8UC3, cv::Scalar(10 * i, 20, 30));
+      cv::imwrite((dir / "left" / (std::to_string(i) + ".png")).string(), img);
+      cv::imwrite((dir / "right" / (std::to_string(i) + ".png")).string(), img);
+      cv::Mat lab(12, 16, CV_8UC3, cv::Scalar(0, 0, 255));  // BGR of class "floor" (255,0,0)
+      lab(cv::Rect(0, 0, 8, 12)).setTo(cv::Scalar(0, 255, 0));  // "wall" (0,255,0)
+      lab.at<cv::Vec3b>(0, 15) = cv::Vec3b(0, 0, 0);              // void
+      cv::imwrite((dir / "labels" / (std::to_string(i) + ".png")).string(), lab);
+      frames.push_back({{"left", "left/" + std::to_string(i) + ".png"},
+                        {"right", "right/" + std::to_string(i) + ".png"},
+                        {"label", "labels/" + std::to_string(i) + ".png"},
+                        {"time", 0.1 * i}});
+    }
+    manifest = {{"format", "smseg-sequence"},
+                {"version", 1},
+                {"name", "tiny"},
+                {"kind", "stereo"},
+                {"image_size", {{"width", 16}, {"height", 12}}},
+                {"calibration", {{"fx", 20.0}, {"fy", 20.0}, {"cx", 7.5}, {"cy", 5.5}, {"baseline", 0.12}}},
+                {"camera_height", 1.0},
+                {"labels",
+                 {{"encoding", "rgb"},
+                  {"classes", Json::array({{{"name", "floor"}, {"value", 0}, {"colour", {255, 0, 0}}},
+                                           {{"name", "wall"}, {"value", 1}, {"colour", {0, 255, 0}}}})},
+                  {"void", {{"name", "void"}, {"value", 255}, {"colour", {0, 0, 0}}}},
+                  {"labelled_frames", {0, 2}}}},
+                {"frames", frames}};
+  }
+  void TearDown() override { fs::remove_all(dir); }
+
+  void write(const Json& j) { std::ofstream(dir / "sequence.json") << j.dump(1); }
+
+  // Loads (and decodes every image); returns the error message, or "" if it loaded.
+  std::string error_of() {
+    try {
+      validate_images(load_sequence(dir));
+    } catch (const smseg::Error& e) {
+      return e.what();
+    }
+    return "";
+  }
+  std::string error_with(const Json& j) {
+    write(j);
+    return error_of();
+  }
+};
+
+}  // namespace
+
+TEST_F(SequenceFormat, ValidManifestLoadsAndRoundTrips) {
+  write(manifest);
+  const Sequence seq = load_sequence(dir);
+  EXPECT_EQ(seq.frame_count(), 3);
+  EXPECT_EQ(seq.size, cv::Size(16, 12));
+  EXPECT_EQ(seq.kind, SequenceKind::Stereo);
+  EXPECT_EQ(seq.labelled_frames, (std::vector<int>{0, 2}));
+  EXPECT_TRUE(seq.is_labelled(2));
+  EXPECT_FALSE(seq.is_labelled(1));
+  const cv::Mat lab = seq.load_labels(0);
+  EXPECT_EQ(lab.at<std::uint8_t>(5, 2), 1);   // wall
+  EXPECT_EQ(lab.at<std::uint8_t>(5, 12), 0);  // floor
+  EXPECT_EQ(lab.at<std::uint8_t>(0, 15), kVoid);
+  EXPECT_EQ(seq.load_left_gray(1).type(), CV_8UC1);
+
+  // save_sequence writes what load_sequence reads.
+  Sequence copy = seq;
+  save_sequence(copy);
+  const Sequence again = load_sequence(dir / "sequence.json");
+  EXPECT_EQ(sequence_to_json(again), sequence_to_json(seq));
+}
+
+TEST_F(SequenceFormat, IndexEncodingMapsValuesAndRejectsUnknownOnes) {
+  manifest["labels"]["encoding"] = "index";
+  manifest["labels"]["classes"][0]["value"] = 3;
+  manifest["labels"]["classes"][1]["value"] = 7;
+  manifest["labels"]["void"]["value"] = 11;
+  cv::Mat lab(12, 16, CV_8UC1, cv::Scalar(3));
+  lab.at<std::uint8_t>(1, 1) = 7;
+  lab.at<std::uint8_t>(2, 2) = 11;
+  cv::imwrite((dir / "labels/0.png").string(), lab);
+  cv::imwrite((dir / "labels/2.png").string(), lab);
+  manifest["frames"][1].erase("label");
+  manifest["labels"]["labelled_frames"] = {0, 2};
+  write(manifest);
+  const Sequence seq = load_sequence(dir);
+  const cv::Mat m = seq.load_labels(0);
+  EXPECT_EQ(m.at<std::uint8_t>(0, 0), 0);
+  EXPECT_EQ(m.at<std::uint8_t>(1, 1), 1);
+  EXPECT_EQ(m.at<std::uint8_t>(2, 2), kVoid);
+
+  lab.at<std::uint8_t>(4, 5) = 9;  // not a class
+  cv::imwrite((dir / "labels/2.png").string(), lab);
+  const std::string e = error_of();
+  EXPECT_NE(e.find("labels/2.png"), std::string::npos) << e;
+  EXPECT_NE(e.find("(5, 4)"), std::string::npos) << e;
+  EXPECT_NE(e.find("label value 9"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, UnknownLabelColour) {
+  cv::Mat lab = cv::imread((dir / "labels/2.png").string());
+  lab.at<cv::Vec3b>(3, 4) = cv::Vec3b(1, 2, 3);
+  cv::imwrite((dir / "labels/2.png").string(), lab);
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("labels/2.png"), std::string::npos) << e;
+  EXPECT_NE(e.find("colour (3, 2, 1)"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, MissingImage) {
+  fs::remove(dir / "right/1.png");
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("frames[1].right"), std::string::npos) << e;
+  EXPECT_NE(e.find("does not exist"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, UnreadableImage) {
+  std::ofstream(dir / "left/1.png") << "this is not a PNG";
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("left/1.png"), std::string::npos) << e;
+  EXPECT_NE(e.find("cannot be decoded"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, WrongImageSize) {
+  cv::imwrite((dir / "left/2.png").string(), cv::Mat(10, 16, CV_8UC3, cv::Scalar::all(0)));
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("left/2.png"), std::string::npos) << e;
+  EXPECT_NE(e.find("16x10"), std::string::npos) << e;
+  EXPECT_NE(e.find("16x12"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, LabelledFrameOutOfRange) {
+  manifest["labels"]["labelled_frames"] = {0, 3};
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("sequence.json"), std::string::npos) << e;
+  EXPECT_NE(e.find("labelled frame 3 is out of range"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, LabelledFrameWithoutLabel) {
+  manifest["frames"][2].erase("label");
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("has no \"label\""), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, MalformedJson) {
+  std::ofstream(dir / "sequence.json") << "{\n  \"format\": \"smseg-sequence\",\n  \"version\": 1,,\n}";
+  const std::string e = error_of();
+  EXPECT_NE(e.find("sequence.json"), std::string::npos) << e;
+  EXPECT_NE(e.find("malformed JSON at line 3"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, UnknownVersionAndForeignFormat) {
+  manifest["version"] = 7;
+  std::string e = error_with(manifest);
+  EXPECT_NE(e.find("unsupported version 7"), std::string::npos) << e;
+  manifest["version"] = 1;
+  manifest["format"] = "smseg-forest";
+  e = error_with(manifest);
+  EXPECT_NE(e.find("expected \"smseg-sequence\""), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, StereoWithoutRightOrDisparity) {
+  manifest["frames"][1].erase("right");
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("frames[1]"), std::string::npos) << e;
+  EXPECT_NE(e.find("needs a \"right\" image or a \"disparity\""), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, FieldErrorsNameTheField) {
+  Json j = manifest;
+  j["image_size"]["width"] = "sixteen";
+  EXPECT_NE(error_with(j).find("image_size.width: expected an integer"), std::string::npos) << error_of();
+  j = manifest;
+  j["kind"] = "trinocular";
+  EXPECT_NE(error_with(j).find("kind: is \"trinocular\""), std::string::npos) << error_of();
+  j = manifest;
+  j["calibration"].erase("baseline");
+  EXPECT_NE(error_with(j).find("calibration.baseline"), std::string::npos) << error_of();
+  j = manifest;
+  j["labels"]["classes"][1]["colour"] = {255, 0, 0};
+  EXPECT_NE(error_with(j).find("colour is used by another class"), std::string::npos) << error_of();
+  j = manifest;
+  j["frames"] = Json::array();
+  EXPECT_NE(error_with(j).find("no frames"), std::string::npos) << error_of();
+}
+
+TEST_F(SequenceFormat, MissingManifest) {
+  try {
+    load_sequence(dir);
+    FAIL() << "expected an error";
+  } catch (const smseg::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not a sequence: no sequence.json"), std::string::npos) << e.what();
+  }
+}
+
+TEST_F(SequenceFormat, GivenDisparityFromNpy) {
+  cv::Mat d(12, 16, CV_32FC1, cv::Scalar(4.5f));
+  d.at<float>(0, 0) = std::numeric_limits<float>::infinity();
+  write_npy_f32_atomic(dir / "disp0.npy", d);
+  manifest["frames"][0].erase("right");
+  manifest["frames"][0]["disparity"] = "disp0.npy";
+  write(manifest);
+  const Sequence seq = load_sequence(dir);
+  const cv::Mat got = seq.load_disparity(0);
+  EXPECT_FLOAT_EQ(got.at<float>(3, 3), 4.5f);
+  EXPECT_LT(got.at<float>(0, 0), 0.0f);  // unknown
+}
+
+TEST(Npy, RoundTripAndCorruption) {
+  const fs::path p = fs::temp_directory_path() / ("smseg_npy_" + std::to_string(::getpid()) + ".npy");
+  cv::Mat m(5, 7, CV_32FC1);
+  std::mt19937 rng(3);
+  for (int i = 0; i < 35; ++i) m.at<float>(i / 7, i % 7) = std::uniform_real_distribution<float>(-9, 9)(rng);
+  write_npy_f32_atomic(p, m);
+  const cv::Mat r = read_npy_f32(p);
+  ASSERT_EQ(r.size(), m.size());
+  EXPECT_EQ(cv::norm(r, m, cv::NORM_INF), 0.0);
+  // Truncated file.
+  const std::string bytes = smseg::read_file(p);
+  smseg::write_file_atomic(p, bytes.substr(0, bytes.size() - 4));
+  EXPECT_THROW(read_npy_f32(p), smseg::Error);
+  smseg::write_file_atomic(p, "garbage");
+  EXPECT_THROW(read_npy_f32(p), smseg::Error);
+  fs::remove(p);
+}

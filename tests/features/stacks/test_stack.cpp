@@ -1,0 +1,138 @@
+// Feature stacks: write, memory-map, read back exactly; corrupt or foreign files are refused.
+#include <gtest/gtest.h>
+
+#include <fstream>
+
+#include "smseg/stacks/point_features.hpp"
+#include "smseg/stacks/stack.hpp"
+
+namespace fs = std::filesystem;
+using namespace smseg::features;
+
+namespace {
+
+struct StackFixture : ::testing::Test {
+  fs::path work;
+  StackManifest m;
+  std::vector<cv::Mat> rasters;
+  cv::Mat gray, labels;
+
+  void SetUp() override {
+    work = fs::temp_directory_path() /
+           ("smseg_stack_" + std::to_string(::getpid()) + ::testing::UnitTest::GetInstance()->current_test_info()->name());
+    fs::remove_all(work);
+    m.work = work;
+    m.sequence = "/nowhere/seq";
+    m.sequence_name = "seq";
+    m.size = cv::Size(9, 7);
+    m.features = {"fH", "fD"};
+    m.classes = {"floor", "wall"};
+    m.frames = {0, 3};
+    m.labelled_frames = {3};
+    cv::RNG rng(7);
+    for (int k = 0; k < 2; ++k) {
+      cv::Mat r(7, 9, CV_64FC1);
+      rng.fill(r, cv::RNG::UNIFORM, -1.0, 1.0);
+      rasters.push_back(r);
+    }
+    gray = cv::Mat(7, 9, CV_8UC1);
+    rng.fill(gray, cv::RNG::UNIFORM, 0, 256);
+    labels = cv::Mat(7, 9, CV_8UC1, cv::Scalar(1));
+    labels.at<std::uint8_t>(2, 2) = 255;
+    std::vector<cv::Mat> sats;
+    for (const auto& r : rasters) sats.push_back(summed_area_table(r));
+    write_frame_stack(work, 0, sats, gray, cv::Mat());
+    write_frame_stack(work, 3, sats, gray, labels);
+    save_stack_manifest(m);
+  }
+  void TearDown() override { fs::remove_all(work); }
+
+  std::string open_error(int frame, bool with_labels) {
+    try {
+      FrameStack::open(load_stack_manifest(work), frame, with_labels);
+    } catch (const smseg::Error& e) {
+      return e.what();
+    }
+    return "";
+  }
+};
+
+}  // namespace
+
+TEST_F(StackFixture, RoundTripThroughTheMemoryMap) {
+  const StackManifest back = load_stack_manifest(work);
+  EXPECT_EQ(back.features, m.features);
+  EXPECT_EQ(back.frames, m.frames);
+  EXPECT_TRUE(back.is_labelled(3));
+  const FrameStack s = FrameStack::open(back, 3, true);
+  const auto view = s.view();
+  ASSERT_EQ(view.sats.size(), 2u);
+  EXPECT_EQ(view.width, 9);
+  for (int f = 0; f < 2; ++f) {
+    const cv::Mat sat = summed_area_table(rasters[f]);
+    for (int y = 0; y <= 7; ++y)
+      for (int x = 0; x <= 9; ++x) EXPECT_EQ(view.sats[f][y * 10 + x], sat.at<double>(y, x));
+  }
+  for (int i = 0; i < 63; ++i) {
+    EXPECT_EQ(view.gray[i], gray.data[i]);
+    EXPECT_EQ(view.labels[i], labels.data[i]);
+  }
+  EXPECT_EQ(FrameStack::open(back, 0, false).labels(), nullptr);
+}
+
+TEST_F(StackFixture, NumpyReadableHeader) {
+  // The header is plain .npy: magic, version 1.0, a dict with descr / fortran_order / shape.
+  const std::string bytes = smseg::read_file(sat_path(work, 3));
+  const NpyHeader h = parse_npy_header(bytes, sat_path(work, 3));
+  EXPECT_EQ(h.descr, "<f8");
+  EXPECT_EQ(h.shape, (std::vector<std::size_t>{2, 8, 10}));
+  EXPECT_EQ(h.data_offset % 64, 0u);
+  EXPECT_EQ(bytes.size(), h.data_offset + 2 * 8 * 10 * 8);
+}
+
+TEST_F(StackFixture, CorruptAndForeignFilesAreRefused) {
+  // Truncated table file.
+  const std::string bytes = smseg::read_file(sat_path(work, 3));
+  smseg::write_file_atomic(sat_path(work, 3), bytes.substr(0, bytes.size() - 8));
+  std::string e = open_error(3, true);
+  EXPECT_NE(e.find("000003.sat.npy"), std::string::npos) << e;
+  EXPECT_NE(e.find("truncated"), std::string::npos) << e;
+  // Not an npy at all.
+  smseg::write_file_atomic(sat_path(work, 3), "hello");
+  e = open_error(3, true);
+  EXPECT_NE(e.find("not a valid .npy"), std::string::npos) << e;
+  // A stack of another size.
+  smseg::write_file_atomic(gray_path(work, 0), make_npy_header("|u1", {6, 9}) + std::string(54, '\0'));
+  e = open_error(0, false);
+  EXPECT_NE(e.find("shape: is 6x9"), std::string::npos) << e;
+  // Wrong dtype.
+  smseg::write_file_atomic(gray_path(work, 0), make_npy_header("<f4", {7, 9}) + std::string(63 * 4, '\0'));
+  e = open_error(0, false);
+  EXPECT_NE(e.find("expected '|u1'"), std::string::npos) << e;
+  // Frames that do not exist or are not labelled.
+  EXPECT_NE(open_error(5, false).find("frame 5 has no feature stack"), std::string::npos);
+  EXPECT_NE(open_error(0, true).find("frame 0 is not labelled"), std::string::npos);
+}
+
+TEST_F(StackFixture, ManifestErrors) {
+  smseg::Json j = smseg::read_json(work / "stacks.json");
+  j["format"] = "smseg-sequence";
+  smseg::write_json_atomic(work / "stacks.json", j);
+  EXPECT_THROW(load_stack_manifest(work), smseg::Error);
+  j["format"] = "smseg-stacks";
+  j["version"] = 99;
+  smseg::write_json_atomic(work / "stacks.json", j);
+  try {
+    load_stack_manifest(work);
+    FAIL();
+  } catch (const smseg::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("unsupported version 99"), std::string::npos);
+  }
+  fs::remove(work / "stacks.json");
+  try {
+    load_stack_manifest(work);
+    FAIL();
+  } catch (const smseg::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("run extract-features first"), std::string::npos);
+  }
+}
