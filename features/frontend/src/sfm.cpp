@@ -19,11 +19,13 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/progress.hpp"
+#include "sfm_matching.hpp"
 
 namespace smseg::features {
 
 namespace {
 
+using namespace sfm_matching;
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
@@ -38,13 +40,6 @@ struct CamPose {
 };
 
 enum class FrameStatus : std::uint8_t { None, Init, Pnp, Still, Bridged };
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-  std::nth_element(v.begin(), mid, v.end());
-  return *mid;
-}
 
 struct Intrinsics {
   double f = 1, cx = 0, cy = 0;
@@ -82,141 +77,6 @@ bool triangulate(const CamPose& A, const CamPose& B, const cv::Point2f& pa, cons
   return reprojection_error(A, X, pa, in) <= thr && reprojection_error(B, X, pb, in) <= thr;
 }
 
-/// Symmetric matches that also pass Lowe's ratio test in both directions.
-std::vector<cv::DMatch> match_ratio(const cv::Mat& a, const cv::Mat& b, int norm, double ratio) {
-  std::vector<cv::DMatch> out;
-  if (a.empty() || b.empty() || a.rows < 2 || b.rows < 2) return out;
-  cv::BFMatcher bf(norm, false);
-  std::vector<std::vector<cv::DMatch>> ab, ba;
-  bf.knnMatch(a, b, ab, 2);
-  bf.knnMatch(b, a, ba, 2);
-  auto passes = [&](const std::vector<cv::DMatch>& m) {
-    return m.size() == 1 || (m.size() >= 2 && m[0].distance < ratio * m[1].distance);
-  };
-  for (const auto& m : ab) {
-    if (m.empty() || !passes(m)) continue;
-    const auto& back = ba[m[0].trainIdx];
-    if (back.empty() || !passes(back) || back[0].trainIdx != m[0].queryIdx) continue;
-    out.push_back(m[0]);
-  }
-  std::sort(out.begin(), out.end(), [](const cv::DMatch& x, const cv::DMatch& y) { return x.queryIdx < y.queryIdx; });
-  return out;
-}
-
-/// Symmetric nearest-neighbour matching restricted to candidates within `radius` pixels (the camera
-/// moves little between consecutive frames; the gate removes most ambiguity of repetitive texture):
-/// (i, j) is kept when j is i's nearest descriptor among b's keypoints within the radius and i is j's
-/// nearest among a's within it; with ratio > 0 the nearest must also beat the second by that ratio.
-std::vector<cv::DMatch> match_gated(const cv::Mat& da, const std::vector<cv::Point2f>& pa, const cv::Mat& db,
-                                    const std::vector<cv::Point2f>& pb, int norm, double radius, double ratio) {
-  std::vector<cv::DMatch> out;
-  const int na = da.rows, nb = db.rows;
-  if (na == 0 || nb == 0) return out;
-  // Bucket b's keypoints on a grid of radius-sized cells.
-  const double cell = radius;
-  auto key = [&](const cv::Point2f& p) {
-    return std::pair<int, int>(static_cast<int>(std::floor(p.x / cell)), static_cast<int>(std::floor(p.y / cell)));
-  };
-  std::map<std::pair<int, int>, std::vector<int>> grid;
-  for (int j = 0; j < nb; ++j) grid[key(pb[j])].push_back(j);
-  const double r2 = radius * radius;
-  std::vector<int> best_ab(na, -1);
-  std::vector<float> dist_ab(na, std::numeric_limits<float>::max());
-  std::vector<int> best_ba(nb, -1);
-  std::vector<float> dist_ba(nb, std::numeric_limits<float>::max()), second_ba(nb, std::numeric_limits<float>::max());
-  std::vector<char> ok_a(na, 0);
-  for (int i = 0; i < na; ++i) {
-    const auto [gx, gy] = key(pa[i]);
-    float d1 = std::numeric_limits<float>::max(), d2 = d1;
-    int b1 = -1;
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy) {
-        const auto it = grid.find({gx + dx, gy + dy});
-        if (it == grid.end()) continue;
-        for (int j : it->second) {
-          const cv::Point2f v = pb[j] - pa[i];
-          if (v.x * v.x + v.y * v.y > r2) continue;
-          const float d = static_cast<float>(cv::norm(da.row(i), db.row(j), norm));
-          if (d < d1 || (d == d1 && j < b1)) {
-            d2 = d1;
-            d1 = d;
-            b1 = j;
-          } else if (d < d2) {
-            d2 = d;
-          }
-          if (d < dist_ba[j] || (d == dist_ba[j] && i < best_ba[j])) {
-            second_ba[j] = dist_ba[j];
-            dist_ba[j] = d;
-            best_ba[j] = i;
-          } else if (d < second_ba[j]) {
-            second_ba[j] = d;
-          }
-        }
-      }
-    best_ab[i] = b1;
-    dist_ab[i] = d1;
-    ok_a[i] = b1 >= 0 && (ratio <= 0 || d2 == std::numeric_limits<float>::max() || d1 < ratio * d2);
-  }
-  for (int i = 0; i < na; ++i) {
-    const int j = best_ab[i];
-    if (j < 0 || !ok_a[i] || best_ba[j] != i) continue;
-    if (ratio > 0 && second_ba[j] != std::numeric_limits<float>::max() && !(dist_ba[j] < ratio * second_ba[j])) continue;
-    out.emplace_back(i, j, dist_ab[i]);
-  }
-  return out;
-}
-
-struct PairInfo {
-  double median_motion = 0;  ///< of the verified matches, pixels
-  bool still = false;
-  bool has_f = false;
-  cv::Matx33d F;
-};
-
-/// Geometric verification of one consecutive pair's matches (in place).
-PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>& pa, const std::vector<cv::Point2f>& pb,
-                     const SfmOptions& o) {
-  PairInfo info;
-  std::vector<double> motion;
-  for (const auto& d : m) motion.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
-  if (m.size() < 8) {
-    m.clear();
-    return info;
-  }
-  const double med = median(motion);
-  if (med < o.still_motion_px) {
-    // Standing still: the epipolar geometry is undefined; keep the matches that did not move.
-    const double keep = std::max(2.0, 4 * o.still_motion_px);
-    std::vector<cv::DMatch> kept;
-    for (std::size_t k = 0; k < m.size(); ++k)
-      if (motion[k] <= keep) kept.push_back(m[k]);
-    m = std::move(kept);
-    info.still = true;
-  } else {
-    std::vector<cv::Point2f> a, b;
-    for (const auto& d : m) {
-      a.push_back(pa[d.queryIdx]);
-      b.push_back(pb[d.trainIdx]);
-    }
-    std::vector<std::uint8_t> mask;
-    const cv::Mat F = cv::findFundamentalMat(a, b, cv::FM_RANSAC, o.fundamental_threshold_px, 0.999, 2000, mask);
-    if (F.rows != 3 || F.cols != 3) {
-      m.clear();
-      return info;
-    }
-    std::vector<cv::DMatch> kept;
-    for (std::size_t k = 0; k < m.size(); ++k)
-      if (mask[k]) kept.push_back(m[k]);
-    m = std::move(kept);
-    info.has_f = m.size() >= 30;
-    info.F = cv::Matx33d(F.ptr<double>());
-  }
-  std::vector<double> mv;
-  for (const auto& d : m) mv.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
-  info.median_motion = median(mv);
-  return info;
-}
-
 Pose to_pose(const Eigen::Matrix3d& R_cw, const Eigen::Vector3d& c) {
   Pose p;
   for (int r = 0; r < 3; ++r) {
@@ -227,148 +87,6 @@ Pose to_pose(const Eigen::Matrix3d& R_cw, const Eigen::Vector3d& c) {
 }
 
 }  // namespace
-
-const char* focal_source_name(FocalSource s) {
-  switch (s) {
-    case FocalSource::Option: return "option";
-    case FocalSource::Manifest: return "manifest";
-    case FocalSource::Estimated: return "estimated";
-    case FocalSource::Fallback: return "fallback";
-  }
-  return "?";
-}
-
-const char* sfm_tracker_name(SfmTracker t) {
-  switch (t) {
-    case SfmTracker::Auto: return "auto";
-    case SfmTracker::Klt: return "klt";
-    case SfmTracker::Descriptors: return "descriptors";
-  }
-  return "?";
-}
-
-SfmTracker parse_sfm_tracker(const std::string& name, const std::string& field) {
-  if (name == "auto") return SfmTracker::Auto;
-  if (name == "klt") return SfmTracker::Klt;
-  if (name == "descriptors") return SfmTracker::Descriptors;
-  throw Error("", field, "expected auto, klt or descriptors, got '" + name + "'");
-}
-
-SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {
-  SfmOptions o = options;
-  if (o.tracker != SfmTracker::Auto) return o;
-  std::vector<double> dt;
-  for (int i = 1; i < seq.frame_count(); ++i) dt.push_back(seq.frames[i].time - seq.frames[i - 1].time);
-  if (!dt.empty() && median(dt) > 0.25) {
-    o.tracker = SfmTracker::Descriptors;
-    o.match_radius_px = 0;
-    if (o.lowe_ratio == 0) o.lowe_ratio = 0.8;
-  } else {
-    o.tracker = SfmTracker::Klt;
-  }
-  return o;
-}
-
-Json sfm_options_to_json(const SfmOptions& o) {
-  Json j{{"tracker", sfm_tracker_name(o.tracker)},
-         {"klt_window", o.klt.window},
-         {"klt_max_backward_px", o.klt.max_backward_px},
-         {"klt_min_distance_px", o.klt.min_distance_px},
-         {"tracking",
-          {{"detector", keypoint_method_name(o.tracking.detector)},
-           {"max_keypoints", o.tracking.max_keypoints},
-           {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
-           {"akaze_threshold", o.tracking.akaze_threshold},
-           {"gftt_quality", o.tracking.gftt_quality},
-           {"max_descriptor_distance", o.tracking.max_descriptor_distance},
-           {"max_pixel_motion", o.tracking.max_pixel_motion}}},
-         {"filters", {{"min_frames", o.filters.min_frames}, {"require_label", o.filters.require_label}}},
-         {"match_radius_px", o.match_radius_px},
-         {"lowe_ratio", o.lowe_ratio},
-         {"fundamental_threshold_px", o.fundamental_threshold_px},
-         {"still_motion_px", o.still_motion_px},
-         {"init_motion_px", o.init_motion_px},
-         {"init_min_angle_deg", o.init_min_angle_deg},
-         {"keyframe_motion_px", o.keyframe_motion_px},
-         {"min_triangulation_angle_deg", o.min_triangulation_angle_deg},
-         {"reprojection_threshold_px", o.reprojection_threshold_px},
-         {"min_pnp_points", o.min_pnp_points},
-         {"ba_window", o.ba_window},
-         {"ba_iterations", o.ba_iterations},
-         {"final_ba", o.final_ba},
-         {"final_ba_iterations", o.final_ba_iterations},
-         {"ground_min_angle_deg", o.ground_min_angle_deg},
-         {"ground_min_row_share", o.ground_min_row_share},
-         {"ground_threshold", o.ground_threshold},
-         {"ground_max_tilt_deg", o.ground_max_tilt_deg},
-         {"ground_iterations", o.ground_iterations},
-         {"seed", o.seed},
-         {"first_frame", o.first_frame},
-         {"last_frame", o.last_frame}};
-  if (o.focal) j["focal"] = *o.focal;
-  if (o.camera_height) j["camera_height"] = *o.camera_height;
-  return j;
-}
-
-SfmSummary sfm_summary(const SfmReport& r) {
-  SfmSummary s;
-  s.tracker = sfm_tracker_name(r.tracker);
-  s.focal = r.focal;
-  s.focal_source = focal_source_name(r.focal_source);
-  s.focal_pairs = r.focal_pairs;
-  s.init_frame_a = r.init_frame_a;
-  s.init_frame_b = r.init_frame_b;
-  s.keyframes = r.keyframes;
-  s.posed_frames = r.pnp_frames + (r.init_frame_a >= 0 ? 2 : 0);
-  s.still_frames = r.still_frames;
-  s.bridged_frames = r.bridged_frames;
-  s.points_3d = r.points_3d;
-  s.observations = r.observations;
-  s.reprojection_rms_px = r.reprojection_rms_px;
-  s.scale = r.scale;
-  s.ground_inliers = r.ground_inliers;
-  s.ground_candidates = r.ground_candidates;
-  s.seconds_sfm = r.seconds_sfm;
-  s.seconds_ba = r.seconds_ba;
-  return s;
-}
-
-void SfmOptions::validate() const {
-  tracking.validate();
-  filters.validate();
-  auto positive = [](double v, const char* name) {
-    if (!(v > 0)) throw Error("", std::string("sfm.") + name, "must be positive");
-  };
-  if (focal) positive(*focal, "focal");
-  if (camera_height) positive(*camera_height, "camera_height");
-  if (first_frame < 0) throw Error("", "sfm.first_frame", "must be >= 0");
-  if (last_frame != -1 && last_frame <= first_frame)
-    throw Error("", "sfm.last_frame", "must be -1 (to the end) or greater than first_frame");
-  klt.validate("sfm");
-  if (!(match_radius_px >= 0)) throw Error("", "sfm.match_radius_px", "must be >= 0 (0 = whole image)");
-  if (!(lowe_ratio >= 0 && lowe_ratio < 1)) throw Error("", "sfm.lowe_ratio", "must be in [0, 1) (0 = off)");
-  positive(fundamental_threshold_px, "fundamental_threshold_px");
-  if (!(still_motion_px >= 0)) throw Error("", "sfm.still_motion_px", "must be >= 0");
-  positive(init_motion_px, "init_motion_px");
-  if (!(init_min_angle_deg >= 0 && init_min_angle_deg < 45))
-    throw Error("", "sfm.init_min_angle_deg", "must be in [0, 45)");
-  positive(keyframe_motion_px, "keyframe_motion_px");
-  if (!(min_triangulation_angle_deg >= 0 && min_triangulation_angle_deg < 45))
-    throw Error("", "sfm.min_triangulation_angle_deg", "must be in [0, 45)");
-  positive(reprojection_threshold_px, "reprojection_threshold_px");
-  if (min_pnp_points < 6) throw Error("", "sfm.min_pnp_points", "must be >= 6");
-  if (ba_window < 3) throw Error("", "sfm.ba_window", "must be >= 3");
-  if (ba_iterations < 0) throw Error("", "sfm.ba_iterations", "must be >= 0");
-  if (final_ba_iterations < 0) throw Error("", "sfm.final_ba_iterations", "must be >= 0");
-  positive(ground_threshold, "ground_threshold");
-  if (!(ground_min_angle_deg >= 0 && ground_min_angle_deg < 45))
-    throw Error("", "sfm.ground_min_angle_deg", "must be in [0, 45)");
-  if (!(ground_min_row_share >= 0 && ground_min_row_share < 0.5))
-    throw Error("", "sfm.ground_min_row_share", "must be in [0, 0.5)");
-  if (!(ground_max_tilt_deg > 0 && ground_max_tilt_deg <= 90))
-    throw Error("", "sfm.ground_max_tilt_deg", "must be in (0, 90]");
-  if (ground_iterations < 1) throw Error("", "sfm.ground_iterations", "must be >= 1");
-}
 
 FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report_out) {
   const auto wall0 = Clock::now();

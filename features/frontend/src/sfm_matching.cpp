@@ -1,0 +1,147 @@
+// Matching and two-view verification of consecutive frames for the monocular SfM (see sfm_matching.hpp).
+#include "sfm_matching.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+
+#include <opencv2/calib3d.hpp>
+
+namespace smseg::features::sfm_matching {
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+/// Symmetric matches that also pass Lowe's ratio test in both directions.
+std::vector<cv::DMatch> match_ratio(const cv::Mat& a, const cv::Mat& b, int norm, double ratio) {
+  std::vector<cv::DMatch> out;
+  if (a.empty() || b.empty() || a.rows < 2 || b.rows < 2) return out;
+  cv::BFMatcher bf(norm, false);
+  std::vector<std::vector<cv::DMatch>> ab, ba;
+  bf.knnMatch(a, b, ab, 2);
+  bf.knnMatch(b, a, ba, 2);
+  auto passes = [&](const std::vector<cv::DMatch>& m) {
+    return m.size() == 1 || (m.size() >= 2 && m[0].distance < ratio * m[1].distance);
+  };
+  for (const auto& m : ab) {
+    if (m.empty() || !passes(m)) continue;
+    const auto& back = ba[m[0].trainIdx];
+    if (back.empty() || !passes(back) || back[0].trainIdx != m[0].queryIdx) continue;
+    out.push_back(m[0]);
+  }
+  std::sort(out.begin(), out.end(), [](const cv::DMatch& x, const cv::DMatch& y) { return x.queryIdx < y.queryIdx; });
+  return out;
+}
+
+/// Symmetric nearest-neighbour matching restricted to candidates within `radius` pixels (the camera
+/// moves little between consecutive frames; the gate removes most ambiguity of repetitive texture):
+/// (i, j) is kept when j is i's nearest descriptor among b's keypoints within the radius and i is j's
+/// nearest among a's within it; with ratio > 0 the nearest must also beat the second by that ratio.
+std::vector<cv::DMatch> match_gated(const cv::Mat& da, const std::vector<cv::Point2f>& pa, const cv::Mat& db,
+                                    const std::vector<cv::Point2f>& pb, int norm, double radius, double ratio) {
+  std::vector<cv::DMatch> out;
+  const int na = da.rows, nb = db.rows;
+  if (na == 0 || nb == 0) return out;
+  // Bucket b's keypoints on a grid of radius-sized cells.
+  const double cell = radius;
+  auto key = [&](const cv::Point2f& p) {
+    return std::pair<int, int>(static_cast<int>(std::floor(p.x / cell)), static_cast<int>(std::floor(p.y / cell)));
+  };
+  std::map<std::pair<int, int>, std::vector<int>> grid;
+  for (int j = 0; j < nb; ++j) grid[key(pb[j])].push_back(j);
+  const double r2 = radius * radius;
+  std::vector<int> best_ab(na, -1);
+  std::vector<float> dist_ab(na, std::numeric_limits<float>::max());
+  std::vector<int> best_ba(nb, -1);
+  std::vector<float> dist_ba(nb, std::numeric_limits<float>::max()), second_ba(nb, std::numeric_limits<float>::max());
+  std::vector<char> ok_a(na, 0);
+  for (int i = 0; i < na; ++i) {
+    const auto [gx, gy] = key(pa[i]);
+    float d1 = std::numeric_limits<float>::max(), d2 = d1;
+    int b1 = -1;
+    for (int dx = -1; dx <= 1; ++dx)
+      for (int dy = -1; dy <= 1; ++dy) {
+        const auto it = grid.find({gx + dx, gy + dy});
+        if (it == grid.end()) continue;
+        for (int j : it->second) {
+          const cv::Point2f v = pb[j] - pa[i];
+          if (v.x * v.x + v.y * v.y > r2) continue;
+          const float d = static_cast<float>(cv::norm(da.row(i), db.row(j), norm));
+          if (d < d1 || (d == d1 && j < b1)) {
+            d2 = d1;
+            d1 = d;
+            b1 = j;
+          } else if (d < d2) {
+            d2 = d;
+          }
+          if (d < dist_ba[j] || (d == dist_ba[j] && i < best_ba[j])) {
+            second_ba[j] = dist_ba[j];
+            dist_ba[j] = d;
+            best_ba[j] = i;
+          } else if (d < second_ba[j]) {
+            second_ba[j] = d;
+          }
+        }
+      }
+    best_ab[i] = b1;
+    dist_ab[i] = d1;
+    ok_a[i] = b1 >= 0 && (ratio <= 0 || d2 == std::numeric_limits<float>::max() || d1 < ratio * d2);
+  }
+  for (int i = 0; i < na; ++i) {
+    const int j = best_ab[i];
+    if (j < 0 || !ok_a[i] || best_ba[j] != i) continue;
+    if (ratio > 0 && second_ba[j] != std::numeric_limits<float>::max() && !(dist_ba[j] < ratio * second_ba[j])) continue;
+    out.emplace_back(i, j, dist_ab[i]);
+  }
+  return out;
+}
+
+PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>& pa, const std::vector<cv::Point2f>& pb,
+                     const SfmOptions& o) {
+  PairInfo info;
+  std::vector<double> motion;
+  for (const auto& d : m) motion.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
+  if (m.size() < 8) {
+    m.clear();
+    return info;
+  }
+  const double med = median(motion);
+  if (med < o.still_motion_px) {
+    // Standing still: the epipolar geometry is undefined; keep the matches that did not move.
+    const double keep = std::max(2.0, 4 * o.still_motion_px);
+    std::vector<cv::DMatch> kept;
+    for (std::size_t k = 0; k < m.size(); ++k)
+      if (motion[k] <= keep) kept.push_back(m[k]);
+    m = std::move(kept);
+    info.still = true;
+  } else {
+    std::vector<cv::Point2f> a, b;
+    for (const auto& d : m) {
+      a.push_back(pa[d.queryIdx]);
+      b.push_back(pb[d.trainIdx]);
+    }
+    std::vector<std::uint8_t> mask;
+    const cv::Mat F = cv::findFundamentalMat(a, b, cv::FM_RANSAC, o.fundamental_threshold_px, 0.999, 2000, mask);
+    if (F.rows != 3 || F.cols != 3) {
+      m.clear();
+      return info;
+    }
+    std::vector<cv::DMatch> kept;
+    for (std::size_t k = 0; k < m.size(); ++k)
+      if (mask[k]) kept.push_back(m[k]);
+    m = std::move(kept);
+    info.has_f = m.size() >= 30;
+    info.F = cv::Matx33d(F.ptr<double>());
+  }
+  std::vector<double> mv;
+  for (const auto& d : m) mv.push_back(cv::norm(pb[d.trainIdx] - pa[d.queryIdx]));
+  info.median_motion = median(mv);
+  return info;
+}
+
+}  // namespace smseg::features::sfm_matching
