@@ -1,0 +1,72 @@
+// segment-cloud --method centroid-mincut on a cloud file (Aung & Thein, paper 003).
+#include <algorithm>
+#include <iostream>
+
+#include "runs.hpp"
+
+namespace segment_cloud {
+
+/// segment-cloud --method centroid-mincut on a cloud file.
+int run_centroid_mincut(const CentroidRun& run) {
+  using namespace smseg;
+  const std::string& input = run.input;
+  const std::string& out = run.out;
+  const std::string& solver = run.solver;
+  const std::string& up = run.up;
+  const std::string method = "centroid-mincut";
+  const int truth_object = run.truth_object;
+  features::CentroidMinCutParams mc = run.mc;
+  if (solver == "maxflow") mc.solver = features::MinCutSolver::MaxFlow;
+  else if (solver == "pcl") mc.solver = features::MinCutSolver::Pcl;
+  else throw Error("", "--solver", "\"" + solver + "\" is not a solver (maxflow or pcl)");
+  if (up == "x" || up == "y" || up == "z") mc.up = up[0] - 'x';
+  else throw Error("", "--up", "must be x, y or z");
+  mc.validate();
+  const features::ColouredCloud cloud = features::read_coloured_cloud(input);
+  features::CentroidMinCutReport rep;
+  std::vector<int> labels;
+  try {
+    labels = features::centroid_mincut(cloud, mc, &rep);
+  } catch (const Error& e) {
+    throw Error(input, e.field(), e.reason());
+  }
+  features::write_labelled_cloud(out, cloud, labels);
+  Json summary = {{"format", "smseg-segment-cloud"},
+                  {"version", 1},
+                  {"input", input},
+                  {"method", method},
+                  {"params",
+                   {{"radius", mc.radius},
+                    {"neighbours", mc.neighbours},
+                    {"sigma", mc.sigma},
+                    {"sigma_used", rep.sigma},
+                    {"lambda", mc.lambda},
+                    {"solver", solver},
+                    {"source_weight", mc.source_weight},
+                    {"up", up}}},
+                  {"points", cloud.size()},
+                  {"centroid", {rep.centroid.x(), rep.centroid.y(), rep.centroid.z()}},
+                  {"seeds", rep.seeds},
+                  {"object_points", std::count(labels.begin(), labels.end(), 1)},
+                  {"max_flow", rep.flow},
+                  {"seconds", rep.seconds}};
+  std::string line = input + ": " + std::to_string(cloud.size()) + " points, " + std::to_string(rep.seeds) +
+                     " seeds within R, " + std::to_string(std::count(labels.begin(), labels.end(), 1)) +
+                     " object points, sigma " + fmt(rep.sigma, "%.5f") + ", " + fmt(rep.seconds * 1000, "%.1f") +
+                     " ms";
+  if (cloud.has_labels()) {
+    std::vector<int> truth(cloud.size());
+    for (std::size_t i = 0; i < truth.size(); ++i)
+      truth[i] = cloud.labels[i] < 0 ? -1 : (cloud.labels[i] == truth_object ? 1 : 0);
+    const double f1 = features::f1_score(truth, labels, 1);
+    summary["truth_object"] = truth_object;
+    summary["f1_object"] = nan_null(f1);
+    summary["f1_background"] = nan_null(features::f1_score(truth, labels, 0));
+    line += ", F1 (object) " + fmt(f1);
+  }
+  write_json_atomic(out + ".json", summary);
+  std::cout << line << " -> " << out << "\n";
+  return 0;
+}
+
+}  // namespace segment_cloud

@@ -1,0 +1,67 @@
+#pragma once
+// The parts of `segment-cloud`, one per method, behind the one command line of segment_cloud.cpp: what
+// each run needs (filled from the options) and the function that runs it, writes its outputs and returns
+// the exit status.
+#include <cmath>
+#include <cstdio>
+#include <string>
+
+#include "smseg/cloud/cloud_segment.hpp"
+#include "smseg/cloud/cloud_view.hpp"
+#include "smseg/cloud/grabcut_sfm.hpp"
+#include "smseg/common/io.hpp"
+
+namespace segment_cloud {
+
+/// A number for the one-line summary ("n/a" for NaN).
+inline std::string fmt(double v, const char* f = "%.4f") {
+  if (std::isnan(v)) return "n/a";
+  char buf[64];
+  std::snprintf(buf, sizeof buf, f, v);
+  return buf;
+}
+
+/// NaN (an undefined F1) as JSON null.
+inline smseg::Json nan_null(double v) { return std::isnan(v) ? smseg::Json(nullptr) : smseg::Json(v); }
+
+/// --method mrf --seeds plane|FILE on a cloud file (mrf_on_cloud.cpp).
+struct MrfCloudRun {
+  std::string input, out, seeds;  ///< seeds: plane or a seed file
+  smseg::features::MrfParams mrf;
+  smseg::features::PlaneSeedParams plane;
+};
+int run_mrf_on_cloud(const MrfCloudRun& run);
+
+/// --method centroid-mincut on a cloud file (centroid_mincut.cpp).
+struct CentroidRun {
+  std::string input, out, solver, up;  ///< solver: maxflow or pcl; up: x, y or z
+  int truth_object = 1;
+  smseg::features::CentroidMinCutParams mc;
+};
+int run_centroid_mincut(const CentroidRun& run);
+
+/// What --seeds saliency needs besides the MRF parameters.
+struct SaliencyRun {
+  std::string input;  ///< cloud file; empty: WORK/cloud.pcd
+  std::string out, sequence, work;
+  int frame = -1;
+  int min_seed_points = 3;
+  double split_distance = 0.05;  ///< split seed regions by 3D distance and colour (0: no split)
+  double split_colour = 80;
+  smseg::features::SaliencyParams saliency;
+  smseg::features::ProjectionParams projection;
+};
+int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& mrf);  ///< saliency_mrf.cpp
+
+struct GrabCutSfmCli {
+  std::string sequence, work, cloud, out;  // cloud: empty = WORK/cloud.pcd
+  int frame = -1;
+  std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
+  int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
+  int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
+  std::string cluster = "kmeans", nearest = "centre";
+  smseg::features::GrabCutSfmParams params;
+};
+int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp
+
+}  // namespace segment_cloud
