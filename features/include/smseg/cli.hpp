@@ -12,6 +12,13 @@
 
 namespace smseg {
 
+/// An error in how the tool was called (a bad option value, options that exclude each other) found
+/// after parsing: printed like a CLI11 parse error, exit status 2.
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
 /// Parses argv into app, then runs body(); returns the process exit status.
 template <class Body>
 int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
@@ -25,6 +32,9 @@ int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
   }
   try {
     return body();
+  } catch (const UsageError& e) {
+    std::cerr << name << ": " << e.what() << " (see " << name << " --help)\n";
+    return 2;
   } catch (const Error& e) {
     std::cerr << name << ": error: " << e.what() << "\n";
   } catch (const std::bad_alloc&) {
