@@ -21,16 +21,6 @@ std::vector<std::string> split_list(const std::string& s) {
   return out;
 }
 
-/// A bad option value is bad usage (exit status 2), not a failure of the run.
-template <class F>
-auto as_usage(F&& f) {
-  try {
-    return f();
-  } catch (const smseg::Error& e) {
-    throw smseg::UsageError(e.file(), e.field(), e.reason());
-  }
-}
-
 int report(const smseg::forest::Forest& f, const std::string& what, const std::string& out) {
   int nodes = 0;
   for (const auto& t : f.stats.trees) nodes += t.nodes;
@@ -63,7 +53,7 @@ void check_slurm_options(const smseg::forest::SlurmTraining& slurm, const smseg:
   using smseg::UsageError;
   if (!tree_range.empty()) throw UsageError("", "--trees", "not with --slurm (it splits the trees itself, see --tasks)");
   if (!corpus.empty()) throw UsageError("", "--export-corpus", "not with --slurm; export it with a local run");
-  if (slurm.tasks != 0) as_usage([&] { return smseg::forest::split_trees(p.M, slurm.tasks, "--tasks"); });
+  if (slurm.tasks != 0) smseg::as_usage([&] { return smseg::forest::split_trees(p.M, slurm.tasks, "--tasks"); });
   if (!(slurm.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
 }
 

@@ -4,7 +4,6 @@
 #include <algorithm>
 #include <charconv>
 #include <chrono>
-#include <iostream>
 #include <map>
 #include <sstream>
 
@@ -122,18 +121,7 @@ RunReport run_experiment_slurm(const Experiment& ex, const SlurmRun& run, const 
     left.insert(left.end(), shards[t].begin(), shards[t].end());
   }
   std::sort(left.begin(), left.end());
-  slurm::WaitOptions wait;
-  wait.poll_seconds = run.poll_seconds;
-  int last = -1;
-  if (run.progress)
-    wait.on_poll = [&](int unfinished) {
-      if (unfinished != last) std::cerr << "run-experiment: " << unfinished << " Slurm tasks not finished\n";
-      last = unfinished;
-    };
-  const auto say = [&](const std::string& s) {
-    if (run.progress) std::cerr << "run-experiment: " << s << "\n";
-  };
-  const std::string job_id = slurm::run_array_job(array, wait, say);
+  const std::string job_id = slurm::run_array_job_on_stderr(array, run.poll_seconds, run.progress);
   const std::vector<int> missing = collect_task_records(ex, left, run.dir, run.out);
   if (!missing.empty()) {
     const auto failed = tasks_of(shards, missing);

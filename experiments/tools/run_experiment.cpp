@@ -21,16 +21,6 @@ std::string pct(const nlohmann::json& v) {
   return buf;
 }
 
-/// A bad option value is bad usage (exit status 2), not a failure of the run.
-template <class F>
-auto as_usage(F&& f) {
-  try {
-    return f();
-  } catch (const smseg::Error& e) {
-    throw smseg::UsageError(e.file(), e.field(), e.reason());
-  }
-}
-
 /// This run's arguments for an array task: the same, without what the task gets its own way.
 std::vector<std::string> task_args(int argc, char** argv) {
   return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet"},

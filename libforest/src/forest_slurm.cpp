@@ -1,6 +1,4 @@
 // Training a forest as a Slurm job array (see slurm_train.hpp).
-#include <iostream>
-
 #include "smseg/error.hpp"
 #include "smseg/forest/parts.hpp"
 #include "smseg/forest/slurm_train.hpp"
@@ -52,20 +50,7 @@ Forest train_forest_slurm(const SlurmTraining& job) {
     if (!have_part(job, t, ranges[static_cast<std::size_t>(t)])) array.tasks.push_back(t);
   }
   std::string job_id;
-  if (!array.tasks.empty()) {
-    slurm::WaitOptions wait;
-    wait.poll_seconds = job.poll_seconds;
-    int last = -1;
-    if (job.progress)
-      wait.on_poll = [&](int unfinished) {
-        if (unfinished != last) std::cerr << "train-forest: " << unfinished << " Slurm tasks not finished\n";
-        last = unfinished;
-      };
-    const auto say = [&](const std::string& s) {
-      if (job.progress) std::cerr << "train-forest: " << s << "\n";
-    };
-    job_id = slurm::run_array_job(array, wait, say);
-  }
+  if (!array.tasks.empty()) job_id = slurm::run_array_job_on_stderr(array, job.poll_seconds, job.progress);
   std::vector<int> missing;
   for (int t : array.tasks)
     if (!std::filesystem::exists(part_file(job.dir, t))) missing.push_back(t);

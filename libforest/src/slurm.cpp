@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cstdlib>
 #include <cstring>
+#include <iostream>
 #include <map>
 #include <set>
 #include <sstream>
@@ -261,6 +262,21 @@ std::string run_array_job(const ArrayJob& job, const WaitOptions& options,
   }
   wait_for_job(id, options);
   return id;
+}
+
+std::string run_array_job_on_stderr(const ArrayJob& job, double poll_seconds, bool progress) {
+  WaitOptions wait;
+  wait.poll_seconds = poll_seconds;
+  int last = -1;
+  if (progress)
+    wait.on_poll = [&](int unfinished) {
+      if (unfinished != last) std::cerr << job.name << ": " << unfinished << " Slurm tasks not finished\n";
+      last = unfinished;
+    };
+  const auto say = [&](const std::string& s) {
+    if (progress) std::cerr << job.name << ": " << s << "\n";
+  };
+  return run_array_job(job, wait, say);
 }
 
 std::vector<std::string> without_options(const std::vector<std::string>& args, const std::vector<std::string>& flags,

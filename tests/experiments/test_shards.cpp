@@ -4,6 +4,7 @@
 
 #include <unistd.h>
 
+#include "error_text.hpp"
 #include "jsonl.hpp"
 #include "smseg/error.hpp"
 #include "smseg/eval/sweep.hpp"
@@ -13,6 +14,8 @@
 namespace fs = std::filesystem;
 using nlohmann::json;
 namespace ex = smseg::experiments;
+
+using smseg::test::error_of;
 
 namespace {
 
@@ -25,15 +28,6 @@ ex::Experiment six_points() {
     "sweep": {"K": [20, 30, 40], "grid": [0, 10]}
   })");
   return ex::experiment_from_json(j, fs::temp_directory_path() / "six.json", false);
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const smseg::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 }  // namespace

@@ -4,12 +4,15 @@
 
 #include <algorithm>
 
+#include "error_text.hpp"
 #include "forest_test_util.hpp"
 #include "smseg/error.hpp"
 #include "smseg/forest/parts.hpp"
 #include "smseg/io.hpp"
 
 using namespace forest_test;
+
+using smseg::test::error_of;
 
 namespace {
 
@@ -40,15 +43,6 @@ std::vector<fs::path> train_parts(const SyntheticData& s, const TrainParams& p, 
     save_forest_part(train_forest_trees(s.data, p, r), r, files.back());
   }
   return files;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const smseg::Error& e) {
-    return e.what();
-  }
-  return "(no error)";
 }
 
 }  // namespace

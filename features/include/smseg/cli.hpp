@@ -19,6 +19,19 @@ class UsageError : public Error {
   using Error::Error;
 };
 
+/// f(), with an Error it throws turned into a UsageError: for checking option values with the
+/// library's own parsers (a bad value is bad usage, exit status 2, not a failure of the run).
+template <class F>
+auto as_usage(F&& f) {
+  try {
+    return f();
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    throw UsageError(e.file(), e.field(), e.reason());
+  }
+}
+
 /// Parses argv into app, then runs body(); returns the process exit status.
 template <class Body>
 int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {

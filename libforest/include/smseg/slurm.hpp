@@ -61,6 +61,10 @@ std::vector<TaskState> task_states(const std::string& job_id);
 std::string run_array_job(const ArrayJob& job, const WaitOptions& options,
                           const std::function<void(const std::string&)>& says = {});
 
+/// run_array_job telling the user on stderr, when `progress`, what was submitted and how many tasks
+/// are not finished yet (each line starts with job.name, the tool's name).
+std::string run_array_job_on_stderr(const ArrayJob& job, double poll_seconds, bool progress);
+
 /// Single quotes for a POSIX shell: the string comes through as one word, unexpanded.
 std::string shell_quote(const std::string& s);
 /// "0-3,5,7-9": the array spec sbatch --array takes for these (sorted, distinct) indices.
