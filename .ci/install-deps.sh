@@ -10,6 +10,7 @@ SMSEG_PACKAGES=(
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev
+  slurmctld slurmd slurm-client munge   # the Slurm tests' one-node cluster (tests/slurm)
 )
 
 missing=()

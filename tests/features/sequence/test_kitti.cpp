@@ -2,8 +2,6 @@
 // conversion to our world frame, bad files), and the shared KITTI slices.
 #include <gtest/gtest.h>
 
-#include <unistd.h>
-
 #include <cmath>
 #include <fstream>
 
@@ -11,18 +9,13 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/sequence/kitti.hpp"
+#include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg::features;
+using smseg::test::temp_dir;
 
 namespace {
-
-fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("smseg_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
 
 void write_text(const fs::path& p, const std::string& text) { std::ofstream(p) << text; }
 
