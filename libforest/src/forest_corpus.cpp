@@ -123,13 +123,30 @@ Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSam
 }
 
 namespace {
-// Every candidate's value at one test, into its row: window candidates from the tables (window_sum:
-// the classifier's sums, bit for bit), texton candidates from the greyscale image.
+// Every candidate's value at one test, into its row: window candidates from the tables (the corners
+// window_sum() reads, in its order: the classifier's sums, bit for bit), texton candidates from the
+// greyscale image. Candidates come window by window, so the clipped corners are found once per window
+// and serve its run of features.
 void fill_row(const FrameData& frame, const Corpus& corpus, const TestPoint& t, float* row) {
   const int W = frame.width, H = frame.height;
-  const std::size_t F = frame.sats.size();
-  for (std::size_t c = 0; c < corpus.candidates.size(); ++c) {
-    const Candidate& cand = corpus.candidates[c];
+  const std::size_t S = static_cast<std::size_t>(W) + 1, F = frame.sats.size();
+  const Candidate* cands = corpus.candidates.data();
+  const std::size_t n = corpus.candidates.size();
+  std::size_t c = 0;
+  while (c < n && static_cast<std::size_t>(cands[c].feature) < F) {
+    const Window& win = cands[c].win;
+    const RelRect r = rel_rect(win);
+    const std::size_t xa = static_cast<std::size_t>(std::clamp(t.x + r.x0, 0, W));
+    const std::size_t xb = static_cast<std::size_t>(std::clamp(t.x + r.x1, 0, W));
+    const std::size_t ta = static_cast<std::size_t>(std::clamp(t.y + r.y0, 0, H)) * S;
+    const std::size_t tb = static_cast<std::size_t>(std::clamp(t.y + r.y1, 0, H)) * S;
+    for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
+      const double* sat = frame.sats[static_cast<std::size_t>(cands[c].feature)];
+      row[c] = static_cast<float>((sat[tb + xb] - sat[ta + xb]) - (sat[tb + xa] - sat[ta + xa]));
+    }
+  }
+  for (; c < n; ++c) {
+    const Candidate& cand = cands[c];
     const auto f = static_cast<std::size_t>(cand.feature);
     row[c] = f < F ? static_cast<float>(window_sum(frame.sats[f], W, H, t.x, t.y, rel_rect(cand.win)))
                    : texton_value(frame.gray, W, H, t.x, t.y, cand.win.dx, cand.win.dy, static_cast<int>(f - F));

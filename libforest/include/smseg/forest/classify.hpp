@@ -3,6 +3,9 @@
 // distributions (normalised class frequencies) are summed and the class of maximum sum is the label
 // (ties: the lowest class index). The classifier flattens the trees into packed POD nodes with
 // float thresholds rounded up to the next float, which decides exactly as float(value) < t.
+// Whole frames and pixel lists take a fast path (forest_tiles.cpp): the trees laid out breadth first
+// in 16-byte nodes, tiles of pixels walked tree by tree with 16 pixels in flight, the same double
+// window sums: bit for bit posterior()'s labels and distributions.
 
 #include <cstdint>
 #include <span>
