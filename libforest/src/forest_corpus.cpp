@@ -64,8 +64,7 @@ std::uint32_t TestSampler::select(std::size_t fi, std::size_t k, std::uint64_t r
   const std::size_t W = static_cast<std::size_t>(data_.width);
   const std::uint8_t* lab = data_.frames[fi].labels + y * W;
   for (std::size_t x = 0; x < W; ++x) {
-    const bool match = k == C_ ? lab[x] != kVoidLabel : lab[x] == k;
-    if (match && left-- == 0) return static_cast<std::uint32_t>(y * W + x);
+    if (lab[x] == k && left-- == 0) return static_cast<std::uint32_t>(y * W + x);
   }
   throw Error("training data", "labels", "changed while training");  // the counts came from these labels
 }
@@ -82,7 +81,12 @@ TestPoint TestSampler::draw(Rng& rng, Balance balance) const {
     p = select(fi, c, r - before);
   } else {
     fi = static_cast<std::size_t>(nonempty_[rng.below(nonempty_.size())]);
-    p = select(fi, C_, rng.below(cum(fi, C_)[H_]));
+    // The rank counts the frame's non-void pixels grouped by class (class 0's in raster order, then
+    // class 1's, ...): the order the thesis-style draw has always used.
+    std::uint64_t rank = rng.below(cum(fi, C_)[H_]);
+    std::size_t c = 0;
+    while (rank >= cum(fi, c)[H_]) rank -= cum(fi, c++)[H_];
+    p = select(fi, c, rank);
   }
   TestPoint t;
   t.frame = static_cast<int>(fi);

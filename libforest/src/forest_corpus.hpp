@@ -21,7 +21,7 @@ namespace smseg::forest::detail {
 /// Draws tests as train.hpp says. Per frame it keeps only cumulative per-row counts of each class
 /// (and of all non-void pixels), not a list of pixels: a draw finds the row by binary search, then
 /// scans that row of the label image. The k-th pixel of a class in raster order is what a list
-/// sorted by class would give, so the draws are the same as with pixel lists.
+/// grouped by class (each class in raster order) gives, so the draws are the same as with such lists.
 class TestSampler {
  public:
   explicit TestSampler(const Dataset& data);
@@ -32,8 +32,7 @@ class TestSampler {
  private:
   /// Row cumulative counts of frame fi: rows_[fi][k * (H + 1) + y], k < C: class k; k = C: non-void.
   const std::uint32_t* cum(std::size_t fi, std::size_t k) const;
-  /// The pixel index of the `rank`-th pixel (0-based, raster order) of class k (k = C: any non-void)
-  /// in frame fi.
+  /// The pixel index of the `rank`-th pixel (0-based, raster order) of class k in frame fi.
   std::uint32_t select(std::size_t fi, std::size_t k, std::uint64_t rank) const;
 
   const Dataset& data_;
