@@ -143,16 +143,19 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (pixels.size() + kChunk - 1) / kChunk), [&](const tbb::blocked_range<std::size_t>& r) {
     Scratch s;
     for (std::size_t blk = r.begin(); blk != r.end(); ++blk) {
-      const std::size_t b = blk * kChunk, e = std::min(pixels.size(), b + kChunk);
-      s.xs.resize(e - b);
-      s.ys.resize(e - b);
-      bool all_inside = true;
-      for (std::size_t i = b; i < e; ++i) {
-        s.xs[i - b] = pixels[i].x;
-        s.ys[i - b] = pixels[i].y;
-        all_inside = all_inside && inside(pixels[i].x, pixels[i].y);
+      const std::size_t b = blk * kChunk, m = std::min(pixels.size(), b + kChunk) - b;
+      s.xs.resize(m);
+      s.ys.resize(m);
+      for (std::size_t i = 0; i < m; ++i) {
+        s.xs[i] = pixels[b + i].x;
+        s.ys[i] = pixels[b + i].y;
       }
-      classify_set(frame, s, e - b, all_inside, labels.data() + b, dists.empty() ? nullptr : dists.data() + b * C);
+      classify_set(frame, s, m, order_inside_first(s, m), !dists.empty());
+      for (std::size_t i = 0; i < m; ++i) {  // back to the caller's order
+        const std::size_t to = b + s.index[i];
+        labels[to] = s.labels[i];
+        if (!dists.empty()) std::copy_n(s.dists.data() + i * C, C, dists.data() + to * C);
+      }
     }
   });
 }
@@ -167,8 +170,6 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
   const int tiles_x = (width_ + kTileWidth - 1) / kTileWidth, tiles_y = (height_ + kTileHeight - 1) / kTileHeight;
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const tbb::blocked_range<int>& r) {
     Scratch s;
-    std::vector<std::uint8_t> tile_labels;
-    std::vector<float> tile_dists;
     for (int tile = r.begin(); tile != r.end(); ++tile) {
       const int x0 = tile % tiles_x * kTileWidth, y0 = tile / tiles_x * kTileHeight;
       const int x1 = std::min(width_, x0 + kTileWidth), y1 = std::min(height_, y0 + kTileHeight);
@@ -179,14 +180,11 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
         s.xs[i] = x0 + static_cast<std::int32_t>(i % tw);
         s.ys[i] = y0 + static_cast<std::int32_t>(i / tw);
       }
-      tile_labels.resize(m);
-      tile_dists.resize(dists.empty() ? 0 : m * C);
-      classify_set(frame, s, m, inside(x0, y0) && inside(x1 - 1, y1 - 1), tile_labels.data(),
-                   dists.empty() ? nullptr : tile_dists.data());
-      for (int y = y0; y < y1; ++y) {
-        const std::size_t src = static_cast<std::size_t>(y - y0) * tw, dst = static_cast<std::size_t>(y) * width_ + x0;
-        std::copy_n(tile_labels.data() + src, tw, labels.data() + dst);
-        if (!dists.empty()) std::copy_n(tile_dists.data() + src * C, tw * C, dists.data() + dst * C);
+      classify_set(frame, s, m, order_inside_first(s, m), !dists.empty());
+      for (std::size_t i = 0; i < m; ++i) {  // to the pixel's place in the frame
+        const std::size_t to = static_cast<std::size_t>(s.ys[i]) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(s.xs[i]);
+        labels[to] = s.labels[i];
+        if (!dists.empty()) std::copy_n(s.dists.data() + i * C, C, dists.data() + to * C);
       }
     }
   });

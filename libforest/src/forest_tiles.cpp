@@ -59,7 +59,7 @@ void Classifier::build_compact(const Forest& forest) {
 // kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
 // and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
 template <bool kClamp, bool kTextons>
-void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_t n, std::uint32_t root,
+void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
                             std::int32_t* leaf) const {
   const CompactNode* nodes = compact_.data();
   const double* const* sats = frame.sats.data();
@@ -68,10 +68,10 @@ void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_
   const std::int32_t* xs = s.xs.data();
   const std::int32_t* ys = s.ys.data();
   std::uint32_t node[kLanes], pixel[kLanes];
-  std::size_t live = std::min(n, kLanes), next = live;
+  std::size_t live = std::min(e - b, kLanes), next = b + live;
   for (std::size_t g = 0; g < live; ++g) {
     node[g] = root;
-    pixel[g] = static_cast<std::uint32_t>(g);
+    pixel[g] = static_cast<std::uint32_t>(b + g);
   }
   while (live > 0) {
     for (std::size_t g = 0; g < live;) {
@@ -80,7 +80,7 @@ void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_
       const std::int32_t x = xs[pixel[g]], y = ys[pixel[g]];
       if (attr == kLeafAttr) {
         leaf[pixel[g]] = static_cast<std::int32_t>(c.next >> 8);
-        if (next < n) {  // the lane takes the next pixel
+        if (next < e) {  // the lane takes the next pixel
           pixel[g] = static_cast<std::uint32_t>(next++);
           node[g] = root;
           ++g;
@@ -108,20 +108,42 @@ void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_
   }
 }
 
-void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n, bool inside, std::uint8_t* labels,
-                              float* dists) const {
+std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
+  s.index.resize(n);
+  std::vector<std::int32_t> xs(n), ys(n);
+  std::size_t in = 0;
+  for (std::size_t i = 0; i < n; ++i) in += inside(s.xs[i], s.ys[i]);
+  for (std::size_t i = 0, a = 0, b = in; i < n; ++i) {
+    const std::size_t to = inside(s.xs[i], s.ys[i]) ? a++ : b++;
+    xs[to] = s.xs[i];
+    ys[to] = s.ys[i];
+    s.index[to] = static_cast<std::uint32_t>(i);
+  }
+  s.xs.swap(xs);
+  s.ys.swap(ys);
+  return in;
+}
+
+void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside,
+                              bool with_dists) const {
   const std::size_t C = static_cast<std::size_t>(num_classes_), Cp = static_cast<std::size_t>(padded_classes_);
   const std::size_t M = compact_roots_.size();
   s.leaf.resize(n * M);
+  s.labels.resize(n);
+  s.dists.resize(with_dists ? n * C : 0);
   for (std::size_t t = 0; t < M; ++t) {
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
     if (textons_) {
-      inside ? route_tree<false, true>(frame, s, n, root, leaf) : route_tree<true, true>(frame, s, n, root, leaf);
+      route_tree<false, true>(frame, s, 0, inside, root, leaf);
+      route_tree<true, true>(frame, s, inside, n, root, leaf);
     } else {
-      inside ? route_tree<false, false>(frame, s, n, root, leaf) : route_tree<true, false>(frame, s, n, root, leaf);
+      route_tree<false, false>(frame, s, 0, inside, root, leaf);
+      route_tree<true, false>(frame, s, inside, n, root, leaf);
     }
   }
+  std::uint8_t* labels = s.labels.data();
+  float* dists = with_dists ? s.dists.data() : nullptr;
   // Summed distributions, trees in order (the same float sums as posterior()), then the MAP class.
   float acc[kMaxClasses + 4];
   const float* probs = leaf_probs_.data();

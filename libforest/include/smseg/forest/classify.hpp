@@ -66,18 +66,25 @@ class Classifier {
   /// Per-task buffers, reused from one pixel set to the next (no allocation per set).
   struct Scratch {
     std::vector<std::int32_t> xs, ys;  // the set's pixels
+    std::vector<std::uint32_t> index;  // after order_inside_first: each pixel's place in the caller's order
     std::vector<std::int32_t> leaf;    // leaf row per tree and pixel: leaf[t * n + i]
+    std::vector<std::uint8_t> labels;  // the set's labels and distributions, in set order
+    std::vector<float> dists;
   };
+  /// Reorders the set's n pixels (stably) so that those whose windows all stay inside the image come
+  /// first; s.index keeps where each came from. Returns how many are inside.
+  std::size_t order_inside_first(Scratch& s, std::size_t n) const;
   static constexpr int kTileWidth = 64, kTileHeight = 16;  // whole frames: tiles of pixels per task
-  /// Evaluation of a set of pixels (s.xs, s.ys, n of them; see forest_tiles.cpp): each tree routes
-  /// the whole set through its compact nodes, several pixels interleaved so that their table reads
-  /// overlap; `inside`: every window of the forest stays inside the image for every pixel of the set
-  /// (no clipping). The leaf distributions are then summed tree by tree (the same float sums as
-  /// posterior()) and give the labels. Out: labels[i], dists[i * C + c] (optional).
-  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, bool inside, std::uint8_t* labels,
-                    float* dists) const;
+  /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
+  /// window of the forest inside the image; see forest_tiles.cpp): each tree routes the set through
+  /// its compact nodes, several pixels interleaved so that their table reads overlap, the inside ones
+  /// without clipping. The leaf distributions are then summed tree by tree (the same float sums as
+  /// posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if with_dists).
+  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside, bool with_dists) const;
+  /// Routes pixels [b, e) of the set through the tree at `root`: leaf[i] for each.
   template <bool kClamp, bool kTextons>
-  void route_tree(const FrameData& frame, const Scratch& s, std::size_t n, std::uint32_t root, std::int32_t* leaf) const;
+  void route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
+                  std::int32_t* leaf) const;
   /// Whether pixel (x, y) keeps every window of the forest inside the image.
   bool inside(int x, int y) const { return x >= inner_x0_ && x <= inner_x1_ && y >= inner_y0_ && y <= inner_y1_; }
   void build_compact(const Forest& forest);
