@@ -12,7 +12,7 @@ namespace smseg::forest {
 
 namespace {
 constexpr int kMaxClasses = 256;
-constexpr std::uint32_t kMaxCompactIndex = (1u << 24) - 1;  // 24 bits of CompactNode::next
+constexpr std::uint32_t kMaxCompactIndex = (1u << 23) - 1;  // 23 bits of CompactNode::next
 // Pixels in flight per tree walk: enough independent table reads to hide the cache latency, few
 // enough that the lanes stay in registers and L1.
 constexpr std::size_t kLanes = 16;
@@ -35,62 +35,58 @@ void Classifier::build_compact(const Forest& forest) {
       const PackedNode& p = nodes_[base + static_cast<std::size_t>(i)];
       CompactNode c{p.x0, p.x1, p.y0, p.y1, p.threshold, 0};
       if (p.feature < 0) {
-        c.next = static_cast<std::uint32_t>(p.left) << 8 | kLeafAttr;
+        c = CompactNode{0, 0, 0, 0, 0.0f, static_cast<std::uint32_t>(p.left) << 9 | kLeafBit};
       } else {
         const auto left = static_cast<std::uint32_t>(compact_.size());
-        if (left + 1 > kMaxCompactIndex || p.feature >= static_cast<std::int32_t>(kLeafAttr))
-          throw Error("", "trees", "the forest is too large for the classifier (2^24 nodes, 254 attributes)");
-        c.next = left << 8 | static_cast<std::uint32_t>(p.feature);
+        if (left + 1 > kMaxCompactIndex || p.feature > 255)
+          throw Error("", "trees", "the forest is too large for the classifier (2^23 nodes, 256 attributes)");
+        c.next = left << 9 | static_cast<std::uint32_t>(p.feature);
         compact_.emplace_back();
         compact_.emplace_back();
         queue.push_back(p.left - static_cast<std::int32_t>(base));
         queue.push_back(p.right - static_cast<std::int32_t>(base));
       }
       if (p.feature < 0 && static_cast<std::uint32_t>(p.left) > kMaxCompactIndex)
-        throw Error("", "trees", "the forest has too many leaves for the classifier (2^24)");
+        throw Error("", "trees", "the forest has too many leaves for the classifier (2^23)");
       compact_[at++] = c;
     }
     base += tree.nodes.size();
   }
 }
 
-// Walks the set's pixels through one tree: kLanes pixels at a time, each lane taking the next pixel
-// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap.
+// Walks pixels [b, e) of the set through one tree, kLanes at a time, each lane taking the next pixel
+// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap. The step
+// has no data-dependent branch (a mispredicted branch would empty the pipeline of the other lanes'
+// reads): every lane reads a window (leaves read an empty one), and selects its next node, pixel and
+// leaf slot. Lanes past the last pixel walk it again and write nowhere that counts.
 // kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
 // and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
 template <bool kClamp, bool kTextons>
 void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
                             std::int32_t* leaf) const {
+  if (b >= e) return;
   const CompactNode* nodes = compact_.data();
   const double* const* sats = frame.sats.data();
   const std::int32_t W = width_, H = height_, S = width_ + 1;
   const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
   const std::int32_t* xs = s.xs.data();
   const std::int32_t* ys = s.ys.data();
-  std::uint32_t node[kLanes], pixel[kLanes];
-  std::size_t live = std::min(e - b, kLanes), next = b + live;
-  for (std::size_t g = 0; g < live; ++g) {
+  std::int32_t sink = 0;  // where lanes past the last pixel write their leaves
+  std::uint32_t node[kLanes];
+  std::size_t pixel[kLanes];
+  std::size_t next = b + kLanes, done = 0;
+  for (std::size_t g = 0; g < kLanes; ++g) {
     node[g] = root;
-    pixel[g] = static_cast<std::uint32_t>(b + g);
+    pixel[g] = b + g;
   }
-  while (live > 0) {
-    for (std::size_t g = 0; g < live;) {
+  const std::size_t n = e - b, last = e - 1;
+  while (done < n) {
+    for (std::size_t g = 0; g < kLanes; ++g) {
       const CompactNode c = nodes[node[g]];
       const std::uint32_t attr = c.next & 0xffu;
-      const std::int32_t x = xs[pixel[g]], y = ys[pixel[g]];
-      if (attr == kLeafAttr) {
-        leaf[pixel[g]] = static_cast<std::int32_t>(c.next >> 8);
-        if (next < e) {  // the lane takes the next pixel
-          pixel[g] = static_cast<std::uint32_t>(next++);
-          node[g] = root;
-          ++g;
-        } else {  // no pixel left: the last live lane takes this one's place
-          --live;
-          node[g] = node[live];
-          pixel[g] = pixel[live];
-        }
-        continue;
-      }
+      const bool is_leaf = (c.next & kLeafBit) != 0;
+      const std::size_t p = pixel[g], q = p < e ? p : last;
+      const std::int32_t x = xs[q], y = ys[q];
       float v;
       if (kTextons && attr >= F) {
         v = texton_value(frame.gray, W, H, x, y, c.x0, c.y0, static_cast<int>(attr - F));
@@ -102,8 +98,14 @@ void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_
         const double* bot = cell + static_cast<std::ptrdiff_t>(c.y1) * S;
         v = static_cast<float>((bot[c.x1] - top[c.x1]) - (bot[c.x0] - top[c.x0]));
       }
-      node[g] = (c.next >> 8) + (v < c.threshold ? 0u : 1u);
-      ++g;
+      const std::uint32_t child = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
+      const bool counts = is_leaf && p < e;
+      std::int32_t* slot = counts ? leaf + p : &sink;
+      *slot = static_cast<std::int32_t>(c.next >> 9);
+      done += counts ? 1u : 0u;
+      node[g] = is_leaf ? root : child;
+      pixel[g] = is_leaf ? next : p;
+      next += is_leaf ? 1u : 0u;
     }
   }
 }

@@ -60,9 +60,9 @@ class Classifier {
   struct CompactNode {
     std::int16_t x0, x1, y0, y1;  // as PackedNode
     float threshold;              // as PackedNode
-    std::uint32_t next;           // bits 0..7: attribute (kLeafAttr: leaf); bits 8..31: left child or leaf row
-  };
-  static constexpr std::uint32_t kLeafAttr = 0xff;
+    std::uint32_t next;           // bits 0..7: attribute; bit 8: leaf; bits 9..31: left child or leaf row
+  };                              // (a leaf reads attribute 0 over an empty window: harmless, unused)
+  static constexpr std::uint32_t kLeafBit = 1u << 8;
   /// Per-task buffers, reused from one pixel set to the next (no allocation per set).
   struct Scratch {
     std::vector<std::int32_t> xs, ys;  // the set's pixels
