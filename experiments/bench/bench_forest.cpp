@@ -87,6 +87,17 @@ void add_forest_counters(benchmark::State& state, const Forest& f) {
   state.counters["max_depth_mean"] = depth / static_cast<double>(f.stats.trees.size());
 }
 
+// Times train_forest(data, p) on `threads` workers; the forest's size as counters.
+void time_training(benchmark::State& state, const Dataset& data, const TrainParams& p, std::int64_t threads) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  Forest f;
+  for (auto _ : state) {
+    f = train_forest(data, p);
+    benchmark::DoNotOptimize(f.trees.data());
+  }
+  add_forest_counters(state, f);
+}
+
 // Args: K, threads, textons, balance(0/1), window mode (0 uniform, 1 thesis)
 void BM_Train(benchmark::State& state) {
   const auto& s = training_frames();
@@ -96,13 +107,7 @@ void BM_Train(benchmark::State& state) {
   p.textons = state.range(2) != 0;
   p.balance = state.range(3) ? Balance::Classes : Balance::None;
   p.windows.mode = state.range(4) ? WindowSampling::Thesis : WindowSampling::Uniform;
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(1)));
-  Forest f;
-  for (auto _ : state) {
-    f = train_forest(s.data, p);
-    benchmark::DoNotOptimize(f.trees.data());
-  }
-  add_forest_counters(state, f);
+  time_training(state, s.data, p, state.range(1));
 }
 BENCHMARK(BM_Train)
     ->ArgNames({"K", "threads", "textons", "balance", "windows"})
@@ -226,13 +231,7 @@ void BM_TrainCamVid(benchmark::State& state) {
   p.Kt = 20000;
   p.M = 7;
   p.memory_mb = static_cast<std::size_t>(state.range(1));
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
-  Forest f;
-  for (auto _ : state) {
-    f = train_forest(set.dataset, p);
-    benchmark::DoNotOptimize(f.trees.data());
-  }
-  add_forest_counters(state, f);
+  time_training(state, set.dataset, p, state.range(0));
   state.counters["process_peak_rss_mb"] = peak_rss_mb();
 }
 BENCHMARK(BM_TrainCamVid)
