@@ -205,6 +205,15 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
                         const std::vector<BaObservation>& observations, double focal, double cx, double cy,
                         const BaOptions& options = {});
 
+/// What the solver libraries under the bundle adjustment (Ceres, its glog, SuiteSparse's CHOLMOD) may
+/// print on stderr; process-wide, set once by a tool from its -q / -v. Quiet: errors only. Normal:
+/// warnings and errors of glog, nothing of CHOLMOD (its "matrix not positive definite" warnings are
+/// failed steps that Ceres handles itself). Verbose: glog's info too, CHOLMOD's messages, and one
+/// line per adjustment (Ceres's brief report).
+enum class SolverLog { Quiet, Normal, Verbose };
+void set_solver_log(SolverLog level);
+SolverLog solver_log();
+
 struct PlaneFit {
   Eigen::Vector3d normal{0, 1, 0};  ///< unit
   double d = 0;                     ///< plane: normal . x + d = 0
