@@ -1,6 +1,8 @@
 // The monocular SfM's options and summaries: names, JSON, validation (see sfm.hpp).
 #include "smseg/frontend/sfm.hpp"
 
+#include "sfm_matching.hpp"
+
 namespace smseg::features {
 
 const char* focal_source_name(FocalSource s) {
@@ -34,7 +36,7 @@ SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {
   if (o.tracker != SfmTracker::Auto) return o;
   std::vector<double> dt;
   for (int i = 1; i < seq.frame_count(); ++i) dt.push_back(seq.frames[i].time - seq.frames[i - 1].time);
-  if (!dt.empty() && median(dt) > 0.25) {
+  if (!dt.empty() && sfm_matching::median(dt) > 0.25) {
     o.tracker = SfmTracker::Descriptors;
     o.match_radius_px = 0;
     if (o.lowe_ratio == 0) o.lowe_ratio = 0.8;
