@@ -27,7 +27,7 @@ namespace {
 
 constexpr double kMinDepth = 1e-6;
 
-std::atomic<SolverLog> g_solver_log{SolverLog::Normal};
+std::atomic<bool> g_solver_verbose{false};
 
 /// Messages of the libraries below Ceres that bypass glog: CHOLMOD prints through SuiteSparse's
 /// printf hook (SuiteSparse 5; version 7 has a setter instead).
@@ -39,11 +39,11 @@ void set_suitesparse_printing(bool on) {
 #endif
 }
 
-/// Silences the libraries at the Normal level on first use, so that a program that never calls
-/// set_solver_log (a test, a library user) is not flooded either.
+/// Applies the default (errors only) on first use, so that a program that never calls
+/// set_solver_verbose (a test, a library user) is quiet too.
 void apply_default_solver_log() {
   static const bool applied = [] {
-    if (g_solver_log.load() == SolverLog::Normal) set_solver_log(SolverLog::Normal);
+    if (!g_solver_verbose.load()) set_solver_verbose(false);
     return true;
   }();
   (void)applied;
@@ -115,18 +115,16 @@ double rms(const std::vector<BaCamera>& cams, const std::vector<Eigen::Vector3d>
 
 }  // namespace
 
-void set_solver_log(SolverLog level) {
-  g_solver_log = level;
-  // glog severities: 0 INFO, 1 WARNING, 2 ERROR. Ceres logs its solver failures as warnings.
-  const int min_level = level == SolverLog::Quiet ? google::GLOG_ERROR
-                        : level == SolverLog::Verbose ? google::GLOG_INFO : google::GLOG_WARNING;
+void set_solver_verbose(bool verbose) {
+  g_solver_verbose = verbose;
+  const int min_level = verbose ? google::GLOG_INFO : google::GLOG_ERROR;
   FLAGS_minloglevel = min_level;
   FLAGS_stderrthreshold = min_level;
   FLAGS_logtostderr = true;  // no log files in /tmp
-  set_suitesparse_printing(level == SolverLog::Verbose);
+  set_suitesparse_printing(verbose);
 }
 
-SolverLog solver_log() { return g_solver_log; }
+bool solver_verbose() { return g_solver_verbose; }
 
 void BaOptions::validate() const {
   if (iterations < 0) throw Error("", "ba.iterations", "must be >= 0");
@@ -186,7 +184,7 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cams, std::vector<Eigen::Vector3d
   so.function_tolerance = 1e-8;
   ceres::Solver::Summary s;
   ceres::Solve(so, &problem, &s);
-  if (g_solver_log.load() == SolverLog::Verbose) std::cerr << "bundle adjustment: " << s.BriefReport() << "\n";
+  if (g_solver_verbose.load()) std::cerr << "bundle adjustment: " << s.BriefReport() << "\n";
   for (int i = 0; i < nc; ++i)
     if (in_problem[i]) from_block(blocks[i], cams[i]);
   summary.iterations = s.num_successful_steps + s.num_unsuccessful_steps;

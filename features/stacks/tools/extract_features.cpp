@@ -99,7 +99,7 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();
   auto* quiet_flag = app.add_flag("-q,--quiet", quiet, "nothing on stderr but errors (no progress, no solver warnings)");
-  app.add_flag("-v,--verbose", verbose, "also the solver's messages: one summary per bundle adjustment (SfM)")
+  app.add_flag("-v,--verbose", verbose, "also the solver libraries' warnings and one summary per bundle adjustment (SfM)")
       ->excludes(quiet_flag);
   return run_tool(app, argc, argv, [&] {
     std::unique_ptr<tbb::global_control> limit;
@@ -127,7 +127,7 @@ int main(int argc, char** argv) {
     for (std::string item; std::getline(ss, item, ',');)
       if (!item.empty()) opt.preview.push_back(FrameRange::parse(item, "--preview").begin);
     opt.progress = !quiet;
-    set_solver_log(quiet ? SolverLog::Quiet : verbose ? SolverLog::Verbose : SolverLog::Normal);
+    set_solver_verbose(verbose);
     opt.front_end.validate();
     opt.sfm.validate();
     opt.features.validate();

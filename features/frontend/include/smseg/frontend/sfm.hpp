@@ -206,13 +206,12 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
                         const BaOptions& options = {});
 
 /// What the solver libraries under the bundle adjustment (Ceres, its glog, SuiteSparse's CHOLMOD) may
-/// print on stderr; process-wide, set once by a tool from its -q / -v. Quiet: errors only. Normal:
-/// warnings and errors of glog, nothing of CHOLMOD (its "matrix not positive definite" warnings are
-/// failed steps that Ceres handles itself). Verbose: glog's info too, CHOLMOD's messages, and one
-/// line per adjustment (Ceres's brief report).
-enum class SolverLog { Quiet, Normal, Verbose };
-void set_solver_log(SolverLog level);
-SolverLog solver_log();
+/// print on stderr; process-wide. By default errors only: their warnings ("Linear solver failure",
+/// CHOLMOD's "matrix not positive definite") are steps that Ceres rejects and retries, noise to a user.
+/// Verbose (a tool's -v): glog's warnings and info, CHOLMOD's messages, and one line per adjustment
+/// (Ceres's brief report).
+void set_solver_verbose(bool verbose);
+bool solver_verbose();
 
 struct PlaneFit {
   Eigen::Vector3d normal{0, 1, 0};  ///< unit
