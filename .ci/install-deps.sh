@@ -11,6 +11,7 @@ SMSEG_PACKAGES=(
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev libgoogle-glog-dev libsuitesparse-dev
   python3-dev python3-pybind11 python3-pytest python3-sklearn
+  slurmctld slurmd slurm-client munge   # the Slurm tests' one-node cluster (tests/slurm)
 )
 
 missing=()

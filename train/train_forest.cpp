@@ -1,12 +1,15 @@
 // train-forest: extremely randomized trees over sampling windows, trained on feature stacks.
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include <tbb/global_control.h>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/stacks/stack.hpp"
+#include "smseg/forest/slurm_train.hpp"
 #include "smseg/forest/train.hpp"
+#include "smseg/common/slurm.hpp"
 
 namespace {
 
@@ -18,6 +21,48 @@ std::vector<std::string> split_list(const std::string& s) {
   return out;
 }
 
+int report(const smseg::forest::Forest& f, const std::string& what, const std::string& out) {
+  int nodes = 0;
+  for (const auto& t : f.stats.trees) nodes += t.nodes;
+  std::cout << "trained " << f.trees.size() << " trees (" << nodes << " nodes, "
+            << nodes / std::max<std::size_t>(1, f.trees.size()) << " per tree) in " << f.stats.seconds << " s "
+            << what << " -> " << out << "\n";
+  return 0;
+}
+
+int save_and_report(const smseg::forest::Forest& f, const std::string& out, const std::string& what) {
+  smseg::forest::save_forest(f, out);
+  return report(f, what, out);
+}
+
+/// train-forest --merge PART... -o OUT
+int merge_parts(const std::vector<std::string>& parts, const std::vector<std::string>& works,
+                const std::string& tree_range, bool on_slurm, const std::string& out) {
+  using smseg::UsageError;
+  if (!works.empty()) throw UsageError("", "--merge", "takes forest parts, not work folders (no training)");
+  if (!tree_range.empty() || on_slurm) throw UsageError("", "--merge", "not with --trees or --slurm");
+  const smseg::forest::Forest f =
+      smseg::forest::merge_forest_parts(std::vector<smseg::fs::path>(parts.begin(), parts.end()));
+  smseg::forest::save_forest(f, out);
+  std::cout << "merged " << parts.size() << " parts (" << f.trees.size() << " trees) -> " << out << "\n";
+  return 0;
+}
+
+void check_slurm_options(const smseg::forest::SlurmTraining& slurm, const smseg::forest::TrainParams& p,
+                         const std::string& tree_range, const std::string& corpus) {
+  using smseg::UsageError;
+  if (!tree_range.empty()) throw UsageError("", "--trees", "not with --slurm (it splits the trees itself, see --tasks)");
+  if (!corpus.empty()) throw UsageError("", "--export-corpus", "not with --slurm; export it with a local run");
+  if (slurm.tasks != 0) smseg::as_usage([&] { return smseg::forest::split_trees(p.M, slurm.tasks, "--tasks"); });
+  if (!(slurm.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
+}
+
+/// This run's arguments for an array task: the same, without the options the task gets its own way.
+std::vector<std::string> task_args(int argc, char** argv) {
+  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet"},
+                                       {"--tasks", "--slurm-dir", "--sbatch", "--poll", "-o", "--out", "--trees"});
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -27,20 +72,39 @@ int main(int argc, char** argv) {
       "labelled frames of one or more work folders made by extract-features. Each tree draws Ks\n"
       "sampling windows and Kt tests (labelled pixels); the candidate attributes are all (window,\n"
       "feature) pairs, plus the four texton tests at Ks offsets with --textons. Same seed, same forest,\n"
-      "whatever the thread count.",
+      "whatever the thread count and however the trees are shared out: --trees A:B trains only trees\n"
+      "A..B-1 into a forest part, --merge joins parts into the forest, and --slurm does both as a Slurm\n"
+      "job array (one task per range of trees; paths must be on a file system the nodes share).",
       "train-forest"};
   std::vector<std::string> works;
   std::string frames = "0:", features_opt, windows = "uniform", learned_from, balance = "none", out, corpus;
   forest::TrainParams p;
   int threads = 0, corpus_tree = 0;
   bool quiet = false;
-  app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled")->required();
+  std::string tree_range;
+  std::vector<std::string> merge;
+  forest::SlurmTraining slurm;
+  bool on_slurm = false;
+  std::string slurm_dir;
+  app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
   app.add_option("--train-frames", frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
       ->capture_default_str();
   app.add_option("-K", p.K, "sets Ks = Kt (thesis 400)")->capture_default_str();
   app.add_option("--Ks", p.Ks, "sampling windows per tree (default: K)");
   app.add_option("--Kt", p.Kt, "tests (training pixels) per tree (default: K)");
-  app.add_option("-M,--trees", p.M, "number of trees")->capture_default_str();
+  app.add_option("-M", p.M, "number of trees")->capture_default_str();
+  app.add_option("--trees", tree_range,
+                 "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
+  app.add_option("--merge", merge, "join these forest parts (from --trees) into the forest -o; no training")
+      ->expected(1, -1);
+  app.add_flag("--slurm", on_slurm, "train as a Slurm job array (sbatch), wait for it, merge the parts into -o");
+  app.add_option("--tasks", slurm.tasks, "with --slurm: array tasks, each training a range of trees (1..M; 0: one per tree)")
+      ->capture_default_str();
+  app.add_option("--slurm-dir", slurm_dir,
+                 "with --slurm: job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)");
+  app.add_option("--sbatch", slurm.sbatch_options, "with --slurm: an extra sbatch option, e.g. --sbatch=--partition=short (repeatable)")
+      ->allow_extra_args(false);
+  app.add_option("--poll", slurm.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
   app.add_option("--n-min", p.n_min, "nodes with fewer tests become leaves")->capture_default_str();
   app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str();
   app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
@@ -60,9 +124,13 @@ int main(int argc, char** argv) {
   app.add_option("--export-corpus", corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
   app.add_option("--corpus-tree", corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
-  app.add_option("-o,--out", out, "forest file to write (JSON)")->required();
+  app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
 
   return run_tool(app, argc, argv, [&] {
+    if (!merge.empty()) return merge_parts(merge, works, tree_range, on_slurm, out);
+    if (works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
+    if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty()))
+      throw UsageError("", "--tasks, --slurm-dir, --sbatch", "only with --slurm");
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
     p.windows.mode = forest::window_sampling_from_string(windows, "--windows");
@@ -79,20 +147,31 @@ int main(int argc, char** argv) {
     }
     p.progress = !quiet;
     p.validate("train-forest");
+    std::optional<forest::TreeRange> trees;
+    if (!tree_range.empty()) trees = as_usage([&] { return forest::TreeRange::parse(tree_range, "--trees", p.M); });
+    if (on_slurm) check_slurm_options(slurm, p, tree_range, corpus);
     const auto range = features::FrameRange::parse(frames, "--train-frames");
     const features::StackSet set = features::open_stacks(
         std::vector<fs::path>(works.begin(), works.end()), range, true, true, split_list(features_opt));
     if (!quiet)
       std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, "
                 << set.dataset.features.size() << " features, K=" << p.K << " M=" << p.M << "\n";
+    const std::string on_frames = "on " + std::to_string(set.dataset.frames.size()) + " frames";
+    if (on_slurm) {  // the data checked here, trained there
+      slurm.program = slurm::current_executable();
+      slurm.args = task_args(argc, argv);
+      slurm.params = p;
+      slurm.dir = slurm_dir.empty() ? fs::path(out + ".slurm") : fs::path(slurm_dir);
+      slurm.progress = !quiet;
+      return save_and_report(forest::train_forest_slurm(slurm), out,
+                             "of training " + on_frames + ", Slurm job folder " + slurm.dir.string());
+    }
     if (!corpus.empty()) forest::export_corpus_csv(set.dataset, p, corpus_tree, corpus);
-    forest::Forest f = forest::train_forest(set.dataset, p);
-    forest::save_forest(f, out);
-    int nodes = 0;
-    for (const auto& t : f.stats.trees) nodes += t.nodes;
-    std::cout << "trained " << f.trees.size() << " trees (" << nodes << " nodes, "
-              << nodes / std::max<std::size_t>(1, f.trees.size()) << " per tree) in " << f.stats.seconds
-              << " s on " << set.dataset.frames.size() << " frames -> " << out << "\n";
-    return 0;
+    if (trees) {
+      const forest::Forest part = forest::train_forest_trees(set.dataset, p, *trees);
+      forest::save_forest_part(part, *trees, out);
+      return report(part, "trees " + trees->to_string() + " of " + std::to_string(p.M) + " " + on_frames, out);
+    }
+    return save_and_report(forest::train_forest(set.dataset, p), out, on_frames);
   });
 }

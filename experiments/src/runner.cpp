@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <algorithm>
 #include <cstring>
 #include <fcntl.h>
 #include <iostream>
@@ -182,8 +183,12 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   RunReport report;
   report.total = static_cast<int>(ex.points.size());
   for (const auto& p : ex.points) {
-    if (done.count(p.json.dump())) ++report.done_before;
-    else todo.push_back(&p);
+    if (done.count(p.json.dump())) {
+      ++report.done_before;
+      continue;
+    }
+    report.left.push_back(p.index);
+    if (!options.points || std::count(options.points->begin(), options.points->end(), p.index)) todo.push_back(&p);
   }
   if (report.done_before != static_cast<int>(done.size()))
     throw Error(jsonl.string(), "point", "holds points that are not in this config");

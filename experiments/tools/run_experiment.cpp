@@ -9,6 +9,8 @@
 
 #include "smseg/common/cli.hpp"
 #include "smseg/experiments/runner.hpp"
+#include "smseg/experiments/shards.hpp"
+#include "smseg/common/slurm.hpp"
 
 namespace {
 
@@ -17,6 +19,21 @@ std::string pct(const nlohmann::json& v) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%.1f%%", 100 * v.get<double>());
   return buf;
+}
+
+/// This run's arguments for an array task: the same, without what the task gets its own way.
+std::vector<std::string> task_args(int argc, char** argv) {
+  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet"},
+                                       {"--tasks", "--slurm-dir", "--sbatch", "--poll", "-o", "--out", "--cache",
+                                        "--points"});
+}
+
+int summary(const std::string& name, const smseg::experiments::RunReport& r, const std::string& out) {
+  char line[256];
+  std::snprintf(line, sizeof line, "%s: %d points evaluated, %d already done, %d left, %.1f s -> ", name.c_str(), r.run,
+                r.done_before, r.total - r.run - r.done_before, r.seconds);
+  std::cout << line << (smseg::fs::path(out) / "experiment.jsonl").string() << "\n";
+  return 0;
 }
 
 }  // namespace
@@ -30,7 +47,10 @@ int main(int argc, char** argv) {
       "training and evaluation time, nodes per tree, nodes per feature, chosen-window histograms).\n"
       "Synthetic sequences are generated and feature stacks extracted as the points need them, once,\n"
       "into a cache shared by experiments. A rerun resumes: finished points are skipped, none is lost or\n"
-      "repeated. Progress with an ETA on stderr. The config format is in\n"
+      "repeated. Progress with an ETA on stderr. With --slurm the points run as a Slurm job array\n"
+      "(--tasks tasks; points sharing a forest in the same task) and their records are collected into\n"
+      "OUT/experiment.jsonl in point order, as a local run writes them (timings aside); paths must be on\n"
+      "a file system the nodes share. The config format is in\n"
       "experiments/include/smseg/experiments/config.hpp and experiments/thesis/README.md.",
       "run-experiment"};
   std::string config, out, cache;
@@ -48,6 +68,18 @@ int main(int argc, char** argv) {
   app.add_option("--threads", threads, "worker threads (0: all cores); results do not depend on it")->capture_default_str();
   app.add_flag("--check", check, "validate the config and list its points, run nothing");
   app.add_flag("-q,--quiet", quiet, "no progress on stderr, no line per point");
+  std::string points;
+  app.add_option("--points", points, "run only these points (comma-separated indices, as --check lists them)");
+  experiments::SlurmRun slurm;
+  bool on_slurm = false;
+  int tasks = 0;
+  std::string slurm_dir;
+  app.add_flag("--slurm", on_slurm, "run the points as a Slurm job array (sbatch), wait, collect their records");
+  app.add_option("--tasks", tasks, "with --slurm: array tasks (1..the number of forests the points left need)");
+  app.add_option("--slurm-dir", slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
+  app.add_option("--sbatch", slurm.sbatch_options, "with --slurm: an extra sbatch option, e.g. --sbatch=--partition=short (repeatable)")
+      ->allow_extra_args(false);
+  app.add_option("--poll", slurm.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
   return run_tool(app, argc, argv, [&] {
     std::unique_ptr<tbb::global_control> limit;
     if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
@@ -55,6 +87,13 @@ int main(int argc, char** argv) {
     if (threads > 0) {
       limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
       cv::setNumThreads(threads);
+    }
+    if (!on_slurm && (tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty()))
+      throw UsageError("", "--tasks, --slurm-dir, --sbatch", "only with --slurm");
+    if (on_slurm) {
+      if (tasks < 1) throw UsageError("", "--tasks", "--slurm needs --tasks N, N >= 1");
+      if (!points.empty() || opt.max_points > 0) throw UsageError("", "--points, --max-points", "not with --slurm");
+      if (!(slurm.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
     }
     const experiments::Experiment ex = experiments::load_experiment(config, quick);
     if (check) {
@@ -69,6 +108,22 @@ int main(int argc, char** argv) {
     opt.out = out;
     opt.cache = cache;
     opt.progress = !quiet;
+    if (!points.empty())
+      opt.points = as_usage([&] { return experiments::points_from_string(points, static_cast<int>(ex.points.size())); });
+    if (on_slurm) {
+      experiments::RunOptions nothing = opt;  // checks the results folder, lists the points left
+      nothing.points = std::vector<int>{};
+      const std::vector<int> left = experiments::run_experiment(ex, nothing).left;
+      if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), out);
+      const auto shards = as_usage([&] { return experiments::shard_points(ex, left, tasks); });
+      slurm.program = slurm::current_executable();
+      slurm.args = task_args(argc, argv);
+      slurm.out = out;
+      slurm.cache = fs::absolute(cache.empty() ? experiments::default_cache(out) : fs::path(cache));
+      slurm.dir = slurm_dir.empty() ? fs::path(out) / "slurm" : fs::path(slurm_dir);
+      slurm.progress = !quiet;
+      return summary(ex.name, experiments::run_experiment_slurm(ex, slurm, shards), out);
+    }
     const int total = static_cast<int>(ex.points.size());
     if (!quiet)
       opt.on_point = [&](const experiments::Point& p, const nlohmann::json& rec) {
@@ -81,11 +136,6 @@ int main(int argc, char** argv) {
                       1000 * rec["seconds_per_frame"].get<double>());
         std::cout << line << std::endl;
       };
-    const auto r = experiments::run_experiment(ex, opt);
-    char line[256];
-    std::snprintf(line, sizeof line, "%s: %d points evaluated, %d already done, %d left, %.1f s -> ", ex.name.c_str(),
-                  r.run, r.done_before, r.total - r.run - r.done_before, r.seconds);
-    std::cout << line << (fs::path(out) / "experiment.jsonl").string() << "\n";
-    return 0;
+    return summary(ex.name, experiments::run_experiment(ex, opt), out);
   });
 }

@@ -540,8 +540,14 @@ std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const st
 }
 
 Forest train_forest(const Dataset& data, const TrainParams& params) {
+  return train_forest_trees(data, params, TreeRange{0, params.M});
+}
+
+Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRange range) {
   const auto t0 = Clock::now();
   validate_for_training(data, params);
+  range.validate(params.M, "tree range");
+  const int count = range.size();
   const TestSampler sampler(data);
   const Stacks stacks = make_stacks(data);
   Forest forest;
@@ -551,8 +557,8 @@ Forest train_forest(const Dataset& data, const TrainParams& params) {
   forest.features = data.features;
   forest.textons = params.textons;
   forest.params = params;
-  forest.trees.resize(static_cast<std::size_t>(params.M));
-  std::vector<double> tree_seconds(static_cast<std::size_t>(params.M), 0.0);
+  forest.trees.resize(static_cast<std::size_t>(count));
+  std::vector<double> tree_seconds(static_cast<std::size_t>(count), 0.0);
 
   const std::size_t candidates = static_cast<std::size_t>(params.ks()) *
                                  (data.features.size() + (params.textons ? kNumTextonTests : 0));
@@ -561,14 +567,14 @@ Forest train_forest(const Dataset& data, const TrainParams& params) {
                                static_cast<std::size_t>(params.kt()) * 32;
   const std::size_t budget = params.memory_mb << 20;
   const std::size_t in_flight = std::clamp<std::size_t>(budget / std::max<std::size_t>(per_tree, 1), 1,
-                                                        static_cast<std::size_t>(params.M));
-  Progress progress("train trees", params.M, params.progress);
-  int next = 0;
+                                                        static_cast<std::size_t>(count));
+  Progress progress("train trees", count, params.progress);
+  int next = range.begin;
   tbb::parallel_pipeline(
       in_flight,
       tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
                                   [&](tbb::flow_control& fc) -> int {
-                                    if (next >= params.M) {
+                                    if (next >= range.end) {
                                       fc.stop();
                                       return 0;
                                     }
@@ -580,9 +586,10 @@ Forest train_forest(const Dataset& data, const TrainParams& params) {
             std::unique_ptr<float[]> rows =
                 transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
             std::vector<float>().swap(corpus.values);
-            forest.trees[static_cast<std::size_t>(t)] =
-                Grower(corpus, rows.get(), params.n_min, tree_seed(params.seed, t), params.score).grow();
-            tree_seconds[static_cast<std::size_t>(t)] = seconds_since(tt);
+            // Tree t is the same whichever range it is trained in: its draws depend on (seed, t) only.
+            const auto slot = static_cast<std::size_t>(t - range.begin);
+            forest.trees[slot] = Grower(corpus, rows.get(), params.n_min, tree_seed(params.seed, t), params.score).grow();
+            tree_seconds[slot] = seconds_since(tt);
             progress.tick();
           }));
   progress.finish();

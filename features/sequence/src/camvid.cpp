@@ -75,25 +75,12 @@ long parse_long(const CsvTable& t, std::size_t row, int col) {
 
 }  // namespace
 
-void CamvidImportOptions::validate() const {
-  if (splits.empty()) throw Error("", "--split", "name at least one split");
-  if (!(video_fps > 0)) throw Error("", "video_fps", "must be positive");
-  if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
-  if (focal && !(*focal > 0)) throw Error("", "--focal", "must be positive (pixels)");
-  if (max_gap < 1) throw Error("", "max_gap", "must be at least 1");
-}
-
-std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, const CamvidImportOptions& opt) {
-  opt.validate();
-  std::error_code ec;
-  if (!fs::is_directory(dir, ec)) throw Error(dir.string(), "", "no such folder");
-  const fs::path root = fs::canonical(dir);
-
-  // Classes: index,name,r,g,b; the row named Void (any case) is the ignore label.
-  const CsvTable classes = read_csv(root / "classes.csv");
+CamvidClasses read_camvid_classes(const fs::path& file) {
+  // index,name,r,g,b; the row named Void (any case) is the ignore label.
+  const CsvTable classes = read_csv(file);
   const int ci = classes.column("index"), cn = classes.column("name"), cr = classes.column("r"),
             cg = classes.column("g"), cb = classes.column("b");
-  std::vector<ClassInfo> class_list;
+  CamvidClasses out;
   std::optional<ClassInfo> void_class;
   for (std::size_t r = 0; r < classes.rows.size(); ++r) {
     ClassInfo c;
@@ -110,11 +97,30 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
     if (lower == "void") {
       void_class = c;
     } else {
-      class_list.push_back(c);
+      out.classes.push_back(c);
     }
   }
   if (!void_class) throw Error(classes.file.string(), "name", "no Void class (the ignore label)");
-  if (class_list.empty()) throw Error(classes.file.string(), "", "no classes");
+  if (out.classes.empty()) throw Error(classes.file.string(), "", "no classes");
+  out.void_class = *void_class;
+  return out;
+}
+
+void CamvidImportOptions::validate() const {
+  if (splits.empty()) throw Error("", "--split", "name at least one split");
+  if (!(video_fps > 0)) throw Error("", "video_fps", "must be positive");
+  if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
+  if (focal && !(*focal > 0)) throw Error("", "--focal", "must be positive (pixels)");
+  if (max_gap < 1) throw Error("", "max_gap", "must be at least 1");
+}
+
+std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, const CamvidImportOptions& opt) {
+  opt.validate();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec)) throw Error(dir.string(), "", "no such folder");
+  const fs::path root = fs::canonical(dir);
+
+  const auto [class_list, void_class] = read_camvid_classes(root / "classes.csv");
 
   // Frames: sequence,frame,split,image,label,gap...
   const CsvTable frames = read_csv(root / "frames.csv");
@@ -178,7 +184,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
     seq.kind = SequenceKind::Mono;
     seq.label_encoding = LabelEncoding::Index;
     seq.classes = class_list;
-    seq.void_class = *void_class;
+    seq.void_class = void_class;
     seq.camera_height = opt.camera_height;
     const long frame0 = parse_long(frames, p.rows.front(), ff);
     for (std::size_t k = 0; k < p.rows.size(); ++k) {

@@ -29,7 +29,9 @@
 //   windows (chosen-window histograms, thesis Fig 4.19), pilot_seconds (learned windows only).
 
 #include <functional>
+#include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 
@@ -45,6 +47,9 @@ struct RunOptions {
   fs::path out;                  ///< results folder: config.json, experiment.jsonl
   fs::path cache;                ///< generated sequences and work folders (empty: OUT/../cache)
   int max_points = 0;            ///< stop after this many new points (0: all); the rest is left for a rerun
+  /// Only these points (indices into Experiment::points; run-experiment --points, one Slurm task's
+  /// share); nullopt: every point.
+  std::optional<std::vector<int>> points;
   std::size_t memory_mb = 2048;  ///< training memory budget (TrainParams::memory_mb)
   bool progress = true;          ///< progress with ETA on stderr
   /// Called after each new record is written.
@@ -54,6 +59,7 @@ struct RunOptions {
 struct RunReport {
   int total = 0, done_before = 0, run = 0;
   double seconds = 0;
+  std::vector<int> left;  ///< the points still to run when this run started (in order), whatever the filters
 };
 
 fs::path default_cache(const fs::path& out);

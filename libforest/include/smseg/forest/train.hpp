@@ -24,11 +24,17 @@
 #include "smseg/forest/data.hpp"
 #include "smseg/forest/forest.hpp"
 #include "smseg/forest/params.hpp"
+#include "smseg/forest/parts.hpp"
 
 namespace smseg::forest {
 
 /// Trains a forest; validates params and data first (Error on the first problem).
 Forest train_forest(const Dataset& data, const TrainParams& params);
+
+/// Only trees range.begin..range.end-1 of train_forest(data, params) (each identical to its
+/// counterpart there): a part of the forest, for save_forest_part and merge_forest_parts.
+/// Error unless 0 <= begin < end <= params.M.
+Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRange range);
 
 /// One candidate attribute: a window (or texton offset) and an attribute index.
 struct Candidate {

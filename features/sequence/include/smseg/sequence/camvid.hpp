@@ -28,6 +28,14 @@ struct CamvidRun {
   fs::path folder;     ///< where its sequence.json was written
 };
 
+/// A class table in CamVid's classes.csv form (index,name,r,g,b; the row named Void is the ignore label).
+struct CamvidClasses {
+  std::vector<ClassInfo> classes;
+  ClassInfo void_class;
+};
+/// Errors name the file and line (a bad number or colour, no Void row, no class).
+CamvidClasses read_camvid_classes(const fs::path& file);
+
 /// Reads dir/frames.csv and dir/classes.csv and writes out/<run name>/sequence.json per run plus
 /// out/index.json listing the runs. Checks that each image named exists (sizes are read from the first
 /// image of each run and must agree). Errors name the file and line.

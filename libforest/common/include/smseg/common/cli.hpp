@@ -12,6 +12,26 @@
 
 namespace smseg {
 
+/// An error in how the tool was called (a bad option value, options that exclude each other) found
+/// after parsing: printed like a CLI11 parse error, exit status 2.
+class UsageError : public Error {
+ public:
+  using Error::Error;
+};
+
+/// f(), with an Error it throws turned into a UsageError: for checking option values with the
+/// library's own parsers (a bad value is bad usage, exit status 2, not a failure of the run).
+template <class F>
+auto as_usage(F&& f) {
+  try {
+    return f();
+  } catch (const UsageError&) {
+    throw;
+  } catch (const Error& e) {
+    throw UsageError(e.file(), e.field(), e.reason());
+  }
+}
+
 /// Parses argv into app, then runs body(); returns the process exit status.
 template <class Body>
 int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
@@ -25,6 +45,9 @@ int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
   }
   try {
     return body();
+  } catch (const UsageError& e) {
+    std::cerr << name << ": " << e.what() << " (see " << name << " --help)\n";
+    return 2;
   } catch (const Error& e) {
     std::cerr << name << ": error: " << e.what() << "\n";
   } catch (const std::bad_alloc&) {

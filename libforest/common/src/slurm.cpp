@@ -1,0 +1,322 @@
+// Slurm job arrays from a tool: job script, sbatch, squeue, sacct / scontrol (see slurm.hpp).
+#include "smseg/common/slurm.hpp"
+
+#include <poll.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <chrono>
+#include <cstdlib>
+#include <cstring>
+#include <iostream>
+#include <map>
+#include <set>
+#include <sstream>
+#include <thread>
+
+#include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
+
+namespace smseg::slurm {
+
+namespace {
+
+struct CommandResult {
+  int status = -1;  ///< exit status; -1 when killed by a signal
+  std::string out, err;
+};
+
+/// Runs argv (no shell) and collects its stdout and stderr; Error when it cannot be started.
+CommandResult run_command(const std::vector<std::string>& argv) {
+  int out_pipe[2], err_pipe[2];
+  if (::pipe(out_pipe) != 0 || ::pipe(err_pipe) != 0)
+    throw Error("", argv.front(), std::string("cannot run: ") + std::strerror(errno));
+  const pid_t pid = ::fork();
+  if (pid < 0) throw Error("", argv.front(), std::string("cannot run: ") + std::strerror(errno));
+  if (pid == 0) {
+    ::dup2(out_pipe[1], 1);
+    ::dup2(err_pipe[1], 2);
+    ::close(out_pipe[0]);
+    ::close(err_pipe[0]);
+    std::vector<char*> args;
+    for (const auto& a : argv) args.push_back(const_cast<char*>(a.c_str()));
+    args.push_back(nullptr);
+    ::execvp(args[0], args.data());
+    ::_exit(127);
+  }
+  ::close(out_pipe[1]);
+  ::close(err_pipe[1]);
+  CommandResult r;
+  pollfd fds[2] = {{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}};
+  std::string* sinks[2] = {&r.out, &r.err};
+  int open = 2;
+  char buf[4096];
+  while (open > 0) {
+    if (::poll(fds, 2, -1) < 0) {
+      if (errno == EINTR) continue;
+      break;
+    }
+    for (int i = 0; i < 2; ++i) {
+      if (fds[i].fd < 0 || !(fds[i].revents & (POLLIN | POLLHUP | POLLERR))) continue;
+      const ssize_t n = ::read(fds[i].fd, buf, sizeof buf);
+      if (n > 0) {
+        sinks[i]->append(buf, static_cast<std::size_t>(n));
+      } else if (n == 0 || errno != EINTR) {
+        ::close(fds[i].fd);
+        fds[i].fd = -1;
+        --open;
+      }
+    }
+  }
+  int st = 0;
+  while (::waitpid(pid, &st, 0) < 0 && errno == EINTR) {
+  }
+  r.status = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string first_line(const std::string& s) {
+  std::string line = s.substr(0, s.find('\n'));
+  return line.empty() ? "(no message)" : line;
+}
+
+std::string trim(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.front()))) s.erase(s.begin());
+  return s;
+}
+
+/// "key=value" fields of one `scontrol -o` record.
+std::map<std::string, std::string> scontrol_fields(const std::string& line) {
+  std::map<std::string, std::string> f;
+  std::istringstream in(line);
+  for (std::string word; in >> word;) {
+    const auto eq = word.find('=');
+    if (eq != std::string::npos) f[word.substr(0, eq)] = word.substr(eq + 1);
+  }
+  return f;
+}
+
+std::vector<TaskState> states_from_sacct(const std::string& job_id) {
+  const auto r = run_command({"sacct", "-n", "-P", "-X", "-j", job_id, "--format=JobID,State,ExitCode"});
+  std::vector<TaskState> states;
+  if (r.status != 0) return states;  // e.g. "Slurm accounting storage is disabled"
+  std::istringstream in(r.out);
+  for (std::string line; std::getline(in, line);) {
+    // "1234_5|COMPLETED|0:0"; a state may read "CANCELLED by 0".
+    const auto bar1 = line.find('|'), bar2 = line.rfind('|');
+    const auto under = line.find('_');
+    if (bar1 == std::string::npos || bar2 == bar1 || under == std::string::npos || under > bar1) continue;
+    TaskState s;
+    s.task = std::atoi(line.substr(under + 1, bar1 - under - 1).c_str());
+    s.state = line.substr(bar1 + 1, bar2 - bar1 - 1);
+    s.exit_code = line.substr(bar2 + 1);
+    states.push_back(s);
+  }
+  return states;
+}
+
+std::vector<TaskState> states_from_scontrol(const std::string& job_id) {
+  const auto r = run_command({"scontrol", "-o", "show", "job", job_id});
+  std::vector<TaskState> states;
+  if (r.status != 0) return states;  // purged after MinJobAge
+  std::istringstream in(r.out);
+  for (std::string line; std::getline(in, line);) {
+    auto f = scontrol_fields(line);
+    if (!f.count("ArrayTaskId") || !f.count("JobState")) continue;
+    TaskState s;
+    s.task = std::atoi(f["ArrayTaskId"].c_str());
+    s.state = f["JobState"];
+    s.exit_code = f["ExitCode"];
+    states.push_back(s);
+  }
+  return states;
+}
+
+}  // namespace
+
+void require_command(const std::string& command, const std::string& why) {
+  const char* path = std::getenv("PATH");
+  std::istringstream dirs(path ? path : "");
+  for (std::string d; std::getline(dirs, d, ':');) {
+    const fs::path p = fs::path(d.empty() ? "." : d) / command;
+    if (::access(p.c_str(), X_OK) == 0 && !fs::is_directory(p)) return;
+  }
+  throw Error("", command, "not found on PATH; " + why);
+}
+
+std::string shell_quote(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+std::string array_spec(std::vector<int> tasks) {
+  std::sort(tasks.begin(), tasks.end());
+  tasks.erase(std::unique(tasks.begin(), tasks.end()), tasks.end());
+  std::string spec;
+  for (std::size_t i = 0; i < tasks.size();) {
+    std::size_t j = i;
+    while (j + 1 < tasks.size() && tasks[j + 1] == tasks[j] + 1) ++j;
+    if (!spec.empty()) spec += ',';
+    spec += std::to_string(tasks[i]);
+    if (j > i) spec += "-" + std::to_string(tasks[j]);
+    i = j + 1;
+  }
+  return spec;
+}
+
+fs::path task_log(const fs::path& dir, int task) {
+  return fs::absolute(dir) / "logs" / ("task-" + std::to_string(task) + ".log");
+}
+
+std::string job_script(const ArrayJob& job) {
+  if (job.commands.empty()) throw Error(job.dir.string(), "tasks", "a job array needs at least one task");
+  std::vector<int> tasks = job.tasks;
+  if (tasks.empty())
+    for (int i = 0; i < static_cast<int>(job.commands.size()); ++i) tasks.push_back(i);
+  for (int t : tasks)
+    if (t < 0 || t >= static_cast<int>(job.commands.size()))
+      throw Error(job.dir.string(), "tasks", "task " + std::to_string(t) + " has no command");
+  const fs::path dir = fs::absolute(job.dir);
+  const fs::path workdir = fs::absolute(job.workdir.empty() ? fs::current_path() : job.workdir);
+  std::string s = "#!/bin/bash\n";
+  s += "# Written by " + job.name + ": one task per command below; resubmit with: sbatch " + (dir / "job.sh").string() + "\n";
+  s += "#SBATCH --job-name=" + job.name + "\n";
+  s += "#SBATCH --array=" + array_spec(tasks) + "\n";
+  s += "#SBATCH --output=" + (dir / "logs" / "task-%a.log").string() + "\n";
+  s += "#SBATCH --chdir=" + workdir.string() + "\n";
+  for (const auto& o : job.sbatch_options) {
+    if (o.empty() || o[0] != '-' || o.find_first_of("\n\r") != std::string::npos)
+      throw Error("", "--sbatch", "\"" + o + "\" is not one sbatch option (expected e.g. --partition=NAME)");
+    s += "#SBATCH " + o + "\n";
+  }
+  s += "set -eu\ncase \"$SLURM_ARRAY_TASK_ID\" in\n";
+  for (std::size_t t = 0; t < job.commands.size(); ++t) {
+    s += "  " + std::to_string(t) + ") exec";
+    for (const auto& a : job.commands[t]) s += " " + shell_quote(a);
+    s += " ;;\n";
+  }
+  s += "  *) echo \"no command for array task $SLURM_ARRAY_TASK_ID\" >&2; exit 2 ;;\nesac\n";
+  return s;
+}
+
+fs::path write_job_script(const ArrayJob& job) {
+  const fs::path dir = fs::absolute(job.dir);
+  std::error_code ec;
+  fs::create_directories(dir / "logs", ec);
+  if (ec) throw Error((dir / "logs").string(), "", "cannot be created: " + ec.message());
+  const fs::path script = dir / "job.sh";
+  write_file_atomic(script, job_script(job));
+  return script;
+}
+
+std::string submit(const fs::path& script) {
+  require_command("sbatch", "submitting to Slurm needs its client commands (Debian package slurm-client)");
+  const auto r = run_command({"sbatch", "--parsable", script.string()});
+  if (r.status != 0) throw Error(script.string(), "sbatch", "refused the job: " + first_line(trim(r.err + r.out)));
+  // --parsable prints "jobid" or "jobid;cluster".
+  const std::string id = trim(r.out.substr(0, r.out.find(';')));
+  if (id.empty() || id.find_first_not_of("0123456789") != std::string::npos)
+    throw Error(script.string(), "sbatch", "printed \"" + trim(r.out) + "\", expected a job id");
+  return id;
+}
+
+void wait_for_job(const std::string& job_id, const WaitOptions& options) {
+  require_command("squeue", "waiting for a Slurm job needs its client commands (Debian package slurm-client)");
+  const auto pause = std::chrono::duration<double>(std::max(0.05, options.poll_seconds));
+  int failures = 0;  // consecutive squeue failures: the controller may be restarting
+  for (;;) {
+    // One line per pending array (or task) and per running task; none once all have finished.
+    const auto r = run_command({"squeue", "-h", "-r", "-j", job_id, "-o", "%i"});
+    if (r.status != 0) {
+      if (r.err.find("Invalid job id") != std::string::npos) return;  // finished and already purged
+      if (++failures >= 10) throw Error("", "squeue", "job " + job_id + ": " + first_line(trim(r.err)));
+    } else {
+      failures = 0;
+      const int unfinished = static_cast<int>(std::count(r.out.begin(), r.out.end(), '\n'));
+      if (options.on_poll) options.on_poll(unfinished);
+      if (unfinished == 0) return;
+    }
+    std::this_thread::sleep_for(pause);
+  }
+}
+
+std::vector<TaskState> task_states(const std::string& job_id) {
+  std::vector<TaskState> states = states_from_sacct(job_id);
+  if (states.empty()) states = states_from_scontrol(job_id);
+  std::sort(states.begin(), states.end(), [](const TaskState& a, const TaskState& b) { return a.task < b.task; });
+  return states;
+}
+
+std::string run_array_job(const ArrayJob& job, const WaitOptions& options,
+                          const std::function<void(const std::string&)>& says) {
+  require_command("sbatch", "submitting to Slurm needs its client commands (Debian package slurm-client)");
+  const fs::path script = write_job_script(job);
+  const std::string id = submit(script);
+  if (says) {
+    const std::size_t n = job.tasks.empty() ? job.commands.size() : job.tasks.size();
+    says("submitted Slurm job " + id + " (" + std::to_string(n) + " array tasks, " + script.string() + ")");
+  }
+  wait_for_job(id, options);
+  return id;
+}
+
+std::string run_array_job_on_stderr(const ArrayJob& job, double poll_seconds, bool progress) {
+  WaitOptions wait;
+  wait.poll_seconds = poll_seconds;
+  int last = -1;
+  if (progress)
+    wait.on_poll = [&](int unfinished) {
+      if (unfinished != last) std::cerr << job.name << ": " << unfinished << " Slurm tasks not finished\n";
+      last = unfinished;
+    };
+  const auto say = [&](const std::string& s) {
+    if (progress) std::cerr << job.name << ": " << s << "\n";
+  };
+  return run_array_job(job, wait, say);
+}
+
+std::vector<std::string> without_options(const std::vector<std::string>& args, const std::vector<std::string>& flags,
+                                         const std::vector<std::string>& valued) {
+  const auto is_in = [](const std::vector<std::string>& v, const std::string& s) {
+    return std::find(v.begin(), v.end(), s) != v.end();
+  };
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < args.size(); ++i) {
+    const std::string& a = args[i];
+    if (is_in(flags, a)) continue;
+    if (is_in(valued, a)) {
+      ++i;  // and its value
+      continue;
+    }
+    const auto eq = a.find('=');
+    if (a.rfind("--", 0) == 0 && eq != std::string::npos && is_in(valued, a.substr(0, eq))) continue;
+    if (a.size() > 2 && a[0] == '-' && a[1] != '-' && is_in(valued, a.substr(0, 2))) continue;  // "-ofile"
+    out.push_back(a);
+  }
+  return out;
+}
+
+fs::path current_executable() {
+  std::error_code ec;
+  const fs::path p = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) throw Error("/proc/self/exe", "", "cannot tell this program's path: " + ec.message());
+  return p;
+}
+
+std::string describe_failures(const fs::path& dir, const std::vector<int>& failed, const std::vector<TaskState>& states) {
+  std::string s;
+  for (int t : failed) {
+    std::string how = "no result";
+    for (const auto& st : states)
+      if (st.task == t) how = st.state + ", exit " + st.exit_code;
+    if (!s.empty()) s += "; ";
+    s += "task " + std::to_string(t) + " (" + how + ", log " + task_log(dir, t).string() + ")";
+  }
+  return s;
+}
+
+}  // namespace smseg::slurm

@@ -1,0 +1,249 @@
+// train-forest and run-experiment on a one-node Slurm cluster (tests/slurm/local-cluster.sh): the
+// merged forest and the collected records are those of a local run for the same seed, timing aside;
+// reruns submit only what is missing; failures name the task, its state and its log; bad usage is
+// one line and exit status 2. The cluster-free tests need no Slurm (usage, --merge, sbatch missing).
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <fstream>
+
+#include "jsonl.hpp"
+#include "run_tool.hpp"
+#include "smseg/experiments/runner.hpp"
+#include "smseg/common/io.hpp"
+#include "smseg/common/slurm.hpp"
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using smseg::test::run;
+using smseg::test::tool;
+namespace ex = smseg::experiments;
+
+namespace {
+
+const fs::path kRoot = SMSEG_SLURM_TEST_DIR;  // cluster/, cache/, one folder per test
+const fs::path kCluster = kRoot / "cluster";
+
+/// A fresh folder for one test.
+fs::path test_dir(const std::string& name) {
+  const fs::path d = kRoot / name;
+  fs::remove_all(d);
+  fs::create_directories(d);
+  return d;
+}
+
+/// A tiny corridor's work folder, made once into the shared cache (run-experiment's).
+fs::path tiny_work() {
+  ex::SequenceSource src;
+  src.synth.scene = "corridor";
+  src.synth.seed = 2;
+  src.synth.frames = 40;
+  src.synth.width = 160;
+  src.synth.height = 120;
+  return ex::prepare_work("c", src, ex::FrontEnd{}, kRoot / "cache", false);
+}
+
+json tiny_config() {
+  return json::parse(R"({
+    "format": "smseg-experiment", "version": 1, "name": "tiny",
+    "sequences": {"c": {"synthetic": {"scene": "corridor", "seed": 2, "frames": 40, "width": 160, "height": 120}}},
+    "fixed": {"train": "c", "train_frames": "0:21", "test_frames": "30:", "M": 3, "votes": 4},
+    "sweep": {"K": [20, 30], "grid": [0, 10]}
+  })");
+}
+
+/// A forest file without its timing fields (stats.seconds, stats.trees[i].seconds), as bytes.
+std::string forest_bytes_without_timing(const fs::path& file) {
+  json j = smseg::read_json(file);
+  j["stats"]["seconds"] = 0;
+  for (auto& t : j["stats"]["trees"]) t["seconds"] = 0;
+  return j.dump(-1);
+}
+
+/// A run-experiment record without its timing fields.
+json record_without_timing(json rec) {
+  for (const char* k : {"train_seconds", "pilot_seconds", "eval_seconds", "seconds_per_frame",
+                        "superpixel_seconds_per_frame"})
+    rec.erase(k);
+  return rec;
+}
+
+std::string q(const fs::path& p) { return smseg::slurm::shell_quote(p.string()); }
+
+std::string train_command(const fs::path& work, const std::string& extra, const fs::path& out) {
+  return tool("train-forest") + " " + q(work) + " --train-frames 0:21 -K 30 -M 5 --seed 3 " + extra + " -o " + q(out);
+}
+
+int count_lines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+class SlurmCluster : public ::testing::Test {
+ protected:
+  static std::string unavailable;  // why the cluster is not up; empty when it is
+
+  static void SetUpTestSuite() {
+    const auto r = run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "tests/slurm/local-cluster.sh") + " start " + q(kCluster));
+    if (r.status != 0) {
+      unavailable = r.out.empty() ? "local-cluster.sh start failed" : r.out;
+      return;
+    }
+    ::setenv("SLURM_CONF", (kCluster / "slurm.conf").c_str(), 1);  // the tools and their tasks inherit it
+  }
+  // Under ctest the cleanup fixture stops the cluster after the last test (SMSEG_SLURM_KEEP); run on
+  // its own, the program stops it here.
+  static void TearDownTestSuite() {
+    if (!std::getenv("SMSEG_SLURM_KEEP"))
+      run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "tests/slurm/local-cluster.sh") + " stop " + q(kCluster));
+  }
+  void SetUp() override {
+    if (!unavailable.empty()) GTEST_SKIP() << "Slurm cluster unavailable: " << unavailable;
+  }
+};
+std::string SlurmCluster::unavailable;
+
+}  // namespace
+
+TEST_F(SlurmCluster, TrainForestOnSlurmIsTheLocalForestAndResumes) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("train");
+  const auto local = run(train_command(work, "-q", d / "local.json"));
+  ASSERT_EQ(local.status, 0) << local.out;
+  const auto slurm = run(train_command(work, "--slurm --tasks 3 --poll 0.2", d / "slurm.json"));
+  ASSERT_EQ(slurm.status, 0) << slurm.out;
+  EXPECT_NE(slurm.out.find("3 array tasks"), std::string::npos) << slurm.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
+  // Three parts of 2, 2 and 1 trees, each from its own task, each with its log.
+  const fs::path job = d / "slurm.json.slurm";
+  const json part1 = smseg::read_json(job / "parts/part-1.json");
+  EXPECT_EQ(part1["trees"], json({{"begin", 2}, {"end", 4}}));
+  for (int t = 0; t < 3; ++t) EXPECT_TRUE(fs::exists(job / "logs" / ("task-" + std::to_string(t) + ".log"))) << t;
+
+  // A rerun submits only the missing part and gives the same forest.
+  fs::remove(job / "parts/part-1.json");
+  fs::remove(d / "slurm.json");
+  const auto again = run(train_command(work, "--slurm --tasks 3 --poll 0.2", d / "slurm.json"));
+  ASSERT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("1 array tasks"), std::string::npos) << again.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
+
+  // Parts of another training in the job folder are refused, not merged.
+  const auto other = run(tool("train-forest") + " " + q(work) + " --train-frames 0:21 -K 30 -M 5 --seed 4" +
+                         " --slurm --tasks 3 --slurm-dir " + q(job) + " -o " + q(d / "other.json"));
+  EXPECT_EQ(other.status, 1) << other.out;
+  EXPECT_NE(other.out.find("part-0.json: params: this part comes from another training"), std::string::npos)
+      << other.out;
+  EXPECT_FALSE(fs::exists(d / "other.json"));
+}
+
+TEST_F(SlurmCluster, RunExperimentOnSlurmWritesTheLocalRecords) {
+  const fs::path d = test_dir("experiment");
+  smseg::write_json_atomic(d / "tiny.json", tiny_config());
+  const std::string base = tool("run-experiment") + " " + q(d / "tiny.json") + " --cache " + q(kRoot / "cache");
+  const auto local = run(base + " -q -o " + q(d / "local"));
+  ASSERT_EQ(local.status, 0) << local.out;
+  const auto slurm = run(base + " --slurm --tasks 2 --poll 0.2 -o " + q(d / "slurm"));
+  ASSERT_EQ(slurm.status, 0) << slurm.out;
+  EXPECT_NE(slurm.out.find("4 points evaluated"), std::string::npos) << slurm.out;
+  const auto a = smseg::test::read_jsonl(d / "local/experiment.jsonl");
+  const auto b = smseg::test::read_jsonl(d / "slurm/experiment.jsonl");
+  ASSERT_EQ(a.size(), 4u);
+  ASSERT_EQ(b.size(), 4u);
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    EXPECT_EQ(b[i]["index"], static_cast<int>(i));
+    EXPECT_EQ(record_without_timing(b[i]), record_without_timing(a[i])) << "point " << i;
+  }
+  // Points sharing a forest (the grid sizes of one K) ran in one task: two tasks, two points each.
+  EXPECT_EQ(smseg::test::read_jsonl(d / "slurm/slurm/tasks/task-0/experiment.jsonl").size(), 2u);
+  EXPECT_EQ(smseg::test::read_jsonl(d / "slurm/slurm/tasks/task-1/experiment.jsonl").size(), 2u);
+  // Nothing left: a rerun submits nothing.
+  const auto again = run(base + " --slurm --tasks 2 -o " + q(d / "slurm"));
+  EXPECT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("0 points evaluated, 4 already done"), std::string::npos) << again.out;
+  // More tasks than forests to train is refused before anything is submitted.
+  const auto absurd = run(base + " --slurm --tasks 3 -o " + q(d / "absurd"));
+  EXPECT_EQ(absurd.status, 2) << absurd.out;
+  EXPECT_NE(absurd.out.find("--tasks: is 3, expected 1..2"), std::string::npos) << absurd.out;
+}
+
+TEST_F(SlurmCluster, FailedTasksAreNamedWithTheirStateAndLog) {
+  const fs::path d = test_dir("failing");
+  smseg::slurm::ArrayJob job;
+  job.name = "smseg-test";
+  job.dir = d / "job";
+  job.commands = {{"true"}, {"sh", "-c", "echo boom >&2; exit 3"}};
+  smseg::slurm::WaitOptions wait;
+  wait.poll_seconds = 0.2;
+  const std::string id = smseg::slurm::run_array_job(job, wait);
+  const auto states = smseg::slurm::task_states(id);
+  ASSERT_EQ(states.size(), 2u);
+  EXPECT_EQ(states[0].state, "COMPLETED");
+  EXPECT_EQ(states[1].state, "FAILED");
+  EXPECT_EQ(states[1].exit_code, "3:0");
+  EXPECT_NE(smseg::read_file(smseg::slurm::task_log(job.dir, 1)).find("boom"), std::string::npos);
+  const std::string said = smseg::slurm::describe_failures(job.dir, {1}, states);
+  EXPECT_NE(said.find("task 1 (FAILED, exit 3:0, log " + smseg::slurm::task_log(job.dir, 1).string() + ")"),
+            std::string::npos)
+      << said;
+}
+
+TEST_F(SlurmCluster, SbatchRefusingTheJobIsOneLine) {
+  const fs::path d = test_dir("refused");
+  const auto r = run(train_command(tiny_work(), "-q --slurm --sbatch=--no-such-option", d / "f.json"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(count_lines(r.out), 1) << r.out;
+  EXPECT_NE(r.out.find("sbatch: refused the job"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d / "f.json"));
+}
+
+// Without a cluster.
+
+TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("merge");
+  ASSERT_EQ(run(train_command(work, "-q", d / "whole.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --trees 3:", d / "b.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --trees 0:3", d / "a.json")).status, 0);
+  const auto m = run(tool("train-forest") + " --merge " + q(d / "b.json") + " " + q(d / "a.json") + " -o " + q(d / "m.json"));
+  ASSERT_EQ(m.status, 0) << m.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "m.json"), forest_bytes_without_timing(d / "whole.json"));
+  const auto gap = run(tool("train-forest") + " --merge " + q(d / "a.json") + " -o " + q(d / "g.json"));
+  EXPECT_EQ(gap.status, 1) << gap.out;
+  EXPECT_EQ(count_lines(gap.out), 1) << gap.out;
+  EXPECT_NE(gap.out.find("a.json: trees: trees 3..4 are in no part"), std::string::npos) << gap.out;
+  EXPECT_FALSE(fs::exists(d / "g.json"));
+}
+
+TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
+  const fs::path d = test_dir("usage");
+  const std::string tf = tool("train-forest") + " " + q(d) + " -M 5 -o " + q(d / "f.json") + " ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {tf + "--trees 5:3", "--trees: is 5:3, expected A:B with 0 <= A < B <= 5"},
+      {tf + "--trees 4", "--trees: is \"4\", expected a range of tree indices A:B"},
+      {tf + "--trees 0:9", "--trees: is 0:9"},
+      {tf + "--slurm --tasks 6", "--tasks: is 6, expected 1..5"},
+      {tf + "--slurm --tasks -1", "--tasks: is -1"},
+      {tf + "--tasks 2", "only with --slurm"},
+      {tf + "--slurm --trees 0:2", "--trees: not with --slurm"},
+      {tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d) + " --trees 0:1 -o x.json", "--merge: not with"},
+      {tool("run-experiment") + " " + q(d / "none.json") + " --tasks 2 -o " + q(d / "r"), "only with --slurm"}};
+  for (const auto& [command, expected] : cases) {
+    const auto r = run(command);
+    EXPECT_EQ(r.status, 2) << command << "\n" << r.out;
+    EXPECT_EQ(count_lines(r.out), 1) << command << "\n" << r.out;
+    EXPECT_NE(r.out.find(expected), std::string::npos) << command << "\n" << r.out;
+  }
+  EXPECT_FALSE(fs::exists(d / "f.json"));
+}
+
+TEST(SlurmUsage, SbatchMissingIsOneLine) {
+  const fs::path d = test_dir("no-sbatch");
+  smseg::write_json_atomic(d / "tiny.json", tiny_config());
+  const auto r = run("PATH=/nonexistent " + tool("run-experiment") + " " + q(d / "tiny.json") + " --slurm --tasks 2 -o " +
+                     q(d / "out") + " --cache " + q(kRoot / "cache"));
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(count_lines(r.out), 1) << r.out;
+  EXPECT_NE(r.out.find("sbatch: not found on PATH"), std::string::npos) << r.out;
+}
