@@ -156,6 +156,7 @@ int main(int argc, char** argv) {
       if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), out);
       slurm.dir = slurm_dir.empty() ? fs::path(out) / "slurm" : fs::path(slurm_dir);
       if (gather) return summary(ex.name, experiments::gather_task_records(ex, left, slurm.dir, out), out);
+      slurm.mode.wait = !no_wait;
       slurm.cache = fs::absolute(cache.empty() ? experiments::default_cache(out) : fs::path(cache));
       const auto report = submit_to_slurm(ex, slurm, left, tasks, out, argc, argv, quiet);
       return report ? summary_after_gather(ex, nothing, *report, out, slurm.dir) : 0;  // else: dry run, --no-wait

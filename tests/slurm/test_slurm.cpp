@@ -212,6 +212,9 @@ TEST_F(SlurmCluster, KilledTaskIsRerunAndNoPointIsLostOrRepeated) {
   smseg::slurm::WaitOptions wait;
   wait.poll_seconds = 0.2;
   smseg::slurm::wait_for_job(array, wait);
+  // The gather job can never run now; the waiting tool cancels it, as here, rather than wait for
+  // Slurm's --kill-on-invalid-dep.
+  smseg::slurm::cancel(gather);
   smseg::slurm::wait_for_job(gather, wait);
   EXPECT_FALSE(fs::exists(d / "out/experiment.jsonl"));
   EXPECT_EQ(smseg::test::read_jsonl(d / "out/slurm/tasks/task-0/experiment.jsonl").size(), 2u);
