@@ -9,7 +9,8 @@ SMSEG_PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
-  libceres-dev
+  libceres-dev libgoogle-glog-dev libsuitesparse-dev
+  python3-dev python3-pybind11 python3-pytest python3-sklearn
   slurmctld slurmd slurm-client munge   # the Slurm tests' one-node cluster (tests/slurm)
 )
 

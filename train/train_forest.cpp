@@ -123,7 +123,7 @@ int main(int argc, char** argv) {
   std::string score = "wehenkel-pavella";
   app.add_option("--score", score, "split score: wehenkel-pavella (the thesis) | information-gain")
       ->capture_default_str();
-  app.add_option("--memory-mb", p.memory_mb, "memory for the trees' value matrices; limits concurrent trees")
+  app.add_option("--memory-mb", p.memory_mb, "memory budget of training in MiB: trees are built in batches that fit; refused if one tree does not")
       ->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores); the forest does not depend on it")
       ->capture_default_str();

@@ -6,6 +6,9 @@
 // By default the forest is trained in the benchmark on synthetic frames (libforest's make_synthetic:
 // 6 smooth class-dependent feature fields, as bench_forest uses). To time a real forest and stacks:
 //   SMSEG_BENCH_FOREST=work/forest.json SMSEG_BENCH_WORK=work SMSEG_BENCH_FRAME=110 bench_eval
+// BM_LabelFrameCamVid times a CamVid-size forest (Kt = 20 000, ~2 700 nodes per tree, trained on
+// CamVid val; camvid_setup.hpp) on a 480x360 val frame (issue "real scale": per pixel <= 20 ms,
+// grid B = 20, V = 6 <= 1 ms on 2 cores).
 // Run: bench_eval --benchmark_out=eval.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
@@ -16,6 +19,7 @@
 #include <oneapi/tbb/global_control.h>
 #include <opencv2/core/utility.hpp>
 
+#include "camvid_setup.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/forest/synthetic.hpp"
 #include "smseg/forest/train.hpp"
@@ -83,6 +87,22 @@ const Setup& setup_480() {
   return *s;
 }
 
+// The CamVid-size forest and val frame 50 of its run (camvid_setup.hpp); null when CamVid is absent.
+const Setup* setup_camvid() {
+  static const Setup* s = []() -> const Setup* {
+    if (camvid_bench::unavailable()) return nullptr;
+    auto* x = new Setup;
+    x->forest = camvid_bench::val_forest();
+    x->frame_index = 50;
+    x->stacks = features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false,
+                                      x->forest.features);
+    x->frame = x->stacks->dataset.frames.front();
+    x->source = "CamVid val, forest Kt = 20000";
+    return x;
+  }();
+  return s;
+}
+
 void counters(benchmark::State& state, const Setup& s) {
   double nodes = 0;
   for (const auto& t : s.forest.trees) nodes += static_cast<double>(t.nodes.size());
@@ -93,10 +113,9 @@ void counters(benchmark::State& state, const Setup& s) {
   state.SetLabel(s.source);
 }
 
-// Args: mode (0 per pixel, 1 grid, 2 superpixels), region size (B or SLIC size), V, threads,
-// width (320: the default setup, synthetic 320x240 or the environment's; 480: synthetic 480x360)
-void BM_LabelFrame(benchmark::State& state) {
-  const Setup& s = state.range(4) == 480 ? setup_480() : setup();
+// Args (from state.range(first)): mode (0 per pixel, 1 grid, 2 superpixels), region size (B or SLIC
+// size), V, threads.
+void label_frame_case(benchmark::State& state, const Setup& s) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(3)));
   const forest::Classifier classifier(s.forest);
   eval::EvalOptions opt;
@@ -116,6 +135,12 @@ void BM_LabelFrame(benchmark::State& state) {
   state.counters["superpixels_ms"] = 1000 * regions / n;
   counters(state, s);
 }
+
+// Args: mode, size, V, threads (label_frame_case),
+// width (320: the default setup, synthetic 320x240 or the environment's; 480: synthetic 480x360)
+void BM_LabelFrame(benchmark::State& state) {
+  label_frame_case(state, state.range(4) == 480 ? setup_480() : setup());
+}
 BENCHMARK(BM_LabelFrame)
     ->ArgNames({"mode", "size", "V", "threads", "width"})
     ->Args({0, 0, 0, 1, 320})
@@ -127,6 +152,25 @@ BENCHMARK(BM_LabelFrame)
     ->Args({2, eval::kLargeSuperpixels, 9, 2, 320})
     ->Args({0, 0, 0, 2, 480})
     ->Args({1, 20, 6, 2, 480})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+
+// The CamVid-size forest on a CamVid frame. Args: mode, size, V, threads (label_frame_case).
+void BM_LabelFrameCamVid(benchmark::State& state) {
+  const Setup* s = setup_camvid();
+  if (!s) {
+    static const std::string why = *camvid_bench::unavailable();
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  label_frame_case(state, *s);
+}
+BENCHMARK(BM_LabelFrameCamVid)
+    ->ArgNames({"mode", "size", "V", "threads"})
+    ->Args({0, 0, 0, 2})
+    ->Args({0, 0, 0, 1})
+    ->Args({1, 20, 6, 2})
+    ->Args({1, 20, 6, 1})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -2,6 +2,9 @@
 // classification on synthetic 320x240 frames with 6 features (smooth random fields whose level
 // depends on a room-like label layout), and CamVid-sized 480x360 frames. Targets (issue): train K = 400, M = 7 on 11 frames <= 0.5 s
 // and K = 900 <= 2 s on 2 cores; classify a 320x240 frame with M = 7, K = 400 <= 10 ms.
+// The CamVid cases (camvid_setup.hpp) train a CamVid-size forest on the 101 frames of CamVid val
+// (Ks = 400, Kt = 20 000, M = 7; counters: nodes, the process's peak resident memory so far) and
+// classify a 480x360 val frame with it.
 // Run: bench_forest --benchmark_out=forest.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
@@ -9,13 +12,19 @@
 #include <numeric>
 #include <tuple>
 
+#include <sys/resource.h>
+
 #include <oneapi/tbb/global_control.h>
+
+#include "camvid_setup.hpp"
+#include "smseg/stacks/stack.hpp"
 
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/synthetic.hpp"
 #include "smseg/forest/train.hpp"
 
 using namespace smseg::forest;
+namespace features = smseg::features;
 
 namespace {
 
@@ -78,6 +87,17 @@ void add_forest_counters(benchmark::State& state, const Forest& f) {
   state.counters["max_depth_mean"] = depth / static_cast<double>(f.stats.trees.size());
 }
 
+// Times train_forest(data, p) on `threads` workers; the forest's size as counters.
+void time_training(benchmark::State& state, const Dataset& data, const TrainParams& p, std::int64_t threads) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  Forest f;
+  for (auto _ : state) {
+    f = train_forest(data, p);
+    benchmark::DoNotOptimize(f.trees.data());
+  }
+  add_forest_counters(state, f);
+}
+
 // Args: K, threads, textons, balance(0/1), window mode (0 uniform, 1 thesis)
 void BM_Train(benchmark::State& state) {
   const auto& s = training_frames();
@@ -87,13 +107,7 @@ void BM_Train(benchmark::State& state) {
   p.textons = state.range(2) != 0;
   p.balance = state.range(3) ? Balance::Classes : Balance::None;
   p.windows.mode = state.range(4) ? WindowSampling::Thesis : WindowSampling::Uniform;
-  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(1)));
-  Forest f;
-  for (auto _ : state) {
-    f = train_forest(s.data, p);
-    benchmark::DoNotOptimize(f.trees.data());
-  }
-  add_forest_counters(state, f);
+  time_training(state, s.data, p, state.range(1));
 }
 BENCHMARK(BM_Train)
     ->ArgNames({"K", "threads", "textons", "balance", "windows"})
@@ -195,6 +209,58 @@ void BM_BalanceAccuracy(benchmark::State& state) {
   state.counters["global"] = g / n;
   state.counters["class_average"] = ca / static_cast<double>(C);
 }
+/// Skips the state when CamVid is absent; true when the CamVid cases can run.
+bool camvid_available(benchmark::State& state) {
+  static const std::optional<std::string> why = camvid_bench::unavailable();
+  if (why) state.SkipWithError(why->c_str());
+  return !why;
+}
+
+double peak_rss_mb() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_maxrss) / 1024.0;
+}
+
+// Training a CamVid-size forest on CamVid val (101 frames). Args: threads, memory budget in MB.
+void BM_TrainCamVid(benchmark::State& state) {
+  if (!camvid_available(state)) return;
+  const features::StackSet set = features::open_stacks({camvid_bench::val_work()}, features::FrameRange{}, true, true, {});
+  TrainParams p;
+  p.K = 400;
+  p.Kt = 20000;
+  p.M = 7;
+  p.memory_mb = static_cast<std::size_t>(state.range(1));
+  time_training(state, set.dataset, p, state.range(0));
+  state.counters["process_peak_rss_mb"] = peak_rss_mb();
+}
+BENCHMARK(BM_TrainCamVid)
+    ->ArgNames({"threads", "memory_mb"})
+    ->Args({2, 2048})
+    ->Args({2, 1024})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
+// The CamVid-size forest (camvid_setup.hpp) on val frame 50. Args: threads.
+void BM_ClassifyFrameCamVid(benchmark::State& state) {
+  if (!camvid_available(state)) return;
+  static const Forest f = camvid_bench::val_forest();
+  static const features::StackSet set =
+      features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false, f.features);
+  const Classifier clf(f);
+  const FrameData& frame = set.dataset.frames.front();
+  std::vector<std::uint8_t> labels(static_cast<std::size_t>(frame.width) * frame.height);
+  tbb::global_control threads(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(state.range(0)));
+  for (auto _ : state) {
+    clf.classify_frame(frame, labels);
+    benchmark::DoNotOptimize(labels.data());
+  }
+  state.counters["pixels_per_s"] = benchmark::Counter(static_cast<double>(labels.size()), benchmark::Counter::kIsIterationInvariantRate);
+  add_forest_counters(state, f);
+}
+BENCHMARK(BM_ClassifyFrameCamVid)->ArgNames({"threads"})->Arg(2)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
+
 BENCHMARK(BM_BalanceAccuracy)->ArgNames({"balance"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace

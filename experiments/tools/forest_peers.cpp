@@ -19,8 +19,7 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/cli.hpp"
-#include "smseg/forest/rng.hpp"
-#include "smseg/forest/train.hpp"
+#include "smseg/forest/tabular.hpp"
 #include "smseg/common/io.hpp"
 
 namespace {
@@ -81,34 +80,6 @@ Table read_table(const fs::path& path) {
   }
   if (t.labels.empty()) throw Error(path.string(), "", "no rows");
   return t;
-}
-
-/// Candidate c stands for column c: the tree's nodes then name columns in Node::feature.
-Corpus to_corpus(const Table& t, int num_classes) {
-  Corpus corpus;
-  corpus.num_classes = num_classes;
-  corpus.candidates.resize(t.columns);
-  for (std::size_t c = 0; c < t.columns; ++c) corpus.candidates[c].feature = static_cast<int>(c);
-  corpus.tests.resize(t.rows());
-  for (std::size_t r = 0; r < t.rows(); ++r) corpus.tests[r].label = t.labels[r];
-  corpus.values.resize(t.rows() * t.columns);
-  for (std::size_t r = 0; r < t.rows(); ++r)
-    for (std::size_t c = 0; c < t.columns; ++c) corpus.values[c * t.rows() + r] = t.values[r * t.columns + c];
-  return corpus;
-}
-
-/// Summed normalised leaf distributions of one row; returns the argmax (lowest class on ties).
-int predict(const std::vector<Tree>& trees, const float* row, int num_classes, std::vector<double>& acc) {
-  std::fill(acc.begin(), acc.end(), 0.0);
-  for (const Tree& tree : trees) {
-    const Node* n = &tree.nodes[0];
-    while (!n->is_leaf())
-      n = &tree.nodes[static_cast<std::size_t>(static_cast<double>(row[n->feature]) < n->threshold ? n->left : n->right)];
-    double total = 0.0;
-    for (auto v : n->counts) total += v;
-    for (int k = 0; k < num_classes; ++k) acc[static_cast<std::size_t>(k)] += n->counts[static_cast<std::size_t>(k)] / total;
-  }
-  return static_cast<int>(std::max_element(acc.begin(), acc.end()) - acc.begin());
 }
 
 double median(std::vector<double> v) {
@@ -179,27 +150,25 @@ int main(int argc, char** argv) {
     for (auto l : held.labels) max_label = std::max<int>(max_label, l);
     if (classes == 0) classes = max_label + 1;
     if (classes <= max_label) throw Error("", "--classes", "is " + std::to_string(classes) + " but a label is " + std::to_string(max_label));
-    const Corpus corpus = to_corpus(train, classes);
+    const Corpus corpus = tabular_corpus(train.values, train.columns, train.labels, classes, train_csv);
 
     Json runs = Json::array();
     std::vector<double> accs, secs, cpus;
     std::vector<double> acc(static_cast<std::size_t>(classes));
     for (const std::uint64_t s : seeds) {
       std::vector<Tree> trees;
-      std::vector<std::uint64_t> tree_seeds(static_cast<std::size_t>(M));
-      for (int t = 0; t < M; ++t) tree_seeds[static_cast<std::size_t>(t)] = tree_seed(s, t);
       std::vector<double> times, cpu_times;
       for (int r = 0; r < repeat; ++r) {
         const auto t0 = std::chrono::steady_clock::now();
         const std::clock_t c0 = std::clock();  // process CPU time, all threads
-        trees = grow_trees(corpus, n_min, tree_seeds, score);
+        trees = grow_tabular_forest(corpus, M, n_min, s, score);
         cpu_times.push_back(static_cast<double>(std::clock() - c0) / CLOCKS_PER_SEC);
         times.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
       }
       std::size_t right = 0, nodes = 0;
       std::vector<std::size_t> per_class(static_cast<std::size_t>(classes)), per_class_right(per_class.size());
       for (std::size_t i = 0; i < held.rows(); ++i) {
-        const int k = predict(trees, held.values.data() + i * held.columns, classes, acc);
+        const int k = tabular_posterior(trees, held.values.data() + i * held.columns, classes, acc);
         ++per_class[held.labels[i]];
         if (k == held.labels[i]) {
           ++right;

@@ -92,7 +92,7 @@ int main(int argc, char** argv) {
   app.add_option("--cache", cache, "folder for generated sequences and extracted work folders (default: OUT/../cache)");
   app.add_option("--max-points", opt.max_points, "stop after this many new points (0: all); a rerun continues")
       ->capture_default_str();
-  app.add_option("--memory-mb", opt.memory_mb, "training memory for the trees' value matrices; limits concurrent trees")
+  app.add_option("--memory-mb", opt.memory_mb, "memory budget of each training in MiB: trees are built in batches that fit; refused if one tree does not")
       ->capture_default_str();
   app.add_option("--threads", threads, "worker threads (0: all cores); results do not depend on it")->capture_default_str();
   app.add_flag("--check", check, "validate the config and list its points, run nothing");

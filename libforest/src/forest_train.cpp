@@ -14,6 +14,7 @@
 #include <oneapi/tbb/parallel_pipeline.h>
 #include <oneapi/tbb/parallel_reduce.h>
 
+#include "forest_corpus.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/io.hpp"
@@ -37,176 +38,9 @@ float float_ceil(double t) {
   return f;
 }
 
-// ---------------------------------------------------------------------------------------------
-// Test sampling: per frame the non-void pixels grouped by class (counting sort), shared by trees.
-class TestSampler {
- public:
-  TestSampler(const Dataset& data) : width_(data.width), num_classes_(static_cast<int>(data.classes.size())) {
-    const std::size_t n = static_cast<std::size_t>(data.width) * data.height;
-    const std::size_t C = data.classes.size();
-    frames_.resize(data.frames.size());
-    class_cum_.assign(C, std::vector<std::uint64_t>(data.frames.size(), 0));
-    tbb::parallel_for(std::size_t{0}, data.frames.size(), [&](std::size_t fi) {
-      const std::uint8_t* lab = data.frames[fi].labels;
-      FramePixels& fp = frames_[fi];
-      fp.offsets.assign(C + 1, 0);
-      for (std::size_t p = 0; p < n; ++p)
-        if (lab[p] != kVoidLabel) ++fp.offsets[lab[p] + 1];
-      for (std::size_t c = 0; c < C; ++c) fp.offsets[c + 1] += fp.offsets[c];
-      fp.pixels.resize(fp.offsets[C]);
-      std::vector<std::uint32_t> pos(fp.offsets.begin(), fp.offsets.end() - 1);
-      for (std::size_t p = 0; p < n; ++p)
-        if (lab[p] != kVoidLabel) fp.pixels[pos[lab[p]]++] = static_cast<std::uint32_t>(p);
-    });
-    for (std::size_t fi = 0; fi < frames_.size(); ++fi) {
-      if (!frames_[fi].pixels.empty()) nonempty_.push_back(static_cast<int>(fi));
-      for (std::size_t c = 0; c < C; ++c)
-        class_cum_[c][fi] = (fi ? class_cum_[c][fi - 1] : 0) + (frames_[fi].offsets[c + 1] - frames_[fi].offsets[c]);
-    }
-    for (std::size_t c = 0; c < C; ++c)
-      if (!frames_.empty() && class_cum_[c].back() > 0) present_.push_back(static_cast<int>(c));
-    if (nonempty_.empty())
-      throw Error("training data", "labels", "no labelled (non-void) pixel in any frame");
-  }
-
-  TestPoint draw(Rng& rng, Balance balance) const {
-    int fi = 0;
-    std::uint32_t p = 0;
-    if (balance == Balance::Classes) {
-      const int c = present_[rng.below(present_.size())];
-      const auto& cum = class_cum_[static_cast<std::size_t>(c)];
-      const std::uint64_t r = rng.below(cum.back());
-      fi = static_cast<int>(std::upper_bound(cum.begin(), cum.end(), r) - cum.begin());
-      const std::uint64_t before = fi ? cum[static_cast<std::size_t>(fi) - 1] : 0;
-      const FramePixels& fp = frames_[static_cast<std::size_t>(fi)];
-      p = fp.pixels[fp.offsets[static_cast<std::size_t>(c)] + (r - before)];
-    } else {
-      fi = nonempty_[rng.below(nonempty_.size())];
-      const FramePixels& fp = frames_[static_cast<std::size_t>(fi)];
-      p = fp.pixels[rng.below(fp.pixels.size())];
-    }
-    TestPoint t;
-    t.frame = fi;
-    t.x = static_cast<int>(p % static_cast<std::uint32_t>(width_));
-    t.y = static_cast<int>(p / static_cast<std::uint32_t>(width_));
-    return t;
-  }
-
- private:
-  struct FramePixels {
-    std::vector<std::uint32_t> offsets;  // class c: pixels[offsets[c] .. offsets[c+1])
-    std::vector<std::uint32_t> pixels;   // pixel indices y * width + x
-  };
-  int width_;
-  int num_classes_;
-  std::vector<FramePixels> frames_;
-  std::vector<std::vector<std::uint64_t>> class_cum_;  // [class][frame] cumulative pixel counts
-  std::vector<int> nonempty_, present_;
-};
-
-/// The frames' summed-area tables interleaved per pixel (stack[(y*(W+1)+x)*F + f]): the F reads of
-/// one window corner then share a cache line, which matters because tests are scattered at random
-/// over the frames. Made once per training and shared by the trees.
-struct Stacks {
-  std::vector<std::vector<double>> frames;
-};
-
-Stacks make_stacks(const Dataset& data) {
-  Stacks s;
-  const std::size_t F = data.features.size();
-  const std::size_t cells = static_cast<std::size_t>(data.width + 1) * (data.height + 1);
-  s.frames.resize(data.frames.size());
-  tbb::parallel_for(std::size_t{0}, data.frames.size(), [&](std::size_t fi) {
-    auto& out = s.frames[fi];
-    out.resize(cells * F);
-    for (std::size_t f = 0; f < F; ++f) {
-      const double* sat = data.frames[fi].sats[f];
-      for (std::size_t i = 0; i < cells; ++i) out[i * F + f] = sat[i];
-    }
-  });
-  return s;
-}
-
 void validate_for_training(const Dataset& data, const TrainParams& params) {
   params.validate();
   data.validate(true, params.textons);
-}
-
-Corpus make_corpus(const Dataset& data, const TrainParams& params, const TestSampler& sampler,
-                   const Stacks& stacks, int tree) {
-  Rng rng(tree_seed(params.seed, tree));
-  const WindowBounds bounds = WindowBounds::for_image(data.width, data.height);
-  const WindowSampler windows(params.windows, bounds);
-  const int Ks = params.ks(), Kt = params.kt();
-  const int F = static_cast<int>(data.features.size());
-  Corpus corpus;
-  corpus.num_classes = static_cast<int>(data.classes.size());
-  std::vector<Window> wins(static_cast<std::size_t>(Ks));
-  for (auto& w : wins) w = windows.draw(rng);
-  std::vector<Window> offsets;
-  if (params.textons) {
-    offsets.resize(static_cast<std::size_t>(Ks));
-    for (auto& o : offsets) windows.draw_offset(rng, o.dx, o.dy);
-  }
-  corpus.tests.resize(static_cast<std::size_t>(Kt));
-  for (auto& t : corpus.tests) {
-    t = sampler.draw(rng, params.balance);
-    t.label = data.frames[static_cast<std::size_t>(t.frame)].labels[static_cast<std::size_t>(t.y) * data.width + t.x];
-  }
-  corpus.candidates.reserve(static_cast<std::size_t>(Ks) * (F + (params.textons ? kNumTextonTests : 0)));
-  for (const Window& w : wins)
-    for (int f = 0; f < F; ++f) corpus.candidates.push_back({w, f});
-  for (const Window& o : offsets)
-    for (int k = 0; k < kNumTextonTests; ++k) corpus.candidates.push_back({o, F + k});
-
-  // Sorted by class, then frame and position: the grower keeps each node's tests grouped by class
-  // (stable partitions), and tests that follow each other read nearby table rows.
-  std::sort(corpus.tests.begin(), corpus.tests.end(), [](const TestPoint& a, const TestPoint& b) {
-    if (a.label != b.label) return a.label < b.label;
-    return a.frame != b.frame ? a.frame < b.frame : a.y != b.y ? a.y < b.y : a.x < b.x;
-  });
-  const std::size_t n = corpus.tests.size();
-  corpus.values.resize(corpus.candidates.size() * n);
-  float* values = corpus.values.data();
-  const auto& tests = corpus.tests;
-  const std::size_t num_windows = wins.size(), num_offsets = offsets.size();
-  const std::size_t window_cands = num_windows * static_cast<std::size_t>(F);
-  const int W = data.width, H = data.height;
-  const std::size_t stride = static_cast<std::size_t>(W) + 1;
-  constexpr std::size_t kBlock = 16;  // tests per block: each block writes whole cache lines per column
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (n + kBlock - 1) / kBlock, 2),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t b = r.begin(); b != r.end(); ++b) {
-      const std::size_t t0 = b * kBlock, t1 = std::min(n, t0 + kBlock);
-      for (std::size_t wi = 0; wi < num_windows; ++wi) {
-        const RelRect rect = rel_rect(wins[wi]);
-        float* out = values + wi * F * n;
-        for (std::size_t t = t0; t < t1; ++t) {
-          const TestPoint& tp = tests[t];
-          // The same corners as window_sum(), on the interleaved stack (bit-identical sums).
-          const int xa = std::clamp(tp.x + rect.x0, 0, W), xb = std::clamp(tp.x + rect.x1, 0, W);
-          const int ya = std::clamp(tp.y + rect.y0, 0, H), yb = std::clamp(tp.y + rect.y1, 0, H);
-          const double* s = stacks.frames[static_cast<std::size_t>(tp.frame)].data();
-          const double* tl = s + (static_cast<std::size_t>(ya) * stride + static_cast<std::size_t>(xa)) * F;
-          const double* tr = s + (static_cast<std::size_t>(ya) * stride + static_cast<std::size_t>(xb)) * F;
-          const double* bl = s + (static_cast<std::size_t>(yb) * stride + static_cast<std::size_t>(xa)) * F;
-          const double* br = s + (static_cast<std::size_t>(yb) * stride + static_cast<std::size_t>(xb)) * F;
-          for (int f = 0; f < F; ++f)
-            out[static_cast<std::size_t>(f) * n + t] = static_cast<float>((br[f] - tr[f]) - (bl[f] - tl[f]));
-        }
-      }
-      for (std::size_t oi = 0; oi < num_offsets; ++oi) {
-        const Window& o = offsets[oi];
-        for (int k = 0; k < kNumTextonTests; ++k) {
-          float* out = values + (window_cands + oi * kNumTextonTests + static_cast<std::size_t>(k)) * n;
-          for (std::size_t t = t0; t < t1; ++t)
-            out[t] = texton_value(data.frames[static_cast<std::size_t>(tests[t].frame)].gray, W, H,
-                                  tests[t].x, tests[t].y, o.dx, o.dy, k);
-        }
-      }
-    }
-  });
-  return corpus;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -507,9 +341,17 @@ Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree) {
   validate_for_training(data, params);
   if (tree < 0 || tree >= params.M)
     throw Error("", "tree", "is " + std::to_string(tree) + ", expected 0.." + std::to_string(params.M - 1));
-  const TestSampler sampler(data);
-  const Stacks stacks = make_stacks(data);
-  return make_corpus(data, params, sampler, stacks, tree);
+  const detail::TestSampler sampler(data);
+  Corpus corpus = detail::draw_corpus(data, params, sampler, tree);
+  const std::size_t n = corpus.tests.size(), nc = corpus.candidates.size();
+  std::vector<float> rows(n * nc);
+  const Corpus* corpora[] = {&corpus};
+  float* const outs[] = {rows.data()};
+  detail::fill_rows(data, corpora, outs);
+  corpus.values.resize(n * nc);  // candidate-major, as Corpus says
+  for (std::size_t t = 0; t < n; ++t)
+    for (std::size_t c = 0; c < nc; ++c) corpus.values[c * n + t] = rows[t * nc + c];
+  return corpus;
 }
 
 namespace {
@@ -539,6 +381,22 @@ std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const st
   return trees;
 }
 
+namespace {
+/// Refuses, in one line, a memory budget that cannot hold even one tree.
+detail::MemoryPlan checked_memory_plan(const Dataset& data, const TrainParams& params) {
+  const detail::MemoryPlan plan = detail::plan_memory(data, params);
+  if (plan.trees_at_once == 0) {
+    const auto mb = [](std::size_t bytes) { return std::to_string((bytes + (1u << 20) - 1) >> 20); };
+    throw Error("", "memory_mb",
+                "is " + std::to_string(params.memory_mb) + " MB; this training needs at least " +
+                    mb(plan.fixed_bytes + plan.per_tree_bytes) + " MB (one tree at a time: " +
+                    mb(plan.per_tree_bytes) + " MB for its Kt x candidates values and grower, " +
+                    mb(plan.fixed_bytes) + " MB for the process, test sampler and frames being read)");
+  }
+  return plan;
+}
+}  // namespace
+
 Forest train_forest(const Dataset& data, const TrainParams& params) {
   return train_forest_trees(data, params, TreeRange{0, params.M});
 }
@@ -548,8 +406,8 @@ Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRa
   validate_for_training(data, params);
   range.validate(params.M, "tree range");
   const int count = range.size();
-  const TestSampler sampler(data);
-  const Stacks stacks = make_stacks(data);
+  const detail::MemoryPlan plan = checked_memory_plan(data, params);
+  const detail::TestSampler sampler(data);
   Forest forest;
   forest.width = data.width;
   forest.height = data.height;
@@ -560,38 +418,38 @@ Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRa
   forest.trees.resize(static_cast<std::size_t>(count));
   std::vector<double> tree_seconds(static_cast<std::size_t>(count), 0.0);
 
-  const std::size_t candidates = static_cast<std::size_t>(params.ks()) *
-                                 (data.features.size() + (params.textons ? kNumTextonTests : 0));
-  // The value matrix and its test-major copy (the grower's).
-  const std::size_t per_tree = 2 * candidates * static_cast<std::size_t>(params.kt()) * sizeof(float) +
-                               static_cast<std::size_t>(params.kt()) * 32;
-  const std::size_t budget = params.memory_mb << 20;
-  const std::size_t in_flight = std::clamp<std::size_t>(budget / std::max<std::size_t>(per_tree, 1), 1,
-                                                        static_cast<std::size_t>(count));
+  // Trees in batches of as many as the budget holds: a batch's corpora are filled in one pass over
+  // the frames, then its trees grow in parallel and their value matrices are freed. Tree t is the same
+  // whichever range or batch it is trained in: its draws depend on (seed, t) only.
   Progress progress("train trees", count, params.progress);
-  int next = range.begin;
-  tbb::parallel_pipeline(
-      in_flight,
-      tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
-                                  [&](tbb::flow_control& fc) -> int {
-                                    if (next >= range.end) {
-                                      fc.stop();
-                                      return 0;
-                                    }
-                                    return next++;
-                                  }) &
-          tbb::make_filter<int, void>(tbb::filter_mode::parallel, [&](int t) {
-            const auto tt = Clock::now();
-            Corpus corpus = make_corpus(data, params, sampler, stacks, t);
-            std::unique_ptr<float[]> rows =
-                transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
-            std::vector<float>().swap(corpus.values);
-            // Tree t is the same whichever range it is trained in: its draws depend on (seed, t) only.
-            const auto slot = static_cast<std::size_t>(t - range.begin);
-            forest.trees[slot] = Grower(corpus, rows.get(), params.n_min, tree_seed(params.seed, t), params.score).grow();
-            tree_seconds[slot] = seconds_since(tt);
-            progress.tick();
-          }));
+  const int batch = static_cast<int>(plan.trees_at_once);
+  for (int first = range.begin; first < range.end; first += batch) {
+    const int in_batch = std::min(batch, range.end - first);
+    const auto tb = Clock::now();
+    std::vector<Corpus> corpora(static_cast<std::size_t>(in_batch));
+    tbb::parallel_for(0, in_batch, [&](int i) {
+      corpora[static_cast<std::size_t>(i)] = detail::draw_corpus(data, params, sampler, first + i);
+    });
+    std::vector<std::unique_ptr<float[]>> rows;
+    std::vector<const Corpus*> corpus_ptrs;
+    std::vector<float*> row_ptrs;
+    for (const Corpus& c : corpora) {
+      rows.push_back(std::make_unique_for_overwrite<float[]>(std::max<std::size_t>(1, c.tests.size() * c.candidates.size())));
+      corpus_ptrs.push_back(&c);
+      row_ptrs.push_back(rows.back().get());
+    }
+    detail::fill_rows(data, corpus_ptrs, row_ptrs);
+    const double fill_seconds = seconds_since(tb) / in_batch;
+    tbb::parallel_for(0, in_batch, [&](int i) {
+      const auto tt = Clock::now();
+      const auto slot = static_cast<std::size_t>(first + i - range.begin);
+      forest.trees[slot] = Grower(corpora[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(i)].get(),
+                                  params.n_min, tree_seed(params.seed, first + i), params.score).grow();
+      rows[static_cast<std::size_t>(i)].reset();
+      tree_seconds[slot] = fill_seconds + seconds_since(tt);
+      progress.tick();
+    });
+  }
   progress.finish();
   forest.compute_stats();
   for (std::size_t t = 0; t < tree_seconds.size(); ++t) forest.stats.trees[t].seconds = tree_seconds[t];

@@ -118,6 +118,43 @@ TEST(Train, RandomLabelsGiveChanceAccuracyOnHeldOutFrames) {
   EXPECT_NEAR(acc, 0.5, 0.05) << "held-out accuracy " << acc;
 }
 
+// The smallest --memory-mb that training accepts, read from its refusal of 1 MB: it holds one tree
+// at a time (the refusal names what one tree at a time needs).
+std::size_t one_tree_budget_mb(const Dataset& data, TrainParams p) {
+  p.memory_mb = 1;
+  try {
+    train_forest(data, p);
+  } catch (const smseg::Error& e) {
+    const std::string msg = e.what();
+    const auto at = msg.find("needs at least ");
+    if (at != std::string::npos) return std::stoul(msg.substr(at + 15));
+    ADD_FAILURE() << "unexpected refusal: " << msg;
+    return 0;
+  }
+  ADD_FAILURE() << "a 1 MB budget was accepted";
+  return 0;
+}
+
+TEST(Train, MemoryBudgetTooSmallIsRefusedInOneLine) {
+  const SyntheticData s = make_synthetic(small_room(2));
+  TrainParams p;
+  p.K = 100;
+  p.M = 2;
+  p.memory_mb = 1;
+  try {
+    train_forest(s.data, p);
+    FAIL() << "a 1 MB budget was accepted";
+  } catch (const smseg::Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("memory_mb"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("needs at least"), std::string::npos) << msg;
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  p.memory_mb = one_tree_budget_mb(s.data, p);
+  EXPECT_GT(p.memory_mb, 1u);
+  EXPECT_EQ(train_forest(s.data, p).trees.size(), 2u);  // the budget it asked for is enough
+}
+
 TEST(Train, SameForestWhateverTheThreadCount) {
   const SyntheticData s = make_synthetic(small_room(5));
   for (const bool textons : {false, true}) {
@@ -134,7 +171,7 @@ TEST(Train, SameForestWhateverTheThreadCount) {
     {
       tbb::global_control g(tbb::global_control::max_allowed_parallelism, 2);
       two = model_bytes(train_forest(s.data, p));
-      p.memory_mb = 1;  // one tree at a time
+      p.memory_mb = one_tree_budget_mb(s.data, p);  // one tree at a time
       sequential = model_bytes(train_forest(s.data, p));
     }
     EXPECT_EQ(one, two) << "textons " << textons;

@@ -3,6 +3,7 @@
 
 #include <atomic>
 
+#include <pcl/console/print.h>
 #include <pcl/io/pcd_io.h>
 #include <pcl/io/ply_io.h>
 #include <pcl/point_cloud.h>
@@ -28,8 +29,12 @@ void save_atomic(const fs::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>&
   static std::atomic<unsigned> counter{0};
   fs::path tmp = path;
   tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ext;
+  // PCL warns on stderr about an empty cloud (a front end that kept no point), a valid file for us.
+  const auto pcl_level = pcl::console::getVerbosityLevel();
+  pcl::console::setVerbosityLevel(pcl::console::L_ERROR);
   const int rc =
       ext == ".pcd" ? pcl::io::savePCDFileBinary(tmp.string(), pc) : pcl::io::savePLYFileBinary(tmp.string(), pc);
+  pcl::console::setVerbosityLevel(pcl_level);
   if (rc != 0) {
     fs::remove(tmp, ec);
     throw Error(path.string(), "", "PCL could not write the point cloud");

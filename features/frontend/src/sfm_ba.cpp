@@ -7,12 +7,17 @@
 // inside the incremental reconstruction anyway).
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
+#include <cstdio>
+#include <iostream>
 #include <memory>
 
 #include <Eigen/Geometry>
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <glog/logging.h>
+#include <suitesparse/SuiteSparse_config.h>
 
 #include "smseg/frontend/sfm.hpp"
 
@@ -21,6 +26,28 @@ namespace smseg::features {
 namespace {
 
 constexpr double kMinDepth = 1e-6;
+
+std::atomic<bool> g_solver_verbose{false};
+
+/// Messages of the libraries below Ceres that bypass glog: CHOLMOD prints through SuiteSparse's
+/// printf hook (SuiteSparse 5; version 7 has a setter instead).
+void set_suitesparse_printing(bool on) {
+#if SUITESPARSE_MAIN_VERSION < 7
+  SuiteSparse_config.printf_func = on ? &std::printf : nullptr;
+#else
+  SuiteSparse_config_printf_func_set(on ? &std::printf : nullptr);
+#endif
+}
+
+/// Applies the default (errors only) on first use, so that a program that never calls
+/// set_solver_verbose (a test, a library user) is quiet too.
+void apply_default_solver_log() {
+  static const bool applied = [] {
+    if (!g_solver_verbose.load()) set_solver_verbose(false);
+    return true;
+  }();
+  (void)applied;
+}
 
 /// Residual (2): projection of point X by camera (angle-axis a, translation t) minus the pixel.
 struct Reprojection {
@@ -88,6 +115,17 @@ double rms(const std::vector<BaCamera>& cams, const std::vector<Eigen::Vector3d>
 
 }  // namespace
 
+void set_solver_verbose(bool verbose) {
+  g_solver_verbose = verbose;
+  const int min_level = verbose ? google::GLOG_INFO : google::GLOG_ERROR;
+  FLAGS_minloglevel = min_level;
+  FLAGS_stderrthreshold = min_level;
+  FLAGS_logtostderr = true;  // no log files in /tmp
+  set_suitesparse_printing(verbose);
+}
+
+bool solver_verbose() { return g_solver_verbose; }
+
 void BaOptions::validate() const {
   if (iterations < 0) throw Error("", "ba.iterations", "must be >= 0");
   if (!(huber_px > 0)) throw Error("", "ba.huber_px", "must be positive");
@@ -96,6 +134,7 @@ void BaOptions::validate() const {
 BaSummary bundle_adjust(std::vector<BaCamera>& cams, std::vector<Eigen::Vector3d>& pts,
                         const std::vector<BaObservation>& obs, double f, double cx, double cy, const BaOptions& opt) {
   opt.validate();
+  apply_default_solver_log();
   const int nc = static_cast<int>(cams.size());
   const int np = static_cast<int>(pts.size());
   for (const auto& o : obs)
@@ -145,6 +184,7 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cams, std::vector<Eigen::Vector3d
   so.function_tolerance = 1e-8;
   ceres::Solver::Summary s;
   ceres::Solve(so, &problem, &s);
+  if (g_solver_verbose.load()) std::cerr << "bundle adjustment: " << s.BriefReport() << "\n";
   for (int i = 0; i < nc; ++i)
     if (in_problem[i]) from_block(blocks[i], cams[i]);
   summary.iterations = s.num_successful_steps + s.num_unsuccessful_steps;

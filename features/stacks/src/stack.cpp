@@ -165,6 +165,10 @@ struct FrameStack::Mapping {
   ~Mapping() {
     if (base != MAP_FAILED) ::munmap(base, length);
   }
+  /// Drops the resident pages (a read-only file mapping: they come back from the file on the next read).
+  void drop_pages() const {
+    if (base != MAP_FAILED) ::madvise(base, length, MADV_DONTNEED);
+  }
 };
 
 FrameStack::FrameStack(FrameStack&&) noexcept = default;
@@ -203,6 +207,11 @@ forest::FrameData FrameStack::view() const {
   for (int f = 0; f < features_; ++f) d.sats.push_back(sat(f));
   d.gray = gray();
   d.labels = labels();
+  // The mappings live on the heap, so the pointers survive moves of this FrameStack.
+  d.release = [sat = sat_.get(), gray = gray_.get(), labels = labels_.get()] {
+    for (const Mapping* m : {sat, gray, labels})
+      if (m) m->drop_pages();
+  };
   return d;
 }
 

@@ -34,7 +34,7 @@ int main(int argc, char** argv) {
   int threads = 0;
   double camera_height = 0, focal = 0;
   const SfmOptions sfm_defaults;
-  bool quiet = false;
+  bool quiet = false, verbose = false;
   app.add_option("SEQUENCE", seq_dir, "sequence folder (holding sequence.json)")->required();
   app.add_option("-o,--out", work, "work folder to write")->required();
   app.add_option("--frames", frames, "frames whose stacks are written, A:B half-open (the front end sees all)")
@@ -98,7 +98,9 @@ int main(int argc, char** argv) {
   app.add_flag("--force", opt.force, "rewrite frames already done (and a work folder made with other options)");
   app.add_option("--threads", threads, "worker threads (0: all cores); the output does not depend on it")
       ->capture_default_str();
-  app.add_flag("-q,--quiet", quiet, "no progress on stderr");
+  auto* quiet_flag = app.add_flag("-q,--quiet", quiet, "nothing on stderr but errors (no progress, no solver warnings)");
+  app.add_flag("-v,--verbose", verbose, "also the solver libraries' warnings and one summary per bundle adjustment (SfM)")
+      ->excludes(quiet_flag);
   return run_tool(app, argc, argv, [&] {
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
@@ -125,6 +127,7 @@ int main(int argc, char** argv) {
     for (std::string item; std::getline(ss, item, ',');)
       if (!item.empty()) opt.preview.push_back(FrameRange::parse(item, "--preview").begin);
     opt.progress = !quiet;
+    set_solver_verbose(verbose);
     opt.front_end.validate();
     opt.sfm.validate();
     opt.features.validate();

@@ -6,7 +6,8 @@
 namespace smseg {
 
 Progress::Progress(std::string label, long total, bool enabled)
-    : label_(std::move(label)), total_(total), enabled_(enabled) {
+    // Only on a terminal: in a log or a pipe the redrawn lines are noise that buries the errors.
+    : label_(std::move(label)), total_(total), enabled_(enabled && ::isatty(STDERR_FILENO)) {
   start_ = last_ = std::chrono::steady_clock::now();
 }
 
@@ -31,7 +32,6 @@ void Progress::finish() {
 
 void Progress::print(long done, bool final_line) {
   const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
-  const bool tty = ::isatty(2);
   char buf[256];
   if (final_line) {
     std::snprintf(buf, sizeof buf, "%s  %ld/%ld  done in %.1fs", label_.c_str(), done, total_, secs);
@@ -40,8 +40,8 @@ void Progress::print(long done, bool final_line) {
     std::snprintf(buf, sizeof buf, "%s  %ld/%ld  %3.0f%%  ETA %.0fs", label_.c_str(), done, total_,
                   total_ > 0 ? 100.0 * double(done) / double(total_) : 100.0, eta);
   }
-  // On a terminal the line is redrawn in place; in a log each update is its own line.
-  std::fprintf(stderr, tty ? "\r%s\033[K%s" : "%s%s", buf, (final_line || !tty) ? "\n" : "");
+  // The line is redrawn in place.
+  std::fprintf(stderr, "\r%s\033[K%s", buf, final_line ? "\n" : "");
   std::fflush(stderr);
   printed_ = true;
 }

@@ -3,6 +3,9 @@
 // distributions (normalised class frequencies) are summed and the class of maximum sum is the label
 // (ties: the lowest class index). The classifier flattens the trees into packed POD nodes with
 // float thresholds rounded up to the next float, which decides exactly as float(value) < t.
+// Whole frames and pixel lists take a fast path (forest_tiles.cpp): the trees laid out breadth first
+// in 16-byte nodes, tiles of pixels walked tree by tree with 16 pixels in flight, the same double
+// window sums: bit for bit posterior()'s labels and distributions.
 
 #include <cstdint>
 #include <span>
@@ -52,33 +55,48 @@ class Classifier {
   };
   template <bool kTextons>
   int run(const FrameData& frame, int x, int y, float* acc) const;
-  struct Item {
-    std::int32_t node;
-    std::uint32_t begin, end;
-  };
+  /// Compact breadth-first node of the fast path (16 bytes, four to a cache line): a split's two
+  /// children are adjacent (right = left + 1), so one index leads to both.
+  struct CompactNode {
+    std::int16_t x0, x1, y0, y1;  // as PackedNode
+    float threshold;              // as PackedNode
+    std::uint32_t next;           // bits 0..7: attribute; bit 8: leaf; bits 9..31: left child or leaf row
+  };                              // (a leaf reads attribute 0 over an empty window: harmless, unused)
+  static constexpr std::uint32_t kLeafBit = 1u << 8;
   /// Per-task buffers, reused from one pixel set to the next (no allocation per set).
   struct Scratch {
-    std::vector<std::int32_t> xs, ys;          // the set's pixels
-    std::vector<std::uint64_t> init, keys, tmp;  // routing keys (see classify_set)
-    std::vector<std::int32_t> leaf;            // leaf row per tree and pixel: leaf[t * n + i]
-    std::vector<Item> stack;
+    std::vector<std::int32_t> xs, ys;  // the set's pixels
+    std::vector<std::uint32_t> index;  // after order_inside_first: each pixel's place in the caller's order
+    std::vector<std::int32_t> leaf;    // leaf row per tree and pixel: leaf[t * n + i]
+    std::vector<std::uint8_t> labels;  // the set's labels and distributions, in set order
+    std::vector<float> dists;
   };
-  static constexpr int kBlockRows = 4;    // whole frames: at most this many image rows per set
-  static constexpr int kSetPixels = 1280;  // ... and about this many pixels
-  /// Breadth-wise evaluation of a set of pixels (s.xs, s.ys, n of them): each tree routes the whole
-  /// set node by node as 64-bit keys (table cell, column, index; stable partitions keep the pixels in
-  /// memory order, so table reads stream). Pixels in the columns where every window of the forest
-  /// stays inside the image come first and, when the set's rows keep the node's window inside too,
-  /// read four cells at fixed offsets with no clipping; the others clamp branch-free. Each pixel's
-  /// leaf is recorded per tree; then the leaf distributions are summed tree by tree (the same float
-  /// sums as posterior()) and give the labels. Out: labels[i], dists[i * C + c] (optional).
-  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::uint8_t* labels, float* dists) const;
+  /// Reorders the set's n pixels (stably) so that those whose windows all stay inside the image come
+  /// first; s.index keeps where each came from. Returns how many are inside.
+  std::size_t order_inside_first(Scratch& s, std::size_t n) const;
+  static constexpr int kTileWidth = 64, kTileHeight = 16;  // whole frames: tiles of pixels per task
+  /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
+  /// window of the forest inside the image; see forest_tiles.cpp): each tree routes the set through
+  /// its compact nodes, several pixels interleaved so that their table reads overlap, the inside ones
+  /// without clipping. The leaf distributions are then summed tree by tree (the same float sums as
+  /// posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if with_dists).
+  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside, bool with_dists) const;
+  /// Routes pixels [b, e) of the set through the tree at `root`: leaf[i] for each.
+  template <bool kClamp, bool kTextons>
+  void route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
+                  std::int32_t* leaf) const;
+  /// Whether pixel (x, y) keeps every window of the forest inside the image.
+  bool inside(int x, int y) const { return x >= inner_x0_ && x <= inner_x1_ && y >= inner_y0_ && y <= inner_y1_; }
+  void build_compact(const Forest& forest);
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
   std::vector<std::int32_t> roots_;
-  std::vector<PackedNode> nodes_;
+  std::vector<PackedNode> nodes_;  // the trees as in the file (posterior(): the reference path)
   int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image
+  int inner_y0_ = 0, inner_y1_ = -1;  // rows likewise
+  std::vector<std::uint32_t> compact_roots_;
+  std::vector<CompactNode> compact_;  // the trees breadth first, one after the other
   int padded_classes_ = 0;         // num_classes_ rounded up to a multiple of 4 (zeros after)
   std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * padded_classes_ + c]
 };

@@ -4,6 +4,7 @@
 // libforest never sees OpenCV; a cv::Mat made by cv::integral(..., CV_64F) can be passed as is.
 
 #include <cstdint>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -22,6 +23,10 @@ struct FrameData {
   const std::uint8_t* gray = nullptr;
   /// height x width class ids, kVoidLabel = void (training only); may be null otherwise.
   const std::uint8_t* labels = nullptr;
+  /// Optional: training calls it when it is done with the frame for a while (it reads the frames one
+  /// at a time), so that an owner mapping the tables from files can drop them from memory; the
+  /// pointers must stay valid (reading them again brings the data back).
+  std::function<void()> release;
 };
 
 /// A set of frames with their feature and class names (what training and corpus export read).

@@ -42,9 +42,10 @@ struct TrainParams {
   bool textons = false;              ///< add the four texton tests at Ks random offsets
   /// The split score (default: the thesis's). Forest files without it read as the default.
   Score score = Score::WehenkelPavella;
-  /// Memory for the per-tree value matrices (Kt x candidates floats): trees are trained
-  /// concurrently only as far as this allows (at least one at a time). Does not change the
-  /// forest, so it is not serialised.
+  /// Memory budget of training as a whole, in MiB: trees are built in batches of as many as fit
+  /// next to the fixed part (process, test sampler, frames being read); a budget that cannot hold
+  /// one tree is refused (Error naming memory_mb and what is needed). Frames are read one at a time
+  /// and released (FrameData::release). Does not change the forest, so it is not serialised.
   std::size_t memory_mb = 2048;
   bool progress = false;             ///< progress on stderr (not serialised)
 

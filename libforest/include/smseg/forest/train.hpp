@@ -7,12 +7,15 @@
 //  2. draw Kt tests: a labelled frame uniformly, then a non-void pixel uniformly in it
 //     (Balance::Classes: a class uniformly, then a pixel of that class uniformly over all frames);
 //  3. evaluate every candidate attribute (window x feature, texton offset x test) at every test:
-//     the corpus, a candidate-major float matrix (Kt x candidates x 4 bytes);
+//     the corpus, a float matrix (Kt x candidates x 4 bytes);
 //  4. grow the tree depth first: at each node every non-constant candidate gets one threshold
 //     uniform in (min, max] of its values over the node's tests; the best Wehenkel-Pavella score
 //     2 I(C;S) / (H(C) + H(S)) splits (ties: lowest candidate index); with Score::InformationGain
 //     the best I(C;S) does. A node is a leaf when its tests
 //     share one class, when every candidate is constant over them, or when fewer than n_min remain.
+// Memory (TrainParams::memory_mb): trees are built in batches that fit the budget; a batch's values
+// are filled in one pass over the frames, one frame at a time (released after), straight into the
+// grower's test-major layout (Kt x candidates floats per tree, no second copy).
 // Trees run in parallel (oneTBB), and candidates of big nodes too; thresholds are counter-based
 // draws keyed by (tree seed, node index, candidate), so the forest does not depend on thread count.
 

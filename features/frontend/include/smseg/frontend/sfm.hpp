@@ -205,6 +205,14 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
                         const std::vector<BaObservation>& observations, double focal, double cx, double cy,
                         const BaOptions& options = {});
 
+/// What the solver libraries under the bundle adjustment (Ceres, its glog, SuiteSparse's CHOLMOD) may
+/// print on stderr; process-wide. By default errors only: their warnings ("Linear solver failure",
+/// CHOLMOD's "matrix not positive definite") are steps that Ceres rejects and retries, noise to a user.
+/// Verbose (a tool's -v): glog's warnings and info, CHOLMOD's messages, and one line per adjustment
+/// (Ceres's brief report).
+void set_solver_verbose(bool verbose);
+bool solver_verbose();
+
 struct PlaneFit {
   Eigen::Vector3d normal{0, 1, 0};  ///< unit
   double d = 0;                     ///< plane: normal . x + d = 0

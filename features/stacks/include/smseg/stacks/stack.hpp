@@ -65,7 +65,8 @@ class FrameStack {
   const double* sat(int feature) const;  ///< (H+1) x (W+1) row-major
   const std::uint8_t* gray() const;      ///< H x W
   const std::uint8_t* labels() const;    ///< H x W, or nullptr if not opened with labels
-  /// The forest's view of this frame (borrowed pointers: keep the FrameStack alive).
+  /// The forest's view of this frame (borrowed pointers: keep the FrameStack alive). Its `release`
+  /// drops the frame's mapped pages from memory (they are read from the file again when touched).
   forest::FrameData view() const;
 
  private:

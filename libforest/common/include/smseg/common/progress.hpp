@@ -1,6 +1,7 @@
 #pragma once
-// Progress on stderr for anything longer than a second: "label  37/300  12%  ETA 4s". Thread-safe;
-// silent when disabled, and it prints nothing until a second has passed.
+// Progress on stderr for anything longer than a second: "label  37/300  12%  ETA 4s", redrawn in place.
+// Thread-safe; silent when disabled or when stderr is not a terminal (logs get no progress lines),
+// and it prints nothing until a second has passed.
 
 #include <atomic>
 #include <chrono>

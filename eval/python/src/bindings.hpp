@@ -1,0 +1,44 @@
+#pragma once
+// Shared by the binding sources: what each registers, and numpy arrays over C++ memory without copies.
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+#include <pybind11/numpy.h>
+#include <pybind11/stl.h>
+#include <pybind11/stl/filesystem.h>  // str and os.PathLike arguments as paths
+#include <pybind11/pybind11.h>
+
+namespace smseg::python {
+
+namespace py = pybind11;
+
+void bind_data(py::module_& m);      // data.cpp: stacks, sequences
+void bind_forest(py::module_& m);    // forest.cpp: the window forest and the tabular trainer
+void bind_pipeline(py::module_& m);  // pipeline.cpp: feature extraction, evaluation
+
+/// A read-only numpy array over memory that `owner` keeps alive (a memory map, a model).
+template <class T>
+py::array_t<T> view_array(std::vector<py::ssize_t> shape, const T* data, py::handle owner) {
+  py::array_t<T> a(std::move(shape), data, owner);
+  a.attr("setflags")(py::arg("write") = false);
+  return a;
+}
+
+/// A numpy array that takes the vector's buffer over (no copy).
+template <class T>
+py::array_t<T> array_from_vector(std::vector<T>&& values, std::vector<py::ssize_t> shape) {
+  auto* heap = new std::vector<T>(std::move(values));
+  py::capsule owner(heap, [](void* p) { delete static_cast<std::vector<T>*>(p); });
+  return py::array_t<T>(std::move(shape), heap->data(), owner);
+}
+
+/// Our JSON as Python objects (dicts, lists, numbers; NaN as float('nan')).
+inline py::object to_python(const nlohmann::json& j) {
+  return py::module_::import("json").attr("loads")(j.dump());
+}
+
+}  // namespace smseg::python

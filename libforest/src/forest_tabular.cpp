@@ -1,0 +1,56 @@
+#include "smseg/forest/tabular.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "smseg/common/error.hpp"
+#include "smseg/forest/rng.hpp"
+
+namespace smseg::forest {
+
+Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::span<const std::uint8_t> labels,
+                      int num_classes, const std::string& source) {
+  const std::size_t rows = labels.size();
+  if (rows == 0) throw Error(source, "rows", "no rows");
+  if (columns == 0) throw Error(source, "columns", "no columns");
+  if (values.size() != rows * columns)
+    throw Error(source, "values", std::to_string(values.size()) + " values for " + std::to_string(rows) + " rows of " +
+                                      std::to_string(columns) + " columns");
+  if (num_classes < 1 || num_classes >= kVoidLabel) throw Error(source, "classes", "must be 1..254");
+  Corpus corpus;
+  corpus.num_classes = num_classes;
+  corpus.candidates.resize(columns);
+  for (std::size_t c = 0; c < columns; ++c) corpus.candidates[c].feature = static_cast<int>(c);
+  corpus.tests.resize(rows);
+  for (std::size_t r = 0; r < rows; ++r) {
+    if (labels[r] >= num_classes)
+      throw Error(source, "row " + std::to_string(r), "label " + std::to_string(labels[r]) + " is not below the " +
+                                                          std::to_string(num_classes) + " classes");
+    corpus.tests[r].label = labels[r];
+  }
+  corpus.values.resize(rows * columns);  // candidate-major, the corpus's layout
+  for (std::size_t r = 0; r < rows; ++r)
+    for (std::size_t c = 0; c < columns; ++c) corpus.values[c * rows + r] = values[r * columns + c];
+  return corpus;
+}
+
+std::vector<Tree> grow_tabular_forest(const Corpus& corpus, int trees, int n_min, std::uint64_t seed, Score score) {
+  std::vector<std::uint64_t> seeds(static_cast<std::size_t>(std::max(trees, 0)));
+  for (int t = 0; t < trees; ++t) seeds[static_cast<std::size_t>(t)] = tree_seed(seed, t);
+  return grow_trees(corpus, n_min, seeds, score);
+}
+
+int tabular_posterior(const std::vector<Tree>& trees, const float* row, int num_classes, std::vector<double>& acc) {
+  acc.assign(static_cast<std::size_t>(num_classes), 0.0);
+  for (const Tree& tree : trees) {
+    const Node* n = &tree.nodes[0];
+    while (!n->is_leaf())
+      n = &tree.nodes[static_cast<std::size_t>(static_cast<double>(row[n->feature]) < n->threshold ? n->left : n->right)];
+    double total = 0.0;
+    for (auto v : n->counts) total += v;
+    for (int k = 0; k < num_classes; ++k) acc[static_cast<std::size_t>(k)] += n->counts[static_cast<std::size_t>(k)] / total;
+  }
+  return static_cast<int>(std::max_element(acc.begin(), acc.end()) - acc.begin());
+}
+
+}  // namespace smseg::forest

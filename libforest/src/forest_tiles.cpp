@@ -1,0 +1,167 @@
+// The classifier's fast path (see classify.hpp): compact breadth-first trees, pixel sets routed tree
+// by tree with several pixels in flight. The arithmetic is posterior()'s: the same double window
+// sums in the same order (window_sum), the same float thresholds, the same float sums of the leaf
+// distributions, so the labels and distributions are bit for bit the reference path's.
+#include <algorithm>
+#include <deque>
+
+#include "smseg/common/error.hpp"
+#include "smseg/forest/classify.hpp"
+
+namespace smseg::forest {
+
+namespace {
+constexpr int kMaxClasses = 256;
+constexpr std::uint32_t kMaxCompactIndex = (1u << 23) - 1;  // 23 bits of CompactNode::next
+// Pixels in flight per tree walk: enough independent table reads to hide the cache latency, few
+// enough that the lanes stay in registers and L1.
+constexpr std::size_t kLanes = 16;
+}  // namespace
+
+void Classifier::build_compact(const Forest& forest) {
+  compact_.reserve(nodes_.size());
+  std::size_t base = 0;  // the tree's first index in nodes_
+  for (const Tree& tree : forest.trees) {
+    // Breadth first: a split's children are taken from the queue one after the other, so they get
+    // adjacent places.
+    const auto root = static_cast<std::uint32_t>(compact_.size());
+    compact_roots_.push_back(root);
+    std::deque<std::int32_t> queue{0};
+    compact_.emplace_back();
+    std::uint32_t at = root;
+    while (!queue.empty()) {
+      const std::int32_t i = queue.front();
+      queue.pop_front();
+      const PackedNode& p = nodes_[base + static_cast<std::size_t>(i)];
+      CompactNode c{p.x0, p.x1, p.y0, p.y1, p.threshold, 0};
+      if (p.feature < 0) {
+        c = CompactNode{0, 0, 0, 0, 0.0f, static_cast<std::uint32_t>(p.left) << 9 | kLeafBit};
+      } else {
+        const auto left = static_cast<std::uint32_t>(compact_.size());
+        if (left + 1 > kMaxCompactIndex || p.feature > 255)
+          throw Error("", "trees", "the forest is too large for the classifier (2^23 nodes, 256 attributes)");
+        c.next = left << 9 | static_cast<std::uint32_t>(p.feature);
+        compact_.emplace_back();
+        compact_.emplace_back();
+        queue.push_back(p.left - static_cast<std::int32_t>(base));
+        queue.push_back(p.right - static_cast<std::int32_t>(base));
+      }
+      if (p.feature < 0 && static_cast<std::uint32_t>(p.left) > kMaxCompactIndex)
+        throw Error("", "trees", "the forest has too many leaves for the classifier (2^23)");
+      compact_[at++] = c;
+    }
+    base += tree.nodes.size();
+  }
+}
+
+// Walks pixels [b, e) of the set through one tree, kLanes at a time, each lane taking the next pixel
+// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap. The step
+// has no data-dependent branch (a mispredicted branch would empty the pipeline of the other lanes'
+// reads): every lane reads a window (leaves read an empty one), and selects its next node, pixel and
+// leaf slot. Lanes past the last pixel walk it again and write nowhere that counts.
+// kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
+// and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
+template <bool kClamp, bool kTextons>
+void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
+                            std::int32_t* leaf) const {
+  if (b >= e) return;
+  const CompactNode* nodes = compact_.data();
+  const double* const* sats = frame.sats.data();
+  const std::int32_t W = width_, H = height_, S = width_ + 1;
+  const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
+  const std::int32_t* xs = s.xs.data();
+  const std::int32_t* ys = s.ys.data();
+  std::int32_t sink = 0;  // where lanes past the last pixel write their leaves
+  std::uint32_t node[kLanes];
+  std::size_t pixel[kLanes];
+  std::size_t next = b + kLanes, done = 0;
+  for (std::size_t g = 0; g < kLanes; ++g) {
+    node[g] = root;
+    pixel[g] = b + g;
+  }
+  const std::size_t n = e - b, last = e - 1;
+  while (done < n) {
+    for (std::size_t g = 0; g < kLanes; ++g) {
+      const CompactNode c = nodes[node[g]];
+      const std::uint32_t attr = c.next & 0xffu;
+      const bool is_leaf = (c.next & kLeafBit) != 0;
+      const std::size_t p = pixel[g], q = p < e ? p : last;
+      const std::int32_t x = xs[q], y = ys[q];
+      float v;
+      if (kTextons && attr >= F) {
+        v = texton_value(frame.gray, W, H, x, y, c.x0, c.y0, static_cast<int>(attr - F));
+      } else if (kClamp) {
+        v = static_cast<float>(window_sum(sats[attr], W, H, x, y, RelRect{c.x0, c.x1, c.y0, c.y1}));
+      } else {
+        const double* cell = sats[attr] + (static_cast<std::ptrdiff_t>(y) * S + x);
+        const double* top = cell + static_cast<std::ptrdiff_t>(c.y0) * S;
+        const double* bot = cell + static_cast<std::ptrdiff_t>(c.y1) * S;
+        v = static_cast<float>((bot[c.x1] - top[c.x1]) - (bot[c.x0] - top[c.x0]));
+      }
+      const std::uint32_t child = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
+      const bool counts = is_leaf && p < e;
+      std::int32_t* slot = counts ? leaf + p : &sink;
+      *slot = static_cast<std::int32_t>(c.next >> 9);
+      done += counts ? 1u : 0u;
+      node[g] = is_leaf ? root : child;
+      pixel[g] = is_leaf ? next : p;
+      next += is_leaf ? 1u : 0u;
+    }
+  }
+}
+
+std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
+  s.index.resize(n);
+  std::vector<std::int32_t> xs(n), ys(n);
+  std::size_t in = 0;
+  for (std::size_t i = 0; i < n; ++i) in += inside(s.xs[i], s.ys[i]);
+  for (std::size_t i = 0, a = 0, b = in; i < n; ++i) {
+    const std::size_t to = inside(s.xs[i], s.ys[i]) ? a++ : b++;
+    xs[to] = s.xs[i];
+    ys[to] = s.ys[i];
+    s.index[to] = static_cast<std::uint32_t>(i);
+  }
+  s.xs.swap(xs);
+  s.ys.swap(ys);
+  return in;
+}
+
+void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside,
+                              bool with_dists) const {
+  const std::size_t C = static_cast<std::size_t>(num_classes_), Cp = static_cast<std::size_t>(padded_classes_);
+  const std::size_t M = compact_roots_.size();
+  s.leaf.resize(n * M);
+  s.labels.resize(n);
+  s.dists.resize(with_dists ? n * C : 0);
+  for (std::size_t t = 0; t < M; ++t) {
+    std::int32_t* leaf = s.leaf.data() + t * n;
+    const std::uint32_t root = compact_roots_[t];
+    if (textons_) {
+      route_tree<false, true>(frame, s, 0, inside, root, leaf);
+      route_tree<true, true>(frame, s, inside, n, root, leaf);
+    } else {
+      route_tree<false, false>(frame, s, 0, inside, root, leaf);
+      route_tree<true, false>(frame, s, inside, n, root, leaf);
+    }
+  }
+  std::uint8_t* labels = s.labels.data();
+  float* dists = with_dists ? s.dists.data() : nullptr;
+  // Summed distributions, trees in order (the same float sums as posterior()), then the MAP class.
+  float acc[kMaxClasses + 4];
+  const float* probs = leaf_probs_.data();
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* q0 = probs + static_cast<std::size_t>(s.leaf[i]) * Cp;
+    for (std::size_t c = 0; c < Cp; ++c) acc[c] = q0[c];  // = 0.0f + q0[c]
+    for (std::size_t t = 1; t < M; ++t) {
+      const float* q = probs + static_cast<std::size_t>(s.leaf[t * n + i]) * Cp;
+      for (std::size_t c = 0; c < Cp; ++c) acc[c] += q[c];
+    }
+    std::size_t best = 0;
+    for (std::size_t c = 1; c < C; ++c)
+      if (acc[c] > acc[best]) best = c;
+    labels[i] = static_cast<std::uint8_t>(best);
+    if (dists) std::copy(acc, acc + C, dists + i * C);
+  }
+}
+
+}  // namespace smseg::forest

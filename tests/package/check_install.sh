@@ -1,0 +1,43 @@
+#!/usr/bin/env bash
+# The installed package from a downstream project's side: `cmake --install` into a temporary prefix,
+# then the README's "Use it as a library" C++ example (its CMakeLists.txt and its source, cut out of
+# README.md) is configured with find_package(smseg), built, and run on the small corridor's work folder.
+# Usage: check_install.sh SOURCE_DIR BUILD_DIR WORK_FOLDER
+set -euo pipefail
+src="$1" build="$2" work="$3"
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+cmake --install "$build" --prefix "$tmp/prefix" > "$tmp/install.log"
+for f in lib/cmake/smseg/smsegConfig.cmake lib/cmake/smseg/smsegConfigVersion.cmake bin/train-forest \
+         include/smseg/forest/train.hpp include/smseg/stacks/stack.hpp; do
+  [[ -e "$tmp/prefix/$f" ]] || { echo "not installed: $f"; exit 1; }
+done
+# Only the public headers: nothing of a module's src/ folder.
+if [[ -e "$tmp/prefix/include/smseg/frontend/sfm_matching.hpp" || -e "$tmp/prefix/include/sfm_matching.hpp" ]]; then
+  echo "a private header was installed"; exit 1
+fi
+
+# The README's blocks: the first ```cmake and the first ```cpp block after "## Use it as a library".
+mkdir -p "$tmp/node"
+extract() {  # extract LANGUAGE: the block's lines
+  awk -v lang="$1" '/^## Use it as a library/ {on = 1} on && $0 == "```" lang {inside = 1; next}
+                    inside && /^```/ {exit} inside {print}' "$src/README.md"
+}
+extract cmake > "$tmp/node/CMakeLists.txt"
+extract cpp > "$tmp/node/corridor_node.cpp"
+[[ -s "$tmp/node/CMakeLists.txt" && -s "$tmp/node/corridor_node.cpp" ]] || { echo "README: example blocks not found"; exit 1; }
+
+cmake -S "$tmp/node" -B "$tmp/node/build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$tmp/prefix" > "$tmp/configure.log" \
+  || { cat "$tmp/configure.log"; exit 1; }
+cmake --build "$tmp/node/build" -j2 > "$tmp/build.log" || { cat "$tmp/build.log"; exit 1; }
+out="$("$tmp/node/build/corridor-node" "$work")"
+echo "$out"
+# "7 trees from 6 frames; frame 20: 61.3% of the labelled pixels right" (better than chance: 6 classes)
+[[ "$out" =~ ^7\ trees\ from\ 6\ frames\;\ frame\ 20:\ ([0-9.]+)%\ of\ the\ labelled\ pixels\ right$ ]] \
+  || { echo "unexpected output"; exit 1; }
+awk -v a="${BASH_REMATCH[1]}" 'BEGIN {exit !(a > 30)}' || { echo "accuracy ${BASH_REMATCH[1]}% is not above chance"; exit 1; }
+# A wrong work folder: one line naming it, exit status 1.
+if err="$("$tmp/node/build/corridor-node" "$tmp/missing" 2>&1)"; then echo "a missing work folder was accepted"; exit 1; fi
+[[ "$err" == *"$tmp/missing"* ]] || { echo "the error does not name the folder: $err"; exit 1; }
+echo "install, find_package(smseg), build and run: ok"
