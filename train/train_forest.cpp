@@ -54,13 +54,13 @@ void check_slurm_options(const smseg::forest::SlurmTraining& slurm, const smseg:
   if (!tree_range.empty()) throw UsageError("", "--trees", "not with --slurm (it splits the trees itself, see --tasks)");
   if (!corpus.empty()) throw UsageError("", "--export-corpus", "not with --slurm; export it with a local run");
   if (slurm.tasks != 0) smseg::as_usage([&] { return smseg::forest::split_trees(p.M, slurm.tasks, "--tasks"); });
-  if (!(slurm.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
+  if (!(slurm.mode.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
 }
 
 /// This run's arguments for an array task: the same, without the options the task gets its own way.
 std::vector<std::string> task_args(int argc, char** argv) {
-  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet"},
-                                       {"--tasks", "--slurm-dir", "--sbatch", "--poll", "-o", "--out", "--trees"});
+  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet", "--no-wait", "--slurm-dry-run"},
+                                       {"--tasks", "--slurm-dir", "--slurm-arg", "--poll", "-o", "--out", "--trees"});
 }
 
 }  // namespace
@@ -74,7 +74,8 @@ int main(int argc, char** argv) {
       "feature) pairs, plus the four texton tests at Ks offsets with --textons. Same seed, same forest,\n"
       "whatever the thread count and however the trees are shared out: --trees A:B trains only trees\n"
       "A..B-1 into a forest part, --merge joins parts into the forest, and --slurm does both as a Slurm\n"
-      "job array (one task per range of trees; paths must be on a file system the nodes share).",
+      "job array (one task per range of trees) followed by a gather job that merges the parts into -o;\n"
+      "paths must be on a file system the nodes share. See docs/distributed.md.",
       "train-forest"};
   std::vector<std::string> works;
   std::string frames = "0:", features_opt, windows = "uniform", learned_from, balance = "none", out, corpus;
@@ -86,6 +87,7 @@ int main(int argc, char** argv) {
   forest::SlurmTraining slurm;
   bool on_slurm = false;
   std::string slurm_dir;
+  bool no_wait = false;
   app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
   app.add_option("--train-frames", frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
       ->capture_default_str();
@@ -97,14 +99,18 @@ int main(int argc, char** argv) {
                  "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
   app.add_option("--merge", merge, "join these forest parts (from --trees) into the forest -o; no training")
       ->expected(1, -1);
-  app.add_flag("--slurm", on_slurm, "train as a Slurm job array (sbatch), wait for it, merge the parts into -o");
+  app.add_flag("--slurm", on_slurm,
+               "train as a Slurm job array (sbatch) and a gather job that merges the parts into -o; wait for both");
   app.add_option("--tasks", slurm.tasks, "with --slurm: array tasks, each training a range of trees (1..M; 0: one per tree)")
       ->capture_default_str();
   app.add_option("--slurm-dir", slurm_dir,
                  "with --slurm: job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)");
-  app.add_option("--sbatch", slurm.sbatch_options, "with --slurm: an extra sbatch option, e.g. --sbatch=--partition=short (repeatable)")
+  app.add_option("--slurm-arg", slurm.sbatch_options,
+                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
       ->allow_extra_args(false);
-  app.add_option("--poll", slurm.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
+  app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
+  app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
   app.add_option("--n-min", p.n_min, "nodes with fewer tests become leaves")->capture_default_str();
   app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str();
   app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
@@ -129,8 +135,9 @@ int main(int argc, char** argv) {
   return run_tool(app, argc, argv, [&] {
     if (!merge.empty()) return merge_parts(merge, works, tree_range, on_slurm, out);
     if (works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
-    if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty()))
-      throw UsageError("", "--tasks, --slurm-dir, --sbatch", "only with --slurm");
+    if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty() || no_wait ||
+                      slurm.mode.dry_run))
+      throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
     std::unique_ptr<tbb::global_control> limit;
     if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
     p.windows.mode = forest::window_sampling_from_string(windows, "--windows");
@@ -162,9 +169,12 @@ int main(int argc, char** argv) {
       slurm.args = task_args(argc, argv);
       slurm.params = p;
       slurm.dir = slurm_dir.empty() ? fs::path(out + ".slurm") : fs::path(slurm_dir);
-      slurm.progress = !quiet;
-      return save_and_report(forest::train_forest_slurm(slurm), out,
-                             "of training " + on_frames + ", Slurm job folder " + slurm.dir.string());
+      slurm.out = out;
+      slurm.mode.wait = !no_wait;
+      slurm.mode.progress = !quiet;
+      if (!forest::train_forest_slurm(slurm)) return 0;  // dry run, or the gather job will write -o
+      return report(forest::load_forest(out), "of training " + on_frames + ", Slurm job folder " + slurm.dir.string(),
+                    out);
     }
     if (!corpus.empty()) forest::export_corpus_csv(set.dataset, p, corpus_tree, corpus);
     if (trees) {

@@ -59,6 +59,10 @@ std::vector<std::vector<int>> shard_points(const Experiment& ex, const std::vect
   return shards;
 }
 
+int forests_needed(const Experiment& ex, const std::vector<int>& points) {
+  return static_cast<int>(forest_groups(ex, points).size());
+}
+
 std::string points_to_string(const std::vector<int>& points) {
   std::string s;
   for (int p : points) s += (s.empty() ? "" : ",") + std::to_string(p);
@@ -85,14 +89,42 @@ std::filesystem::path task_results(const std::filesystem::path& dir, int task) {
   return std::filesystem::absolute(dir) / "tasks" / ("task-" + std::to_string(task));
 }
 
-std::vector<int> collect_task_records(const Experiment& ex, const std::vector<int>& left,
-                                      const std::filesystem::path& dir, const std::filesystem::path& out) {
-  std::map<std::string, nlohmann::json> found;  // by canonical point
+namespace {
+
+/// Every record found in the task folders under DIR/tasks, by canonical point.
+std::map<std::string, nlohmann::json> task_records(const std::filesystem::path& dir) {
+  std::map<std::string, nlohmann::json> found;
   const std::filesystem::path tasks = std::filesystem::absolute(dir) / "tasks";
   if (std::filesystem::exists(tasks))
     for (const auto& entry : std::filesystem::directory_iterator(tasks))
       for (auto& rec : eval::read_jsonl(entry.path() / "experiment.jsonl"))
         found.emplace(rec.at("point").dump(), std::move(rec));
+  return found;
+}
+
+RunReport report_of(const Experiment& ex, const std::vector<int>& left, std::chrono::steady_clock::time_point t0) {
+  RunReport report;
+  report.total = static_cast<int>(ex.points.size());
+  report.done_before = report.total - static_cast<int>(left.size());
+  report.run = static_cast<int>(left.size());
+  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return report;
+}
+
+}  // namespace
+
+std::vector<int> missing_task_records(const Experiment& ex, const std::vector<int>& left,
+                                      const std::filesystem::path& dir) {
+  const auto found = task_records(dir);
+  std::vector<int> missing;
+  for (int i : left)
+    if (!found.count(ex.points.at(static_cast<std::size_t>(i)).json.dump())) missing.push_back(i);
+  return missing;
+}
+
+std::vector<int> collect_task_records(const Experiment& ex, const std::vector<int>& left,
+                                      const std::filesystem::path& dir, const std::filesystem::path& out) {
+  const auto found = task_records(dir);
   std::vector<int> missing;
   for (int i : left) {
     const auto it = found.find(ex.points.at(static_cast<std::size_t>(i)).json.dump());
@@ -105,37 +137,47 @@ std::vector<int> collect_task_records(const Experiment& ex, const std::vector<in
   return missing;
 }
 
-RunReport run_experiment_slurm(const Experiment& ex, const SlurmRun& run, const std::vector<std::vector<int>>& shards) {
+RunReport gather_task_records(const Experiment& ex, const std::vector<int>& left, const std::filesystem::path& dir,
+                              const std::filesystem::path& out) {
   const auto t0 = std::chrono::steady_clock::now();
+  // Check first, append after: a gather that cannot finish leaves OUT as it was.
+  const std::vector<int> missing = missing_task_records(ex, left, dir);
+  if (!missing.empty())
+    throw Error(std::filesystem::absolute(dir / "tasks").string(), "--slurm-gather",
+                "points " + points_to_string(missing) + " have no record in any task's folder");
+  collect_task_records(ex, left, dir, out);
+  return report_of(ex, left, t0);
+}
+
+std::optional<RunReport> run_experiment_slurm(const Experiment& ex, const SlurmRun& run, const std::vector<int>& left,
+                                              const std::vector<std::vector<int>>& shards) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (shards.empty() && !run.mode.dry_run) return gather_task_records(ex, left, run.dir, run.out);
   slurm::ArrayJob array;
   array.name = "run-experiment";
   array.dir = run.dir;
   array.sbatch_options = run.sbatch_options;
-  std::vector<int> left;
-  for (std::size_t t = 0; t < shards.size(); ++t) {
+  std::vector<int> todo;
+  const auto command = [&](std::initializer_list<std::string> own) {
     std::vector<std::string> cmd{run.program.string()};
     cmd.insert(cmd.end(), run.args.begin(), run.args.end());
-    cmd.insert(cmd.end(), {"-o", task_results(run.dir, static_cast<int>(t)).string(), "--cache", run.cache.string(),
-                           "--points", points_to_string(shards[t]), "--quiet"});
-    array.commands.push_back(std::move(cmd));
-    left.insert(left.end(), shards[t].begin(), shards[t].end());
+    cmd.insert(cmd.end(), {"--cache", run.cache.string(), "--quiet"});
+    cmd.insert(cmd.end(), own);
+    return cmd;
+  };
+  for (std::size_t t = 0; t < shards.size(); ++t) {
+    array.commands.push_back(
+        command({"-o", task_results(run.dir, static_cast<int>(t)).string(), "--points", points_to_string(shards[t])}));
+    todo.insert(todo.end(), shards[t].begin(), shards[t].end());
   }
-  std::sort(left.begin(), left.end());
-  const std::string job_id = slurm::run_array_job_on_stderr(array, run.poll_seconds, run.progress);
-  const std::vector<int> missing = collect_task_records(ex, left, run.dir, run.out);
-  if (!missing.empty()) {
-    const auto failed = tasks_of(shards, missing);
-    throw Error(run.dir.string(), "--slurm",
-                "Slurm job " + job_id + ": points " + points_to_string(missing) + " have no record: " +
-                    slurm::describe_failures(run.dir, failed, slurm::task_states(job_id)) +
-                    "; the other records are in " + (run.out / "experiment.jsonl").string() + ", rerun for the rest");
-  }
-  RunReport report;
-  report.total = static_cast<int>(ex.points.size());
-  report.done_before = report.total - static_cast<int>(left.size());
-  report.run = static_cast<int>(left.size());
-  report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  return report;
+  const std::string dir = std::filesystem::absolute(run.dir).string();
+  const slurm::GatherJob gather{"run-experiment", run.dir, {},
+                                command({"-o", std::filesystem::absolute(run.out).string(), "--slurm-dir", dir,
+                                         "--slurm-gather"}),
+                                run.sbatch_options};
+  const auto failed = [&] { return tasks_of(shards, missing_task_records(ex, todo, run.dir)); };
+  if (!slurm::run_array_then_gather(array, gather, run.mode, failed)) return std::nullopt;
+  return report_of(ex, left, t0);
 }
 
 }  // namespace smseg::experiments

@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include <opencv2/core/utility.hpp>
 #include <tbb/global_control.h>
@@ -23,8 +24,8 @@ std::string pct(const nlohmann::json& v) {
 
 /// This run's arguments for an array task: the same, without what the task gets its own way.
 std::vector<std::string> task_args(int argc, char** argv) {
-  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet"},
-                                       {"--tasks", "--slurm-dir", "--sbatch", "--poll", "-o", "--out", "--cache",
+  return smseg::slurm::without_options(std::vector<std::string>(argv + 1, argv + argc), {"--slurm", "-q", "--quiet", "--no-wait", "--slurm-dry-run", "--slurm-gather"},
+                                       {"--tasks", "--slurm-dir", "--slurm-arg", "--poll", "-o", "--out", "--cache",
                                         "--points"});
 }
 
@@ -34,6 +35,34 @@ int summary(const std::string& name, const smseg::experiments::RunReport& r, con
                 r.done_before, r.total - r.run - r.done_before, r.seconds);
   std::cout << line << (smseg::fs::path(out) / "experiment.jsonl").string() << "\n";
   return 0;
+}
+
+/// Shards the points that no task has done yet (a rerun submits only those; the task count is
+/// checked against all points left, then capped at what the rest needs) and submits them.
+std::optional<smseg::experiments::RunReport> submit_to_slurm(const smseg::experiments::Experiment& ex, smseg::experiments::SlurmRun& slurm,
+                     const std::vector<int>& left, int tasks, const std::string& out, int argc, char** argv, bool quiet) {
+  using namespace smseg;
+  as_usage([&] { return experiments::shard_points(ex, left, tasks); });
+  const std::vector<int> todo = experiments::missing_task_records(ex, left, slurm.dir);
+  std::vector<std::vector<int>> shards;
+  if (!todo.empty()) shards = experiments::shard_points(ex, todo, std::min(tasks, experiments::forests_needed(ex, todo)));
+  slurm.program = slurm::current_executable();
+  slurm.args = task_args(argc, argv);
+  slurm.out = out;
+  slurm.mode.progress = !quiet;
+  return experiments::run_experiment_slurm(ex, slurm, left, shards);
+}
+
+/// After the gather job: the summary, or Error when it left points without a record in OUT.
+int summary_after_gather(const smseg::experiments::Experiment& ex, const smseg::experiments::RunOptions& nothing,
+                         const smseg::experiments::RunReport& report, const std::string& out,
+                         const smseg::fs::path& dir) {
+  const std::vector<int> left = smseg::experiments::run_experiment(ex, nothing).left;
+  if (!left.empty())
+    throw smseg::Error(out, "--slurm",
+                       "the gather job left points " + smseg::experiments::points_to_string(left) +
+                           " without a record; its log: " + smseg::slurm::gather_log(dir).string());
+  return summary(ex.name, report, out);
 }
 
 }  // namespace
@@ -48,9 +77,9 @@ int main(int argc, char** argv) {
       "Synthetic sequences are generated and feature stacks extracted as the points need them, once,\n"
       "into a cache shared by experiments. A rerun resumes: finished points are skipped, none is lost or\n"
       "repeated. Progress with an ETA on stderr. With --slurm the points run as a Slurm job array\n"
-      "(--tasks tasks; points sharing a forest in the same task) and their records are collected into\n"
-      "OUT/experiment.jsonl in point order, as a local run writes them (timings aside); paths must be on\n"
-      "a file system the nodes share. The config format is in\n"
+      "(--tasks tasks; points sharing a forest in the same task) and a gather job collects their records\n"
+      "into OUT/experiment.jsonl in point order, as a local run writes them (timings aside); paths must\n"
+      "be on a file system the nodes share (docs/distributed.md). The config format is in\n"
       "experiments/include/smseg/experiments/config.hpp and experiments/thesis/README.md.",
       "run-experiment"};
   std::string config, out, cache;
@@ -74,12 +103,19 @@ int main(int argc, char** argv) {
   bool on_slurm = false;
   int tasks = 0;
   std::string slurm_dir;
-  app.add_flag("--slurm", on_slurm, "run the points as a Slurm job array (sbatch), wait, collect their records");
+  app.add_flag("--slurm", on_slurm,
+               "run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both");
   app.add_option("--tasks", tasks, "with --slurm: array tasks (1..the number of forests the points left need)");
   app.add_option("--slurm-dir", slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
-  app.add_option("--sbatch", slurm.sbatch_options, "with --slurm: an extra sbatch option, e.g. --sbatch=--partition=short (repeatable)")
+  app.add_option("--slurm-arg", slurm.sbatch_options,
+                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
       ->allow_extra_args(false);
-  app.add_option("--poll", slurm.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  bool no_wait = false, gather = false;
+  app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes OUT");
+  app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
+  app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  // The gather job's own command: the tasks' records (under --slurm-dir) into OUT. Not for users.
+  app.add_flag("--slurm-gather", gather)->group("");
   return run_tool(app, argc, argv, [&] {
     std::unique_ptr<tbb::global_control> limit;
     if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
@@ -88,12 +124,15 @@ int main(int argc, char** argv) {
       limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
       cv::setNumThreads(threads);
     }
-    if (!on_slurm && (tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty()))
-      throw UsageError("", "--tasks, --slurm-dir, --sbatch", "only with --slurm");
+    if (!on_slurm && (tasks != 0 || (!slurm_dir.empty() && !gather) || !slurm.sbatch_options.empty() || no_wait ||
+                      slurm.mode.dry_run))
+      throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
+    if (gather && (on_slurm || slurm_dir.empty() || out.empty()))
+      throw UsageError("", "--slurm-gather", "needs --slurm-dir and -o, not --slurm");
     if (on_slurm) {
       if (tasks < 1) throw UsageError("", "--tasks", "--slurm needs --tasks N, N >= 1");
       if (!points.empty() || opt.max_points > 0) throw UsageError("", "--points, --max-points", "not with --slurm");
-      if (!(slurm.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
+      if (!(slurm.mode.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
     }
     const experiments::Experiment ex = experiments::load_experiment(config, quick);
     if (check) {
@@ -110,19 +149,17 @@ int main(int argc, char** argv) {
     opt.progress = !quiet;
     if (!points.empty())
       opt.points = as_usage([&] { return experiments::points_from_string(points, static_cast<int>(ex.points.size())); });
-    if (on_slurm) {
+    if (on_slurm || gather) {
       experiments::RunOptions nothing = opt;  // checks the results folder, lists the points left
       nothing.points = std::vector<int>{};
       const std::vector<int> left = experiments::run_experiment(ex, nothing).left;
       if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), out);
-      const auto shards = as_usage([&] { return experiments::shard_points(ex, left, tasks); });
-      slurm.program = slurm::current_executable();
-      slurm.args = task_args(argc, argv);
-      slurm.out = out;
-      slurm.cache = fs::absolute(cache.empty() ? experiments::default_cache(out) : fs::path(cache));
       slurm.dir = slurm_dir.empty() ? fs::path(out) / "slurm" : fs::path(slurm_dir);
-      slurm.progress = !quiet;
-      return summary(ex.name, experiments::run_experiment_slurm(ex, slurm, shards), out);
+      if (gather) return summary(ex.name, experiments::gather_task_records(ex, left, slurm.dir, out), out);
+      slurm.mode.wait = !no_wait;
+      slurm.cache = fs::absolute(cache.empty() ? experiments::default_cache(out) : fs::path(cache));
+      const auto report = submit_to_slurm(ex, slurm, left, tasks, out, argc, argv, quiet);
+      return report ? summary_after_gather(ex, nothing, *report, out, slurm.dir) : 0;  // else: dry run, --no-wait
     }
     const int total = static_cast<int>(ex.points.size());
     if (!quiet)

@@ -38,30 +38,39 @@ std::filesystem::path part_file(const std::filesystem::path& dir, int task) {
   return std::filesystem::absolute(dir) / "parts" / ("part-" + std::to_string(task) + ".json");
 }
 
-Forest train_forest_slurm(const SlurmTraining& job) {
+bool train_forest_slurm(const SlurmTraining& job) {
   const int tasks = job.tasks == 0 ? job.params.M : job.tasks;
   const std::vector<TreeRange> ranges = split_trees(job.params.M, tasks, "--tasks");
   slurm::ArrayJob array;
   array.name = "train-forest";
   array.dir = job.dir;
   array.sbatch_options = job.sbatch_options;
+  std::vector<std::filesystem::path> files;
   for (int t = 0; t < tasks; ++t) {
     array.commands.push_back(task_command(job, t, ranges[static_cast<std::size_t>(t)]));
     if (!have_part(job, t, ranges[static_cast<std::size_t>(t)])) array.tasks.push_back(t);
+    files.push_back(part_file(job.dir, t));
   }
-  std::string job_id;
-  if (!array.tasks.empty()) job_id = slurm::run_array_job_on_stderr(array, job.poll_seconds, job.progress);
-  std::vector<int> missing;
-  for (int t : array.tasks)
-    if (!std::filesystem::exists(part_file(job.dir, t))) missing.push_back(t);
-  if (!missing.empty())
-    throw Error(job.dir.string(), "--slurm",
-                "Slurm job " + job_id + ": " + std::to_string(missing.size()) + " of " + std::to_string(tasks) +
-                    " tasks wrote no part: " + slurm::describe_failures(job.dir, missing, slurm::task_states(job_id)) +
-                    "; rerun to resubmit only those");
-  std::vector<std::filesystem::path> files;
-  for (int t = 0; t < tasks; ++t) files.push_back(part_file(job.dir, t));
-  return merge_forest_parts(files);
+  if (array.tasks.empty() && !job.mode.dry_run) {  // every part is there: merge here
+    save_forest(merge_forest_parts(files), job.out);
+    return true;
+  }
+  slurm::GatherJob gather{"train-forest", job.dir, {}, {job.program.string(), "--merge"}, job.sbatch_options};
+  for (const auto& f : files) gather.command.push_back(f.string());
+  gather.command.insert(gather.command.end(), {"-o", std::filesystem::absolute(job.out).string()});
+  // An older forest at -o must not pass for this one's if the gather job fails.
+  if (!job.mode.dry_run) std::filesystem::remove(job.out);
+  const auto failed = [&] {
+    std::vector<int> missing;
+    for (int t : array.tasks)
+      if (!std::filesystem::exists(part_file(job.dir, t))) missing.push_back(t);
+    return missing;
+  };
+  if (!slurm::run_array_then_gather(array, gather, job.mode, failed)) return false;
+  if (!std::filesystem::exists(job.out))
+    throw Error(job.out.string(), "--slurm",
+                "the gather job wrote no forest; its log: " + slurm::gather_log(job.dir).string());
+  return true;
 }
 
 }  // namespace smseg::forest

@@ -1,11 +1,14 @@
-// train-forest and run-experiment on a one-node Slurm cluster (tests/slurm/local-cluster.sh): the
+// train-forest and run-experiment on a one-node Slurm cluster (experiments/slurm/local-cluster.sh): the
 // merged forest and the collected records are those of a local run for the same seed, timing aside;
 // reruns submit only what is missing; failures name the task, its state and its log; bad usage is
 // one line and exit status 2. The cluster-free tests need no Slurm (usage, --merge, sbatch missing).
 #include <gtest/gtest.h>
 
 #include <cstdlib>
+#include <chrono>
 #include <fstream>
+#include <map>
+#include <thread>
 
 #include "jsonl.hpp"
 #include "run_tool.hpp"
@@ -74,6 +77,20 @@ std::string train_command(const fs::path& work, const std::string& extra, const 
   return tool("train-forest") + " " + q(work) + " --train-frames 0:21 -K 30 -M 5 --seed 3 " + extra + " -o " + q(out);
 }
 
+/// Whether `file` appears within a minute (a gather job's output).
+bool eventually_exists(const fs::path& file) {
+  for (int i = 0; i < 600 && !fs::exists(file); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  return fs::exists(file);
+}
+
+/// The id after `prefix` in a tool's output ("array job 12 (" -> "12").
+std::string job_id_after(const std::string& out, const std::string& prefix) {
+  const auto at = out.find(prefix);
+  if (at == std::string::npos) return "";
+  const auto begin = at + prefix.size();
+  return out.substr(begin, out.find(' ', begin) - begin);
+}
+
 int count_lines(const std::string& s) {
   int n = 0;
   for (char c : s) n += c == '\n';
@@ -85,7 +102,7 @@ class SlurmCluster : public ::testing::Test {
   static std::string unavailable;  // why the cluster is not up; empty when it is
 
   static void SetUpTestSuite() {
-    const auto r = run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "tests/slurm/local-cluster.sh") + " start " + q(kCluster));
+    const auto r = run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "experiments/slurm/local-cluster.sh") + " start " + q(kCluster));
     if (r.status != 0) {
       unavailable = r.out.empty() ? "local-cluster.sh start failed" : r.out;
       return;
@@ -96,7 +113,7 @@ class SlurmCluster : public ::testing::Test {
   // its own, the program stops it here.
   static void TearDownTestSuite() {
     if (!std::getenv("SMSEG_SLURM_KEEP"))
-      run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "tests/slurm/local-cluster.sh") + " stop " + q(kCluster));
+      run("bash " + q(fs::path(SMSEG_SOURCE_DIR) / "experiments/slurm/local-cluster.sh") + " stop " + q(kCluster));
   }
   void SetUp() override {
     if (!unavailable.empty()) GTEST_SKIP() << "Slurm cluster unavailable: " << unavailable;
@@ -113,7 +130,7 @@ TEST_F(SlurmCluster, TrainForestOnSlurmIsTheLocalForestAndResumes) {
   ASSERT_EQ(local.status, 0) << local.out;
   const auto slurm = run(train_command(work, "--slurm --tasks 3 --poll 0.2", d / "slurm.json"));
   ASSERT_EQ(slurm.status, 0) << slurm.out;
-  EXPECT_NE(slurm.out.find("3 array tasks"), std::string::npos) << slurm.out;
+  EXPECT_NE(slurm.out.find("(3 tasks, logs"), std::string::npos) << slurm.out;
   EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
   // Three parts of 2, 2 and 1 trees, each from its own task, each with its log.
   const fs::path job = d / "slurm.json.slurm";
@@ -126,7 +143,16 @@ TEST_F(SlurmCluster, TrainForestOnSlurmIsTheLocalForestAndResumes) {
   fs::remove(d / "slurm.json");
   const auto again = run(train_command(work, "--slurm --tasks 3 --poll 0.2", d / "slurm.json"));
   ASSERT_EQ(again.status, 0) << again.out;
-  EXPECT_NE(again.out.find("1 array tasks"), std::string::npos) << again.out;
+  EXPECT_NE(again.out.find("(1 tasks, logs"), std::string::npos) << again.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
+
+  // --no-wait returns once submitted; the gather job writes the forest.
+  fs::remove_all(job / "parts");
+  fs::remove(d / "slurm.json");
+  const auto no_wait = run(train_command(work, "--slurm --tasks 3 --no-wait", d / "slurm.json"));
+  ASSERT_EQ(no_wait.status, 0) << no_wait.out;
+  EXPECT_NE(no_wait.out.find("and gather job"), std::string::npos) << no_wait.out;
+  EXPECT_TRUE(eventually_exists(d / "slurm.json")) << smseg::read_file(smseg::slurm::gather_log(job));
   EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
 
   // Parts of another training in the job folder are refused, not merged.
@@ -168,6 +194,40 @@ TEST_F(SlurmCluster, RunExperimentOnSlurmWritesTheLocalRecords) {
   EXPECT_NE(absurd.out.find("--tasks: is 3, expected 1..2"), std::string::npos) << absurd.out;
 }
 
+// A sweep submitted held, one of its tasks killed (scancel) before it could run, the rest released:
+// the gather job never runs, OUT has no record yet; submitting again runs only the killed task's
+// points, and OUT ends with every point exactly once, equal to the local run's.
+TEST_F(SlurmCluster, KilledTaskIsRerunAndNoPointIsLostOrRepeated) {
+  const fs::path d = test_dir("killed");
+  smseg::write_json_atomic(d / "tiny.json", tiny_config());
+  const std::string base = tool("run-experiment") + " " + q(d / "tiny.json") + " --cache " + q(kRoot / "cache") +
+                           " --slurm --tasks 2 --poll 0.2 -o " + q(d / "out");
+  const auto held = run(base + " --no-wait --slurm-arg=--hold");
+  ASSERT_EQ(held.status, 0) << held.out;
+  const std::string array = job_id_after(held.out, "array job "), gather = job_id_after(held.out, "gather job ");
+  ASSERT_FALSE(array.empty()) << held.out;
+  ASSERT_FALSE(gather.empty()) << held.out;
+  ASSERT_EQ(run("scancel " + array + "_1").status, 0);
+  ASSERT_EQ(run("scontrol release " + array + "," + gather).status, 0);
+  smseg::slurm::WaitOptions wait;
+  wait.poll_seconds = 0.2;
+  smseg::slurm::wait_for_job(array, wait);
+  // The gather job can never run now; the waiting tool cancels it, as here, rather than wait for
+  // Slurm's --kill-on-invalid-dep.
+  smseg::slurm::cancel(gather);
+  smseg::slurm::wait_for_job(gather, wait);
+  EXPECT_FALSE(fs::exists(d / "out/experiment.jsonl"));
+  EXPECT_EQ(smseg::test::read_jsonl(d / "out/slurm/tasks/task-0/experiment.jsonl").size(), 2u);
+
+  const auto again = run(base);
+  ASSERT_EQ(again.status, 0) << again.out;
+  EXPECT_NE(again.out.find("(1 tasks, logs"), std::string::npos) << again.out;
+  const auto records = smseg::test::read_jsonl(d / "out/experiment.jsonl");
+  std::map<int, int> per_point;
+  for (const auto& r : records) ++per_point[r["index"].get<int>()];
+  EXPECT_EQ(per_point, (std::map<int, int>{{0, 1}, {1, 1}, {2, 1}, {3, 1}}));
+}
+
 TEST_F(SlurmCluster, FailedTasksAreNamedWithTheirStateAndLog) {
   const fs::path d = test_dir("failing");
   smseg::slurm::ArrayJob job;
@@ -191,7 +251,7 @@ TEST_F(SlurmCluster, FailedTasksAreNamedWithTheirStateAndLog) {
 
 TEST_F(SlurmCluster, SbatchRefusingTheJobIsOneLine) {
   const fs::path d = test_dir("refused");
-  const auto r = run(train_command(tiny_work(), "-q --slurm --sbatch=--no-such-option", d / "f.json"));
+  const auto r = run(train_command(tiny_work(), "-q --slurm --slurm-arg=--no-such-option", d / "f.json"));
   EXPECT_EQ(r.status, 1) << r.out;
   EXPECT_EQ(count_lines(r.out), 1) << r.out;
   EXPECT_NE(r.out.find("sbatch: refused the job"), std::string::npos) << r.out;
@@ -236,6 +296,21 @@ TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
     EXPECT_NE(r.out.find(expected), std::string::npos) << command << "\n" << r.out;
   }
   EXPECT_FALSE(fs::exists(d / "f.json"));
+}
+
+TEST(SlurmUsage, DryRunPrintsBothScriptsAndSubmitsNothing) {
+  const fs::path d = test_dir("dry-run");
+  smseg::write_json_atomic(d / "tiny.json", tiny_config());
+  const auto r = run("PATH=/nonexistent " + tool("run-experiment") + " " + q(d / "tiny.json") +
+                     " --slurm --tasks 2 --slurm-dry-run --slurm-arg=--partition=short -o " + q(d / "out") +
+                     " --cache " + q(kRoot / "cache"));
+  ASSERT_EQ(r.status, 0) << r.out;
+  for (const char* expected : {"#SBATCH --array=0-1", "--points' '0,1'", "--points' '2,3'", "#SBATCH --partition=short",
+                               "sbatch --parsable --dependency=afterok:<array job id>", "'--slurm-gather'",
+                               "#SBATCH --kill-on-invalid-dep=yes"})
+    EXPECT_NE(r.out.find(expected), std::string::npos) << expected << "\n" << r.out;
+  EXPECT_FALSE(fs::exists(d / "out/slurm/job.sh"));
+  EXPECT_FALSE(fs::exists(d / "out/slurm/gather.sh"));
 }
 
 TEST(SlurmUsage, SbatchMissingIsOneLine) {

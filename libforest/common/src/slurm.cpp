@@ -135,6 +135,33 @@ std::vector<TaskState> states_from_scontrol(const std::string& job_id) {
   return states;
 }
 
+/// The #SBATCH lines both scripts share: name, log, folder, the user's options (--slurm-arg).
+std::string sbatch_lines(const std::string& name, const fs::path& log, const fs::path& workdir,
+                         const std::vector<std::string>& options) {
+  std::string s = "#SBATCH --job-name=" + name + "\n";
+  s += "#SBATCH --output=" + log.string() + "\n";
+  s += "#SBATCH --chdir=" + fs::absolute(workdir.empty() ? fs::current_path() : workdir).string() + "\n";
+  for (const auto& o : options) {
+    if (o.empty() || o[0] != '-' || o.find_first_of("\n\r") != std::string::npos)
+      throw Error("", "--slurm-arg", "\"" + o + "\" is not one sbatch option (expected e.g. --partition=NAME)");
+    s += "#SBATCH " + o + "\n";
+  }
+  return s;
+}
+
+std::string quoted_command(const std::vector<std::string>& argv) {
+  std::string s;
+  for (const auto& a : argv) s += " " + shell_quote(a);
+  return s;
+}
+
+std::vector<int> array_tasks(const ArrayJob& job) {
+  std::vector<int> tasks = job.tasks;
+  if (tasks.empty())
+    for (int i = 0; i < static_cast<int>(job.commands.size()); ++i) tasks.push_back(i);
+  return tasks;
+}
+
 }  // namespace
 
 void require_command(const std::string& command, const std::string& why) {
@@ -174,30 +201,18 @@ fs::path task_log(const fs::path& dir, int task) {
 
 std::string job_script(const ArrayJob& job) {
   if (job.commands.empty()) throw Error(job.dir.string(), "tasks", "a job array needs at least one task");
-  std::vector<int> tasks = job.tasks;
-  if (tasks.empty())
-    for (int i = 0; i < static_cast<int>(job.commands.size()); ++i) tasks.push_back(i);
+  const std::vector<int> tasks = array_tasks(job);
   for (int t : tasks)
     if (t < 0 || t >= static_cast<int>(job.commands.size()))
       throw Error(job.dir.string(), "tasks", "task " + std::to_string(t) + " has no command");
   const fs::path dir = fs::absolute(job.dir);
-  const fs::path workdir = fs::absolute(job.workdir.empty() ? fs::current_path() : job.workdir);
   std::string s = "#!/bin/bash\n";
   s += "# Written by " + job.name + ": one task per command below; resubmit with: sbatch " + (dir / "job.sh").string() + "\n";
-  s += "#SBATCH --job-name=" + job.name + "\n";
   s += "#SBATCH --array=" + array_spec(tasks) + "\n";
-  s += "#SBATCH --output=" + (dir / "logs" / "task-%a.log").string() + "\n";
-  s += "#SBATCH --chdir=" + workdir.string() + "\n";
-  for (const auto& o : job.sbatch_options) {
-    if (o.empty() || o[0] != '-' || o.find_first_of("\n\r") != std::string::npos)
-      throw Error("", "--sbatch", "\"" + o + "\" is not one sbatch option (expected e.g. --partition=NAME)");
-    s += "#SBATCH " + o + "\n";
-  }
+  s += sbatch_lines(job.name, dir / "logs" / "task-%a.log", job.workdir, job.sbatch_options);
   s += "set -eu\ncase \"$SLURM_ARRAY_TASK_ID\" in\n";
   for (std::size_t t = 0; t < job.commands.size(); ++t) {
-    s += "  " + std::to_string(t) + ") exec";
-    for (const auto& a : job.commands[t]) s += " " + shell_quote(a);
-    s += " ;;\n";
+    s += "  " + std::to_string(t) + ") exec" + quoted_command(job.commands[t]) + " ;;\n";
   }
   s += "  *) echo \"no command for array task $SLURM_ARRAY_TASK_ID\" >&2; exit 2 ;;\nesac\n";
   return s;
@@ -213,9 +228,24 @@ fs::path write_job_script(const ArrayJob& job) {
   return script;
 }
 
-std::string submit(const fs::path& script) {
+std::string gather_script(const GatherJob& job) {
+  const fs::path dir = fs::absolute(job.dir);
+  std::string s = "#!/bin/bash\n";
+  s += "# Written by " + job.name + ": merges what the array tasks wrote, once all have succeeded\n";
+  s += "#SBATCH --kill-on-invalid-dep=yes\n";  // a failed task cancels it instead of leaving it pending
+  s += sbatch_lines(job.name + "-gather", gather_log(dir), job.workdir, job.sbatch_options);
+  s += "set -eu\nexec" + quoted_command(job.command) + "\n";
+  return s;
+}
+
+fs::path gather_log(const fs::path& dir) { return fs::absolute(dir) / "logs" / "gather.log"; }
+
+std::string submit(const fs::path& script, const std::string& after) {
   require_command("sbatch", "submitting to Slurm needs its client commands (Debian package slurm-client)");
-  const auto r = run_command({"sbatch", "--parsable", script.string()});
+  std::vector<std::string> argv{"sbatch", "--parsable"};
+  if (!after.empty()) argv.push_back("--dependency=afterok:" + after);
+  argv.push_back(script.string());
+  const auto r = run_command(argv);
   if (r.status != 0) throw Error(script.string(), "sbatch", "refused the job: " + first_line(trim(r.err + r.out)));
   // --parsable prints "jobid" or "jobid;cluster".
   const std::string id = trim(r.out.substr(0, r.out.find(';')));
@@ -223,6 +253,8 @@ std::string submit(const fs::path& script) {
     throw Error(script.string(), "sbatch", "printed \"" + trim(r.out) + "\", expected a job id");
   return id;
 }
+
+void cancel(const std::string& job_id) { run_command({"scancel", job_id}); }
 
 void wait_for_job(const std::string& job_id, const WaitOptions& options) {
   require_command("squeue", "waiting for a Slurm job needs its client commands (Debian package slurm-client)");
@@ -264,19 +296,67 @@ std::string run_array_job(const ArrayJob& job, const WaitOptions& options,
   return id;
 }
 
-std::string run_array_job_on_stderr(const ArrayJob& job, double poll_seconds, bool progress) {
+namespace {
+
+/// Waiting that tells the user, when `progress`, how many of the job's tasks are not finished.
+WaitOptions told_waiting(const std::string& name, const std::string& what, double poll_seconds, bool progress) {
   WaitOptions wait;
   wait.poll_seconds = poll_seconds;
-  int last = -1;
   if (progress)
-    wait.on_poll = [&](int unfinished) {
-      if (unfinished != last) std::cerr << job.name << ": " << unfinished << " Slurm tasks not finished\n";
+    wait.on_poll = [name, what, last = -1](int unfinished) mutable {
+      if (unfinished != last) std::cerr << name << ": " << unfinished << " " << what << " not finished\n";
       last = unfinished;
     };
-  const auto say = [&](const std::string& s) {
-    if (progress) std::cerr << job.name << ": " << s << "\n";
-  };
-  return run_array_job(job, wait, say);
+  return wait;
+}
+
+void print_dry_run(const ArrayJob& array, const GatherJob& gather) {
+  const fs::path dir = fs::absolute(array.dir), gdir = fs::absolute(gather.dir);
+  std::cout << "# sbatch --parsable " << shell_quote((dir / "job.sh").string()) << "\n"
+            << job_script(array) << "\n# sbatch --parsable --dependency=afterok:<array job id> "
+            << shell_quote((gdir / "gather.sh").string()) << "\n"
+            << gather_script(gather) << "# (dry run: nothing written, nothing submitted)\n";
+}
+
+}  // namespace
+
+bool run_array_then_gather(const ArrayJob& array, const GatherJob& gather, const RunMode& mode,
+                           const std::function<std::vector<int>()>& failed_tasks) {
+  if (mode.dry_run) {
+    print_dry_run(array, gather);
+    return false;
+  }
+  require_command("sbatch", "submitting to Slurm needs its client commands (Debian package slurm-client)");
+  const std::string array_id = submit(write_job_script(array));
+  const fs::path gather_sh = fs::absolute(gather.dir) / "gather.sh";
+  write_file_atomic(gather_sh, gather_script(gather));
+  std::string gather_id;
+  try {
+    gather_id = submit(gather_sh, array_id);
+  } catch (const Error&) {
+    cancel(array_id);  // nothing would merge what it writes
+    throw;
+  }
+  const std::size_t n = array.tasks.empty() ? array.commands.size() : array.tasks.size();
+  const std::string said = "submitted Slurm array job " + array_id + " (" + std::to_string(n) + " tasks, logs " +
+                           task_log(array.dir, 0).parent_path().string() + "/task-<i>.log) and gather job " +
+                           gather_id + " (after them; log " + gather_log(gather.dir).string() + ")";
+  if (!mode.wait) {
+    std::cout << array.name << ": " << said << "\n";
+    return false;
+  }
+  if (mode.progress) std::cerr << array.name << ": " << said << "\n";
+  wait_for_job(array_id, told_waiting(array.name, "array tasks", mode.poll_seconds, mode.progress));
+  const std::vector<int> failed = failed_tasks();
+  if (!failed.empty()) {
+    cancel(gather_id);
+    throw Error(fs::absolute(array.dir).string(), "--slurm",
+                "Slurm job " + array_id + ": " + std::to_string(failed.size()) + " of " + std::to_string(n) +
+                    " tasks did not deliver: " + describe_failures(array.dir, failed, task_states(array_id)) +
+                    "; what did arrive is kept, submit again to rerun only the rest");
+  }
+  wait_for_job(gather_id, told_waiting(array.name, "gather job", mode.poll_seconds, mode.progress));
+  return true;
 }
 
 std::vector<std::string> without_options(const std::vector<std::string>& args, const std::vector<std::string>& flags,

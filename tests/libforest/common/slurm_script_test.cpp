@@ -67,6 +67,22 @@ TEST(Slurm, EachArrayTaskRunsItsOwnCommand) {
   fs::remove_all(dir);
 }
 
+// The gather job runs once, after the array, and is cancelled (not left pending) when a task fails.
+TEST(Slurm, TheGatherScriptRunsItsCommandAfterTheArray) {
+  const fs::path dir = smseg::test::temp_dir("slurm_gather");
+  const slurm::GatherJob job{"test", dir / "job", dir, {"printf", "%s", "it's gathered"}, {"--account=a"}};
+  const std::string text = slurm::gather_script(job);
+  EXPECT_NE(text.find("#SBATCH --job-name=test-gather\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("#SBATCH --kill-on-invalid-dep=yes\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("#SBATCH --account=a\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("#SBATCH --output=" + slurm::gather_log(dir / "job").string() + "\n"), std::string::npos) << text;
+  smseg::write_file_atomic(dir / "gather.sh", text);
+  int status = 0;
+  EXPECT_EQ(shell("bash " + (dir / "gather.sh").string(), status), "it's gathered");
+  EXPECT_EQ(status, 0);
+  fs::remove_all(dir);
+}
+
 TEST(Slurm, BadJobsAreRefusedByName) {
   slurm::ArrayJob job;
   job.name = "test";
@@ -81,14 +97,14 @@ TEST(Slurm, BadJobsAreRefusedByName) {
     slurm::job_script(job);
     ADD_FAILURE() << "an option with a newline was taken";
   } catch (const smseg::Error& e) {
-    EXPECT_EQ(e.field(), "--sbatch");
+    EXPECT_EQ(e.field(), "--slurm-arg");
   }
 }
 
 TEST(Slurm, ToolOptionsComeOutOfTheCommandLine) {
   const std::vector<std::string> args = {"work", "--slurm", "--tasks", "3", "-K", "40", "--poll=0.5",
-                                         "-ofile.json", "--sbatch", "--partition=x", "-q", "--seed", "2"};
-  EXPECT_EQ(slurm::without_options(args, {"--slurm", "-q"}, {"--tasks", "--poll", "-o", "--sbatch"}),
+                                         "-ofile.json", "--slurm-arg", "--partition=x", "-q", "--seed", "2"};
+  EXPECT_EQ(slurm::without_options(args, {"--slurm", "-q"}, {"--tasks", "--poll", "-o", "--slurm-arg"}),
             (std::vector<std::string>{"work", "-K", "40", "--seed", "2"}));
 }
 

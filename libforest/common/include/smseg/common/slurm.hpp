@@ -3,8 +3,9 @@
 // for every task with squeue, and ask Slurm how each task ended (sacct when the cluster keeps
 // accounting, otherwise scontrol, which remembers finished jobs for MinJobAge, 300 s by default).
 //
-// The tool that submits stays in the foreground until the array is done, so a caller sees one
-// command that succeeds or fails as a whole. Each task runs one command (an argv, quoted into the
+// By default the tool that submits stays in the foreground until the array and the gather job that
+// follows it are done, so a caller sees one command that succeeds or fails as a whole; it may also
+// return right after submitting, the gather job then writing the outputs. Each task runs one command (an argv, quoted into the
 // script, no shell expansion of our arguments) in the submitting folder, and writes its log to
 // DIR/logs/task-<i>.log. Paths therefore have to be on a file system the nodes share.
 //
@@ -25,6 +26,26 @@ struct ArrayJob {
   std::vector<std::vector<std::string>> commands;    ///< argv per task
   std::vector<int> tasks;                            ///< the task indices to submit (empty: all)
   std::vector<std::string> sbatch_options;           ///< extra "#SBATCH" options ("--partition=p", "--time=30")
+};
+
+/// The gather job: one command, run once every array task has succeeded (sbatch
+/// --dependency=afterok:<array>, --kill-on-invalid-dep=yes so a failed task cancels it rather than
+/// leaving it pending for ever). It merges what the tasks wrote into the outputs a local run writes,
+/// so the outputs appear even when the submitting tool does not wait (--no-wait).
+struct GatherJob {
+  std::string name;                         ///< sbatch --job-name
+  std::filesystem::path dir;                ///< job folder: gather.sh and logs/gather.log
+  std::filesystem::path workdir;            ///< empty: the current folder
+  std::vector<std::string> command;         ///< argv
+  std::vector<std::string> sbatch_options;  ///< as ArrayJob's (partition, account, ...)
+};
+
+/// How the tool goes through Slurm: print the scripts only, or submit and wait, or submit and return.
+struct RunMode {
+  bool dry_run = false;  ///< --slurm-dry-run: print scripts and sbatch lines, submit nothing
+  bool wait = true;      ///< false: --no-wait
+  double poll_seconds = 2.0;
+  bool progress = true;  ///< submission and waiting on stderr
 };
 
 /// How one array task ended, as Slurm tells it.
@@ -49,8 +70,15 @@ std::string job_script(const ArrayJob& job);
 std::filesystem::path write_job_script(const ArrayJob& job);
 std::filesystem::path task_log(const std::filesystem::path& dir, int task);
 
-/// sbatch --parsable SCRIPT; returns the job id. Error with sbatch's own message when it refuses.
-std::string submit(const std::filesystem::path& script);
+/// The gather job's script: #SBATCH lines, then one exec.
+std::string gather_script(const GatherJob& job);
+std::filesystem::path gather_log(const std::filesystem::path& dir);
+
+/// sbatch --parsable [--dependency=afterok:AFTER] SCRIPT; returns the job id. Error with sbatch's own
+/// message when it refuses.
+std::string submit(const std::filesystem::path& script, const std::string& after = "");
+/// scancel JOB (errors ignored: the job may have ended meanwhile).
+void cancel(const std::string& job_id);
 /// Returns when squeue no longer lists the job (every task finished, failed or was cancelled).
 void wait_for_job(const std::string& job_id, const WaitOptions& options);
 /// How each task ended: sacct, else scontrol; empty when Slurm no longer knows the job.
@@ -61,9 +89,14 @@ std::vector<TaskState> task_states(const std::string& job_id);
 std::string run_array_job(const ArrayJob& job, const WaitOptions& options,
                           const std::function<void(const std::string&)>& says = {});
 
-/// run_array_job telling the user on stderr, when `progress`, what was submitted and how many tasks
-/// are not finished yet (each line starts with job.name, the tool's name).
-std::string run_array_job_on_stderr(const ArrayJob& job, double poll_seconds, bool progress);
+/// The array and its gather job, by `mode`: a dry run prints both scripts and their sbatch lines on
+/// stdout and returns false; otherwise both are submitted, and without `mode.wait` the job ids and
+/// logs are printed and it returns false. Waiting, once the array has ended it asks `failed_tasks`
+/// which tasks did not deliver: if any, the gather job is cancelled and Error names them (state,
+/// exit code, log); else it waits for the gather job and returns true (the caller then checks the
+/// gathered outputs). A caller with no task left to run gathers itself instead of calling this.
+bool run_array_then_gather(const ArrayJob& array, const GatherJob& gather, const RunMode& mode,
+                           const std::function<std::vector<int>()>& failed_tasks);
 
 /// Single quotes for a POSIX shell: the string comes through as one word, unexpanded.
 std::string shell_quote(const std::string& s);

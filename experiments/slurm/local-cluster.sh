@@ -1,20 +1,22 @@
 #!/usr/bin/env bash
-# A one-node Slurm cluster on this machine, all of it in one folder, for the tests and for measuring
-# (no systemd, nothing in /etc): its own munge key and munged socket, slurm.conf, state, logs, and
+# A one-node Slurm cluster on this machine, all of it in one folder, for the tests, for measuring and
+# for trying --slurm before a real cluster (docs/distributed.md; no systemd, nothing in /etc): its own munge key and munged socket, slurm.conf, state, logs, and
 # slurmctld + slurmd running as root on the first free pair of ports from 16817.
 #
-#   bash tests/slurm/local-cluster.sh start DIR   # installs what is missing (root), starts, waits until idle
-#   bash tests/slurm/local-cluster.sh stop DIR    # cancels its jobs, stops its daemons (by their pid files)
-#   export SLURM_CONF=DIR/slurm.conf              # then sbatch, squeue, ... talk to it
+#   bash experiments/slurm/local-cluster.sh start [DIR]  # installs what is missing (root), starts, waits until idle
+#   bash experiments/slurm/local-cluster.sh stop [DIR]   # cancels its jobs, stops its daemons (by their pid files)
+#   export SLURM_CONF=DIR/slurm.conf                     # then sbatch, squeue, ... talk to it
+# DIR defaults to /tmp/smseg-slurm-<uid>.
 #
 # start prints "slurm: unavailable: REASON" and exits 1 when the cluster cannot come up (not root and
 # packages missing, a daemon that dies); what it had started is stopped again.
 set -euo pipefail
 
-usage() { echo "usage: $0 start|stop DIR" >&2; exit 2; }
-(($# == 2)) || usage
+usage() { echo "usage: $0 start|stop [DIR]" >&2; exit 2; }
+(($# == 1 || $# == 2)) || usage
 action=$1
-dir=$(mkdir -p "$2" && cd "$2" && pwd)
+dir_arg=${2:-/tmp/smseg-slurm-$(id -u)}
+dir=$(mkdir -p "$dir_arg" && cd "$dir_arg" && pwd)
 export SLURM_CONF="$dir/slurm.conf"
 packages=(slurmctld slurmd slurm-client munge)
 
