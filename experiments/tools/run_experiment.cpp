@@ -37,12 +37,17 @@ int summary(const std::string& name, const smseg::experiments::RunReport& r, con
   return 0;
 }
 
-/// Shards the points that no task has done yet (a rerun submits only those; the task count is
-/// checked against all points left, then capped at what the rest needs) and submits them.
+/// Shards the points that no task has done yet (a rerun submits only those; the task count is capped
+/// at the number of forests they need) and submits them.
 std::optional<smseg::experiments::RunReport> submit_to_slurm(const smseg::experiments::Experiment& ex, smseg::experiments::SlurmRun& slurm,
                      const std::vector<int>& left, int tasks, const std::string& out, int argc, char** argv, bool quiet) {
   using namespace smseg;
-  as_usage([&] { return experiments::shard_points(ex, left, tasks); });
+  // More tasks than the forests the points need would leave tasks idle: use as many as there are
+  // forests, and say so (a sweep of 2 forests asked for in 3 tasks runs in 2).
+  const int forests = experiments::forests_needed(ex, left);
+  if (tasks > forests && forests > 0 && !quiet)
+    std::cerr << "run-experiment: --tasks " << tasks << ": the " << left.size() << " points left need " << forests
+              << " forests and points sharing a forest run in one task; submitting " << forests << " tasks\n";
   const std::vector<int> todo = experiments::missing_task_records(ex, left, slurm.dir);
   std::vector<std::vector<int>> shards;
   if (!todo.empty()) shards = experiments::shard_points(ex, todo, std::min(tasks, experiments::forests_needed(ex, todo)));
@@ -105,7 +110,7 @@ int main(int argc, char** argv) {
   std::string slurm_dir;
   app.add_flag("--slurm", on_slurm,
                "run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both");
-  app.add_option("--tasks", tasks, "with --slurm: array tasks (1..the number of forests the points left need)");
+  app.add_option("--tasks", tasks, "with --slurm: array tasks (at least 1; more than the forests the points left need are not used)");
   app.add_option("--slurm-dir", slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
   app.add_option("--slurm-arg", slurm.sbatch_options,
                  "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")

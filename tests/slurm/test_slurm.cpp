@@ -170,8 +170,10 @@ TEST_F(SlurmCluster, RunExperimentOnSlurmWritesTheLocalRecords) {
   const std::string base = tool("run-experiment") + " " + q(d / "tiny.json") + " --cache " + q(kRoot / "cache");
   const auto local = run(base + " -q -o " + q(d / "local"));
   ASSERT_EQ(local.status, 0) << local.out;
-  const auto slurm = run(base + " --slurm --tasks 2 --poll 0.2 -o " + q(d / "slurm"));
+  // --tasks 3 for a sweep of two forests: two tasks, said.
+  const auto slurm = run(base + " --slurm --tasks 3 --poll 0.2 -o " + q(d / "slurm"));
   ASSERT_EQ(slurm.status, 0) << slurm.out;
+  EXPECT_NE(slurm.out.find("submitting 2 tasks"), std::string::npos) << slurm.out;
   EXPECT_NE(slurm.out.find("4 points evaluated"), std::string::npos) << slurm.out;
   const auto a = smseg::test::read_jsonl(d / "local/experiment.jsonl");
   const auto b = smseg::test::read_jsonl(d / "slurm/experiment.jsonl");
@@ -188,10 +190,13 @@ TEST_F(SlurmCluster, RunExperimentOnSlurmWritesTheLocalRecords) {
   const auto again = run(base + " --slurm --tasks 2 -o " + q(d / "slurm"));
   EXPECT_EQ(again.status, 0) << again.out;
   EXPECT_NE(again.out.find("0 points evaluated, 4 already done"), std::string::npos) << again.out;
-  // More tasks than forests to train is refused before anything is submitted.
-  const auto absurd = run(base + " --slurm --tasks 3 -o " + q(d / "absurd"));
-  EXPECT_EQ(absurd.status, 2) << absurd.out;
-  EXPECT_NE(absurd.out.find("--tasks: is 3, expected 1..2"), std::string::npos) << absurd.out;
+  // More tasks than forests to train: as many tasks as forests, said (the array of the dry run: 0-1).
+  const auto more = run(base + " --slurm --tasks 3 --slurm-dry-run -o " + q(d / "more"));
+  EXPECT_EQ(more.status, 0) << more.out;
+  EXPECT_NE(more.out.find("need 2 forests"), std::string::npos) << more.out;
+  EXPECT_NE(more.out.find("--array=0-1"), std::string::npos) << more.out;
+  const auto none = run(base + " --slurm --tasks 0 -o " + q(d / "none"));
+  EXPECT_EQ(none.status, 2) << none.out;
 }
 
 // A sweep submitted held, one of its tasks killed (scancel) before it could run, the rest released:
