@@ -103,8 +103,10 @@ def size_breaches(source_root):
     breaches = []
     for folder, dirs, files in os.walk(source_root):
         rel = os.path.relpath(folder, source_root)
-        dirs[:] = [d for d in dirs if not d.startswith(".") and d != "build" and not d.startswith("build-")]
-        if rel == "tests" or rel.startswith("tests" + os.sep):
+        dirs[:] = [d for d in dirs if not d.startswith(".")]
+        # Tests aside, and build trees wherever BUILD_DIR put them (CMake's generated sources are not ours).
+        if rel == "tests" or rel.startswith("tests" + os.sep) or "CMakeCache.txt" in files:
+            dirs[:] = []
             continue
         total = 0
         for f in files:
