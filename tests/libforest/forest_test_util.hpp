@@ -7,24 +7,19 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
-#include <unistd.h>
 #include <vector>
 
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/synthetic.hpp"
 #include "smseg/forest/train.hpp"
+#include "temp_dir.hpp"
 
 namespace forest_test {
 
 using namespace smseg::forest;
 namespace fs = std::filesystem;
 
-inline fs::path temp_dir(const std::string& name) {
-  fs::path d = fs::temp_directory_path() / ("smseg_forest_" + name + "_" + std::to_string(::getpid()));
-  fs::remove_all(d);
-  fs::create_directories(d);
-  return d;
-}
+inline fs::path temp_dir(const std::string& name) { return smseg::test::temp_dir("forest_" + name); }
 
 /// Sum of image over the window rectangle clipped to the image, by brute force.
 inline double brute_window_sum(const std::vector<double>& img, int W, int H, int x, int y, const Window& win) {
