@@ -2,9 +2,11 @@
 # The installed package from a downstream project's side: `cmake --install` into a temporary prefix,
 # then the README's "Use it as a library" C++ example (its CMakeLists.txt and its source, cut out of
 # README.md) is configured with find_package(smseg), built, and run on the small corridor's work folder.
-# Usage: check_install.sh SOURCE_DIR BUILD_DIR WORK_FOLDER
+# Usage: check_install.sh SOURCE_DIR BUILD_DIR WORK_FOLDER [SANITIZERS]
+# SANITIZERS: the build's SMSEG_SANITIZE; its static libraries need the downstream program to link the
+# same sanitizer runtimes.
 set -euo pipefail
-src="$1" build="$2" work="$3"
+src="$1" build="$2" work="$3" sanitize="${4:-}"
 tmp="$(mktemp -d)"
 trap 'rm -rf "$tmp"' EXIT
 
@@ -28,7 +30,10 @@ extract cmake > "$tmp/node/CMakeLists.txt"
 extract cpp > "$tmp/node/corridor_node.cpp"
 [[ -s "$tmp/node/CMakeLists.txt" && -s "$tmp/node/corridor_node.cpp" ]] || { echo "README: example blocks not found"; exit 1; }
 
-cmake -S "$tmp/node" -B "$tmp/node/build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$tmp/prefix" > "$tmp/configure.log" \
+sanitizer_flags=()
+[[ -z "$sanitize" ]] || sanitizer_flags=(-DCMAKE_CXX_FLAGS="-fsanitize=$sanitize" -DCMAKE_EXE_LINKER_FLAGS="-fsanitize=$sanitize")
+cmake -S "$tmp/node" -B "$tmp/node/build" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$tmp/prefix" \
+  "${sanitizer_flags[@]}" > "$tmp/configure.log" \
   || { cat "$tmp/configure.log"; exit 1; }
 cmake --build "$tmp/node/build" -j2 > "$tmp/build.log" || { cat "$tmp/build.log"; exit 1; }
 out="$("$tmp/node/build/corridor-node" "$work")"
