@@ -1,11 +1,11 @@
 // train-forest: extremely randomized trees over sampling windows, trained on feature stacks.
 #include <iostream>
+#include <map>
 #include <optional>
 #include <sstream>
 
-#include <tbb/global_control.h>
-
 #include "smseg/common/cli.hpp"
+#include "smseg/common/option_names.hpp"
 #include "smseg/stacks/stack.hpp"
 #include "smseg/forest/slurm_train.hpp"
 #include "smseg/forest/train.hpp"
@@ -63,6 +63,38 @@ std::vector<std::string> task_args(int argc, char** argv) {
                                        {"--tasks", "--slurm-dir", "--slurm-arg", "--poll", "-o", "--out", "--trees"});
 }
 
+/// Frames without a tracked point teach the trees nothing but the class prior: with none in any
+/// training frame (a camera that does not move, blank frames) the forest would be single leaves, so
+/// training stops; with some, a warning names them.
+void check_points(const smseg::features::StackSet& set, bool quiet) {
+  const auto empty = smseg::features::frames_without_points(set);
+  if (empty.empty()) return;
+  const std::string which = smseg::features::frames_without_points_message(set, empty);
+  if (empty.size() == set.dataset.frames.size())
+    throw smseg::Error("", "", which + ": no training frame holds a tracked point (a camera that does not move? blank "
+                                       "frames?), so there is nothing to learn; no forest written");
+  if (!quiet) std::cerr << "train-forest: warning: " << which << "; they teach the trees only the class prior\n";
+}
+
+/// body(), with the training library's errors about its parameters (fields named as in TrainParams
+/// and the forest file) turned to name the option the user typed.
+const smseg::OptionNames kOptionOf = {{"K", "-K"},         {"Ks", "--Ks"},       {"Kt", "--Kt"},
+                                      {"M", "-M"},         {"n_min", "--n-min"}, {"memory_mb", "--memory-mb"},
+                                      {"score", "--score"}, {"windows", "--windows"}};
+
+template <class Body>
+int naming_options(Body&& body) {
+  try {
+    return body();
+  } catch (const smseg::UsageError&) {
+    throw;
+  } catch (const smseg::Error& e) {
+    const auto it = kOptionOf.find(e.field());
+    if (it == kOptionOf.end()) throw;
+    throw smseg::Error(e.file(), it->second, e.reason());
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -91,10 +123,12 @@ int main(int argc, char** argv) {
   app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
   app.add_option("--train-frames", frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
       ->capture_default_str();
-  app.add_option("-K", p.K, "sets Ks = Kt (thesis 400)")->capture_default_str();
-  app.add_option("--Ks", p.Ks, "sampling windows per tree (default: K)");
-  app.add_option("--Kt", p.Kt, "tests (training pixels) per tree (default: K)");
-  app.add_option("-M", p.M, "number of trees")->capture_default_str();
+  // The ranges are TrainParams::validate's, checked by the parser so that a bad value is bad usage.
+  app.add_option("-K", p.K, "sets Ks = Kt (thesis 400)")->capture_default_str()->check(CLI::Range(1, 100000000));
+  app.add_option("--Ks", p.Ks, "sampling windows per tree, 1..1000000 (default: K)")->check(CLI::Range(1, 1000000));
+  app.add_option("--Kt", p.Kt, "tests (training pixels) per tree, 1..100000000 (default: K)")
+      ->check(CLI::Range(1, 100000000));
+  app.add_option("-M", p.M, "number of trees, 1..100000")->capture_default_str()->check(CLI::Range(1, 100000));
   app.add_option("--trees", tree_range,
                  "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
   app.add_option("--merge", merge, "join these forest parts (from --trees) into the forest -o; no training")
@@ -111,8 +145,9 @@ int main(int argc, char** argv) {
   app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
   app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
   app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
-  app.add_option("--n-min", p.n_min, "nodes with fewer tests become leaves")->capture_default_str();
-  app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str();
+  app.add_option("--n-min", p.n_min, "nodes with fewer tests become leaves")->capture_default_str()->check(CLI::Range(1, 100000000));
+  app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str()
+      ->check(smseg::kDecimalDigits);
   app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
   app.add_flag("--textons", p.textons, "add the texton tests fP, fPs, fPd, fPda on the greyscale image");
   app.add_option("--windows", windows, "window sampling: uniform | thesis-biased | learned (thesis 4.5.3)")
@@ -124,22 +159,20 @@ int main(int argc, char** argv) {
   app.add_option("--score", score, "split score: wehenkel-pavella (the thesis) | information-gain")
       ->capture_default_str();
   app.add_option("--memory-mb", p.memory_mb, "memory budget of training in MiB: trees are built in batches that fit; refused if one tree does not")
+      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
       ->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0: all cores); the forest does not depend on it")
-      ->capture_default_str();
+  add_threads_option(app, threads, "the forest does not depend on it");
   app.add_option("--export-corpus", corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
   app.add_option("--corpus-tree", corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
   app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
 
-  return run_tool(app, argc, argv, [&] {
+  return run_tool(app, argc, argv, threads, [&] { return naming_options([&] {
     if (!merge.empty()) return merge_parts(merge, works, tree_range, on_slurm, out);
     if (works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
     if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty() || no_wait ||
                       slurm.mode.dry_run))
       throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
     p.windows.mode = forest::window_sampling_from_string(windows, "--windows");
     p.balance = forest::balance_from_string(balance, "--balance");
     p.score = forest::score_from_string(score, "--score");
@@ -153,13 +186,16 @@ int main(int argc, char** argv) {
       throw Error("", "--learned-from", "only with --windows learned");
     }
     p.progress = !quiet;
-    p.validate("train-forest");
+    validate_options(kOptionOf, [&] { p.validate(""); });
+    if (!corpus.empty() && (corpus_tree < 0 || corpus_tree >= p.M))
+      throw UsageError("", "--corpus-tree", "is " + std::to_string(corpus_tree) + ", expected 0.." + std::to_string(p.M - 1));
     std::optional<forest::TreeRange> trees;
     if (!tree_range.empty()) trees = as_usage([&] { return forest::TreeRange::parse(tree_range, "--trees", p.M); });
     if (on_slurm) check_slurm_options(slurm, p, tree_range, corpus);
     const auto range = features::FrameRange::parse(frames, "--train-frames");
     const features::StackSet set = features::open_stacks(
         std::vector<fs::path>(works.begin(), works.end()), range, true, true, split_list(features_opt));
+    check_points(set, quiet);
     if (!quiet)
       std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, "
                 << set.dataset.features.size() << " features, K=" << p.K << " M=" << p.M << "\n";
@@ -183,5 +219,5 @@ int main(int argc, char** argv) {
       return report(part, "trees " + trees->to_string() + " of " + std::to_string(p.M) + " " + on_frames, out);
     }
     return save_and_report(forest::train_forest(set.dataset, p), out, on_frames);
-  });
+  }); });
 }

@@ -6,7 +6,6 @@
 #include <iostream>
 
 #include <opencv2/core/utility.hpp>
-#include <tbb/global_control.h>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/eval/evaluate.hpp"
@@ -89,18 +88,14 @@ int main(int argc, char** argv) {
   app.add_option("--connectivity", opt.smooth.connectivity, "graph-cut grid: 4 or 8 neighbours")->capture_default_str();
   app.add_option("--smooth-cycles", opt.smooth.cycles, "at most this many alpha-expansion cycles")
       ->capture_default_str();
-  app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str()
+      ->check(smseg::kDecimalDigits);
+  add_threads_option(app, threads, "the results do not depend on it");
   app.add_flag("--no-pictures", no_pictures, "write results.json only");
   app.add_flag("-q,--quiet", quiet, "no progress and no table on stderr/stdout, just the summary line");
   app.add_option("-o,--out", out, "output folder")->required();
-  return run_tool(app, argc, argv, [&] {
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
-    if (threads > 0) {
-      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
-      cv::setNumThreads(threads);  // SLIC runs on OpenCV's own thread pool
-    }
+  return run_tool(app, argc, argv, threads, [&] {
+    if (threads > 0) cv::setNumThreads(threads);  // SLIC runs on OpenCV's own thread pool
     opt.frames = features::FrameRange::parse(frames, "--test-frames");
     opt.progress = !quiet;
     if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
@@ -109,7 +104,7 @@ int main(int argc, char** argv) {
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
     if (!no_pictures && specs.empty()) opt.pictures = fs::path(out) / "frames";
-    opt.validate();
+    as_usage([&] { opt.validate(); });
     const forest::Forest f = forest::load_forest(forest_file);
     if (opt.trees > static_cast<int>(f.trees.size()))
       throw Error(forest_file, "--trees", std::to_string(opt.trees) + " trees asked, the forest has " +
@@ -140,6 +135,8 @@ int main(int argc, char** argv) {
     }
 
     const eval::EvalResult r = eval::evaluate(f, work_paths, opt);
+    if (!r.frames_without_points.empty() && !quiet)
+      std::cerr << "eval-forest: warning: " << r.frames_without_points << "; they are labelled from the class prior alone\n";
     write_json_atomic(fs::path(out) / "results.json", r.to_json(f, opt, works));
     std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
                        pct(r.confusion.global_accuracy()) + ", class-average accuracy " +

@@ -15,7 +15,6 @@
 #include <sstream>
 #include <string_view>
 
-#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/cli.hpp"
@@ -120,26 +119,23 @@ int main(int argc, char** argv) {
   app.add_option("HELDOUT", heldout_csv, "held-out corpus CSV with the same header")->required();
   app.add_option("-M,--trees", M, "trees")->capture_default_str();
   app.add_option("--n-min", n_min, "nodes with fewer rows become leaves")->capture_default_str();
-  app.add_option("--seed", seed, "forest seed (tree t gets tree_seed(seed, t))")->capture_default_str();
+  app.add_option("--seed", seed, "forest seed (tree t gets tree_seed(seed, t))")->capture_default_str()
+      ->check(smseg::kDecimalDigits);
   app.add_option("--seeds", seeds_opt, "comma-separated forest seeds, one run each (overrides --seed)");
   app.add_option("--repeat", repeat, "timed fits per seed; the median is reported")->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0: all cores); trees are grown in parallel")
-      ->capture_default_str();
+  add_threads_option(app, threads, "trees are grown in parallel");
   app.add_option("--classes", classes, "number of classes (0: 1 + the largest label in either CSV)")
       ->capture_default_str();
   app.add_option("--score", score_opt, "split score: wehenkel-pavella (the thesis) | information-gain")
       ->capture_default_str();
   app.add_option("-o,--out", out, "result JSON file (default: none)");
 
-  return run_tool(app, argc, argv, [&] {
+  return run_tool(app, argc, argv, threads, [&] {
     if (M < 1) throw Error("", "-M", "must be at least 1");
     if (n_min < 1) throw Error("", "--n-min", "must be at least 1");
     if (repeat < 1) throw Error("", "--repeat", "must be at least 1");
-    if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or more");
     const Score score = score_from_string(score_opt, "--score");
     const std::vector<std::uint64_t> seeds = seeds_opt.empty() ? std::vector<std::uint64_t>{seed} : parse_seeds(seeds_opt);
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
 
     const Table train = read_table(train_csv);
     const Table held = read_table(heldout_csv);

@@ -6,7 +6,6 @@
 #include <optional>
 
 #include <opencv2/core/utility.hpp>
-#include <tbb/global_control.h>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/experiments/runner.hpp"
@@ -96,10 +95,12 @@ int main(int argc, char** argv) {
   app.add_flag("--quick", quick, "run the config's quick form (its \"quick\" merge patch: a coarse grid on small data)");
   app.add_option("--cache", cache, "folder for generated sequences and extracted work folders (default: OUT/../cache)");
   app.add_option("--max-points", opt.max_points, "stop after this many new points (0: all); a rerun continues")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   app.add_option("--memory-mb", opt.memory_mb, "memory budget of each training in MiB: trees are built in batches that fit; refused if one tree does not")
+      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
       ->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0: all cores); results do not depend on it")->capture_default_str();
+  add_threads_option(app, threads, "results do not depend on it");
   app.add_flag("--check", check, "validate the config and list its points, run nothing");
   app.add_flag("-q,--quiet", quiet, "no progress on stderr, no line per point");
   std::string points;
@@ -121,14 +122,8 @@ int main(int argc, char** argv) {
   app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
   // The gather job's own command: the tasks' records (under --slurm-dir) into OUT. Not for users.
   app.add_flag("--slurm-gather", gather)->group("");
-  return run_tool(app, argc, argv, [&] {
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
-    if (opt.max_points < 0) throw Error("", "--max-points", "must be 0 (all) or a number of points");
-    if (threads > 0) {
-      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
-      cv::setNumThreads(threads);
-    }
+  return run_tool(app, argc, argv, threads, [&] {
+    if (threads > 0) cv::setNumThreads(threads);
     if (!on_slurm && (tasks != 0 || (!slurm_dir.empty() && !gather) || !slurm.sbatch_options.empty() || no_wait ||
                       slurm.mode.dry_run))
       throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");

@@ -78,7 +78,7 @@ void TrainParams::validate(const std::string& source) const {
   if (kt() > 100000000) bad("Kt", "must be <= 100000000");
   if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
-  if (memory_mb < 1) bad("memory_mb", "must be >= 1");
+  if (memory_mb < 1 || memory_mb > (std::size_t{1} << 30)) bad("memory_mb", "must be 1 .. 2^30 MiB (1 PiB)");
   if (score != Score::WehenkelPavella && score != Score::InformationGain)
     bad("score", "is not wehenkel-pavella or information-gain");
   try {

@@ -4,7 +4,6 @@
 #include <iostream>
 #include <memory>
 
-#include <tbb/global_control.h>
 
 #include "smseg/common/cli.hpp"
 #include "segment_cloud/runs.hpp"
@@ -108,10 +107,12 @@ int main(int argc, char** argv) {
   app.add_option("--truth-object", truth_object,
                  "centroid-mincut: the ground-truth label of the object, for F1 (when the cloud has labels)")
       ->capture_default_str();
-  app.add_option("--make-tabletop", make_tabletop, "write a synthetic tabletop cloud of this many points instead");
+  app.add_option("--make-tabletop", make_tabletop, "write a synthetic tabletop cloud of this many points (1..10000000) instead")
+      ->check(CLI::Range(1, 10000000));
   app.add_option("--objects", tab.objects, "--make-tabletop: objects on the table (1..8)")->capture_default_str();
-  app.add_option("--seed", tab.seed, "seed of --make-tabletop and of grabcut-sfm's random draws")->capture_default_str();
-  app.add_option("--threads", threads, "worker threads (0: all cores)")->capture_default_str();
+  app.add_option("--seed", tab.seed, "seed of --make-tabletop and of grabcut-sfm's random draws")->capture_default_str()
+      ->check(smseg::kDecimalDigits);
+  add_threads_option(app, threads);
   GrabCutSfmCli gc;
   app.add_option("--sequence", sal.sequence,
                  "grabcut-sfm and mrf saliency seeds: the sequence (folder or sequence.json)");
@@ -172,11 +173,7 @@ int main(int argc, char** argv) {
   app.add_option("--nearest", gc.nearest,
                  "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001) or its points' median "
                  "distance (median) or median depth along the optical axis (depth)")->capture_default_str();
-  return run_tool(app, argc, argv, [&] {
-    if (threads < 0) throw Error("", "--threads", "must be 0 (all cores) or a number of threads");
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads > 0)
-      limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  return run_tool(app, argc, argv, threads, [&] {
     if (make_tabletop > 0) {
       tab.points = make_tabletop;
       const features::ColouredCloud c = features::make_tabletop_cloud(tab);

@@ -4,10 +4,10 @@
 #include <iostream>
 #include <sstream>
 
-#include <tbb/global_control.h>
 
 #include "smseg/cloud/cloud_io.hpp"
 #include "smseg/common/cli.hpp"
+#include "smseg/common/option_names.hpp"
 #include "smseg/stacks/extract.hpp"
 
 int main(int argc, char** argv) {
@@ -90,20 +90,18 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--ba-window", opt.sfm.ba_window, "sfm: key frames in the local bundle adjustment")
       ->capture_default_str();
-  app.add_option("--seed", opt.sfm.seed, "sfm: RANSAC seed")->capture_default_str();
+  app.add_option("--seed", opt.sfm.seed, "sfm: RANSAC seed")->capture_default_str()
+      ->check(smseg::kDecimalDigits);
   app.add_flag("--causal", opt.features.causal, "fC from the camera path up to the current frame only (on-line use)");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");
   app.add_flag("--force", opt.force, "rewrite frames already done (and a work folder made with other options)");
-  app.add_option("--threads", threads, "worker threads (0: all cores); the output does not depend on it")
-      ->capture_default_str();
+  add_threads_option(app, threads, "the output does not depend on it");
   auto* quiet_flag = app.add_flag("-q,--quiet", quiet, "nothing on stderr but errors (no progress, no solver warnings)");
   app.add_flag("-v,--verbose", verbose, "also the solver libraries' warnings and one summary per bundle adjustment (SfM)")
       ->excludes(quiet_flag);
-  return run_tool(app, argc, argv, [&] {
-    std::unique_ptr<tbb::global_control> limit;
-    if (threads > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, threads);
+  return run_tool(app, argc, argv, threads, [&] {
     opt.front_end.stereo.method = parse_stereo_method(stereo, "--stereo");
     opt.front_end.tracking.detector = parse_keypoint_method(detector, "--keypoints");
     opt.motion = parse_motion_method(motion, "--motion");
@@ -114,23 +112,33 @@ int main(int argc, char** argv) {
     opt.sfm.tracker = parse_sfm_tracker(tracker, "--tracker");
     opt.front_end.tracker = tracker == "auto" ? FrameTracker::Descriptors : parse_frame_tracker(tracker, "--tracker");
     if (app.count("--camera-height")) {
-      if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
+      if (!(camera_height > 0)) throw UsageError("", "--camera-height", "must be positive (metres)");
       opt.front_end.camera_height = camera_height;
     }
     opt.front_end.refine.enabled = !no_refine;
     if (app.count("--focal")) {
-      if (!(focal > 0)) throw Error("", "--focal", "must be positive (pixels)");
+      if (!(focal > 0)) throw UsageError("", "--focal", "must be positive (pixels)");
       opt.sfm.focal = focal;
     }
-    opt.frames = FrameRange::parse(frames, "--frames");
+    opt.frames = as_usage([&] { return FrameRange::parse(frames, "--frames"); });
     std::stringstream ss(preview);
     for (std::string item; std::getline(ss, item, ',');)
       if (!item.empty()) opt.preview.push_back(FrameRange::parse(item, "--preview").begin);
     opt.progress = !quiet;
     set_solver_verbose(verbose);
-    opt.front_end.validate();
-    opt.sfm.validate();
-    opt.features.validate();
+    static const OptionNames kOptionOf = {
+        {"stereo.num_disparities", "--num-disparities"}, {"stereo.block_size", "--block-size"},
+        {"tracking.max_keypoints", "--max-keypoints"},   {"tracking.gftt_quality", "--gftt-quality"},
+        {"filters.min_frames", "--min-track-frames"},    {"camera_height", "--camera-height"},
+        {"sfm.match_radius_px", "--match-radius"},       {"sfm.lowe_ratio", "--lowe-ratio"},
+        {"sfm.reprojection_threshold_px", "--reprojection-threshold"},
+        {"sfm.keyframe_motion_px", "--keyframe-motion"}, {"sfm.ba_window", "--ba-window"},
+        {"sfm.focal", "--focal"},                        {"sfm.camera_height", "--camera-height"}};
+    validate_options(kOptionOf, [&] {
+      opt.front_end.validate();
+      opt.sfm.validate();
+      opt.features.validate();
+    });
     const Sequence seq = load_sequence(seq_dir);
     const ExtractReport r = extract_features(seq, work, opt);
     write_cloud(fs::path(work) / "cloud.pcd", r.cloud, seq);

@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/option_names.hpp"
 #include "smseg/synth/synth.hpp"
 
 int main(int argc, char** argv) {
@@ -28,7 +29,8 @@ int main(int argc, char** argv) {
                  "scene: corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling "
                  "it; also writes instance images) (default corridor)")
       ->check(CLI::IsMember({"corridor", "lab", "tabletop"}));
-  app.add_option("--seed", o.seed, "random seed for layout, textures, people and noise (default 1)");
+  app.add_option("--seed", o.seed, "random seed for layout, textures, people and noise (default 1)")
+      ->check(smseg::kDecimalDigits);
   app.add_option("--frames", o.frames, "number of frames (default 300)");
   app.add_option("--size", size, "image size WIDTHxHEIGHT (default 320x240)");
   app.add_option("--label-every", o.label_every,
@@ -51,22 +53,17 @@ int main(int argc, char** argv) {
   return smseg::run_tool(app, argc, argv, [&] {
     std::smatch m;
     if (!std::regex_match(size, m, std::regex(R"((\d{1,5})[xX](\d{1,5}))")))
-      throw smseg::Error("", "--size", "is \"" + size + "\", expected WIDTHxHEIGHT, e.g. 320x240");
+      throw smseg::UsageError("", "--size", "is \"" + size + "\", expected WIDTHxHEIGHT, e.g. 320x240");
     o.width = std::stoi(m[1]);
     o.height = std::stoi(m[2]);
     o.progress = !quiet;
-    if (montage_frames < 1) throw smseg::Error("", "--montage-frames", "must be at least 1");
-    try {  // report a bad value under its command-line name
-      o.validate();
-    } catch (const smseg::Error& e) {
-      static const std::map<std::string, std::string> kNames = {
-          {"scene", "--scene"},         {"frames", "--frames"},   {"width", "--size (width)"},
-          {"height", "--size (height)"}, {"label_every", "--label-every"}, {"fps", "--fps"},
-          {"baseline", "--baseline"},   {"camera_height", "--camera-height"}, {"hfov_deg", "--hfov"},
-          {"speed", "--speed"},         {"noise_sigma", "--noise"}};
-      const auto it = kNames.find(e.field());
-      throw smseg::Error("", it == kNames.end() ? e.field() : it->second, e.reason());
-    }
+    if (montage_frames < 1) throw smseg::UsageError("", "--montage-frames", "must be at least 1");
+    static const smseg::OptionNames kOptionOf = {
+        {"scene", "--scene"},         {"frames", "--frames"},   {"width", "--size (width)"},
+        {"height", "--size (height)"}, {"label_every", "--label-every"}, {"fps", "--fps"},
+        {"baseline", "--baseline"},   {"camera_height", "--camera-height"}, {"hfov_deg", "--hfov"},
+        {"speed", "--speed"},         {"noise_sigma", "--noise"}};
+    smseg::validate_options(kOptionOf, [&] { o.validate(); });
     const Sequence seq = synth::make_sequence(o, out);
     if (!montage.empty()) {
       std::vector<int> frames;

@@ -9,6 +9,7 @@
 #include <CLI/CLI.hpp>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/threads.hpp"
 
 namespace smseg {
 
@@ -18,6 +19,16 @@ class UsageError : public Error {
  public:
   using Error::Error;
 };
+
+/// For unsigned options (seeds): only decimal digits. CLI11 reads "-1" into an unsigned as 2^64-1 and
+/// "010" as octal; a seed typed that way is a mistake, not a wish.
+inline const CLI::Validator kDecimalDigits(
+    [](std::string& value) -> std::string {
+      const bool digits = !value.empty() && value.size() <= 20 &&
+                          value.find_first_not_of("0123456789") == std::string::npos && !(value.size() > 1 && value[0] == '0');
+      return digits ? std::string() : "expected a non-negative whole number (decimal digits), got '" + value + "'";
+    },
+    "UINT");
 
 /// f(), with an Error it throws turned into a UsageError: for checking option values with the
 /// library's own parsers (a bad value is bad usage, exit status 2, not a failure of the run).
@@ -56,6 +67,13 @@ int run_tool(CLI::App& app, int argc, char** argv, Body&& body) {
     std::cerr << name << ": error: " << e.what() << "\n";
   }
   return 1;
+}
+
+/// run_tool, with body() run on `threads` worker threads (the tool's --threads, see add_threads_option;
+/// read after parsing).
+template <class Body>
+int run_tool(CLI::App& app, int argc, char** argv, const int& threads, Body&& body) {
+  return run_tool(app, argc, argv, [&] { return with_threads(threads, body); });
 }
 
 }  // namespace smseg

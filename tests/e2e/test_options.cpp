@@ -1,0 +1,120 @@
+// Options as promises (issue 19, part 5): an absurd value gets one clear line naming the option and a
+// non-zero exit (2: bad usage, found by the parser or before any work; 1: a run that cannot be done with
+// this data, e.g. a frame range outside the work folder or a memory budget one tree does not fit in),
+// never a hang, a crash or an out-of-memory kill. The list is docs/reliability.md's "Options" table.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "run_tool.hpp"
+#include "temp_dir.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using smseg::test::Outcome;
+using smseg::test::run;
+using smseg::test::tool;
+
+struct Absurd {
+  std::string command;  ///< after the tool's path; {W} = a work folder, {S} = its sequence, {F} = a forest, {O} = an output
+  int status;           ///< the exit status expected
+  std::string named;    ///< the option (or file) the line must name
+};
+
+class Options : public ::testing::Test {
+ protected:
+  static fs::path dir;
+  static void SetUpTestSuite() {
+    dir = smseg::test::temp_dir("options");
+    Outcome r = run(tool("make-sequence") + " --scene corridor --frames 24 --size 160x120 -q -o " + (dir / "seq").string());
+    ASSERT_EQ(r.status, 0) << r.out;
+    r = run(tool("extract-features") + " -q " + (dir / "seq").string() + " -o " + (dir / "work").string());
+    ASSERT_EQ(r.status, 0) << r.out;
+    r = run(tool("train-forest") + " -q " + (dir / "work").string() + " --train-frames 0:11 -K 100 -M 2 -o " +
+            (dir / "forest.json").string());
+    ASSERT_EQ(r.status, 0) << r.out;
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir); }
+
+  static std::string expand(std::string s) {
+    const std::vector<std::pair<std::string, fs::path>> names = {
+        {"{W}", dir / "work"}, {"{S}", dir / "seq"}, {"{F}", dir / "forest.json"}, {"{O}", dir / "out"}};
+    for (const auto& [key, path] : names)
+      for (std::size_t at; (at = s.find(key)) != std::string::npos;) s.replace(at, key.size(), path.string());
+    return s;
+  }
+};
+fs::path Options::dir;
+
+void expect_one_line(const Absurd& a, const Outcome& r) {
+  EXPECT_EQ(r.status, a.status) << a.command << "\n" << r.out;
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << a.command << "\n" << r.out;
+  EXPECT_NE(r.out.find(a.named), std::string::npos) << a.command << "\n" << r.out;
+}
+
+}  // namespace
+
+TEST_F(Options, TrainForestRefusesAbsurdValues) {
+  const std::vector<Absurd> cases = {
+      {"{W} -K 0 -o {O}", 2, "-K"},
+      {"{W} -M -1 -o {O}", 2, "-M"},
+      {"{W} -M 0 -o {O}", 2, "-M"},
+      {"{W} --Ks 0 -o {O}", 2, "--Ks"},
+      {"{W} --Kt 0 -o {O}", 2, "--Kt"},
+      {"{W} --Kt 1000000000 -o {O}", 2, "--Kt"},
+      {"{W} --threads -3 -o {O}", 2, "--threads"},
+      {"{W} --seed -1 -o {O}", 2, "--seed"},
+      {"{W} --memory-mb 0 -o {O}", 2, "--memory-mb"},
+      {"{W} --n-min 0 -o {O}", 2, "--n-min"},
+      {"{W} --train-frames 500:600 -o {O}", 1, "500:600"},
+      {"{W} --memory-mb 1 -o {O}", 1, "--memory-mb"},
+      {"{W} --Kt 100000000 --memory-mb 1024 -o {O}", 1, "--memory-mb"},
+  };
+  for (const Absurd& a : cases) {
+    const Outcome r = run("timeout 120 " + tool("train-forest") + " -q " + expand(a.command));
+    expect_one_line(a, r);
+    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+  }
+}
+
+TEST_F(Options, EvalForestRefusesAbsurdValues) {
+  const std::vector<Absurd> cases = {
+      {"{F} {W} --grid -4 -o {O}", 2, "--grid"},
+      {"{F} {W} --grid 100000 -o {O}", 2, "--grid"},
+      {"{F} {W} --votes 0 --grid 8 -o {O}", 2, "--votes"},
+      {"{F} {W} --votes 0 -o {O}", 2, "--votes"},
+      {"{F} {W} --threads -3 -o {O}", 2, "--threads"},
+      {"{F} {W} --seed -1 -o {O}", 2, "--seed"},
+      {"{F} {W} --trees -1 -o {O}", 2, "--trees"},
+      {"{F} {W} --tolerance -1 -o {O}", 2, "--tolerance"},
+      {"{F} {W} --test-frames 500: -o {O}", 1, "500:"},
+      {"{F} {W} --trees 3 -o {O}", 1, "--trees"},
+  };
+  for (const Absurd& a : cases) {
+    const Outcome r = run("timeout 120 " + tool("eval-forest") + " -q " + expand(a.command));
+    expect_one_line(a, r);
+    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+  }
+}
+
+TEST_F(Options, ExtractFeaturesAndMakeSequenceRefuseAbsurdValues) {
+  const std::vector<std::pair<std::string, Absurd>> cases = {
+      {"extract-features", {"{S} -o {O} --threads -1", 2, "--threads"}},
+      {"extract-features", {"{S} -o {O} --seed -1", 2, "--seed"}},
+      {"extract-features", {"{S} -o {O} --frames 500:", 1, "--frames"}},
+      {"make-sequence", {"--frames 0 -o {O}", 2, "--frames"}},
+      {"make-sequence", {"--frames -5 -o {O}", 2, "--frames"}},
+      {"make-sequence", {"--size 0x0 -o {O}", 2, "--size"}},
+      {"make-sequence", {"--seed -1 -o {O}", 2, "--seed"}},
+  };
+  for (const auto& [name, a] : cases) {
+    const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
+    expect_one_line(a, r);
+    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+  }
+}
