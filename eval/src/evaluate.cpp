@@ -132,7 +132,7 @@ void EvalOptions::validate() const {
   if (superpixels != 0 && (superpixels < 4 || superpixels > 1000))
     throw Error("", "--superpixels", "region size must be 4..1000 pixels");
   if (grid > 0 && superpixels > 0) throw Error("", "--superpixels", "cannot be combined with --grid");
-  if (voting() && votes < 1) throw Error("", "--votes", "must be at least 1 (the region's size or more: every pixel votes)");
+  if (votes < 1) throw Error("", "--votes", "must be at least 1 (the region's size or more: every pixel votes)");
   if (trees < 0) throw Error("", "--trees", "must be 0 (every tree) or a number of trees");
   if (tolerance < 0 || tolerance > 1000) throw Error("", "--tolerance", "must be 0..1000 pixels");
   smooth.validate();
@@ -269,6 +269,23 @@ void check_forest_fits(const forest::Forest& forest, const features::StackSet& s
                     ", the forest was trained on " + std::to_string(forest.width) + "x" + std::to_string(forest.height));
 }
 
+namespace {
+
+/// Frames without a tracked point are labelled from the forest's class prior alone: scores on them say
+/// nothing of the features. None with a point stops the run (a camera that does not move, blank frames);
+/// some without: returned as a warning for the user (empty when every frame has points).
+std::string check_points(const features::StackSet& set) {
+  const auto empty = features::frames_without_points(set);
+  if (empty.empty()) return {};
+  const std::string which = features::frames_without_points_message(set, empty);
+  if (empty.size() == set.dataset.frames.size())
+    throw Error("", "", which + ": no test frame holds a tracked point (a camera that does not move? blank frames?), "
+                                "so the scores would say nothing of the forest");
+  return which;
+}
+
+}  // namespace
+
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
   opt.validate();
   const features::StackSet set = features::open_stacks(works, opt.frames, true, true, forest.features);
@@ -279,6 +296,7 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
                     const EvalOptions& opt) {
   opt.validate();
   check_forest_fits(forest, set);
+  const std::string without_points = check_points(set);
   if (opt.costs && opt.costs->classes != forest.classes)
     throw Error(opt.costs_file, "classes", "the cost matrix was not made for this forest's classes");
   const forest::Classifier classifier(opt.trees > 0 ? first_trees(forest, opt.trees) : forest);
@@ -290,6 +308,7 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
     for (std::size_t k = 0; k < set.manifests.size(); ++k) sequences[k] = features::load_sequence(set.manifests[k].sequence);
 
   EvalResult result;
+  result.frames_without_points = without_points;
   result.confusion = Confusion(C);
   Progress progress("eval-forest", static_cast<long>(set.stacks.size()), opt.progress);
   double total_seconds = 0, total_regions = 0, total_smooth = 0;
@@ -410,6 +429,7 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
             {"boundary_f1", num(boundary.f1())},
             {"boundary_precision", num(boundary.precision())},
             {"boundary_recall", num(boundary.recall())},
+            {"frames_without_points", frames_without_points.empty() ? json(nullptr) : json(frames_without_points)},
             {"params",
              {{"works", works},
               {"test_frames", opt.frames.str()},

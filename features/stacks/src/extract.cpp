@@ -159,6 +159,9 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     throw Error(seq.manifest.string(), "kind",
                 "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
                 "--motion sfm or auto)");
+  if (opt.frames.begin >= seq.frame_count())
+    throw Error("", "--frames", opt.frames.str() + " selects none of the " + std::to_string(seq.frame_count()) +
+                                   " frames of " + seq.manifest.string());
   for (int f : opt.preview)
     if (f < 0 || f >= seq.frame_count())
       throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
@@ -198,6 +201,11 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const FrontEndResult fe = sfm ? run_mono_front_end(seq, effective_sfm(opt)) : run_stereo_front_end(seq, fe_opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
+  if (fe.tracks.empty())
+    throw Error(seq.manifest.string(), "",
+                std::string("the front end kept no tracked 3D point in any of the ") + std::to_string(seq.frame_count()) +
+                    " frames (" + (sfm ? "a camera that does not move? blank frames?" : "blank frames? too few frames?") +
+                    "): there is nothing to compute features from");
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
   const PointAttributes attrs = compute_point_attributes(video, opt.features);

@@ -9,6 +9,7 @@
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 
 namespace smseg::features {
 
@@ -111,7 +112,8 @@ StackManifest load_stack_manifest(const fs::path& work) {
     const JsonView a = j.at(key);
     for (std::size_t i = 0; i < a.size(); ++i) {
       const auto v = a.at(i).as_integer();
-      if (v < 0 || (!out.empty() && v <= out.back())) a.at(i).fail("frames must be ascending, non-negative");
+      if (v < 0 || v > std::numeric_limits<int>::max() || (!out.empty() && v <= out.back()))
+        a.at(i).fail("frames must be ascending, non-negative frame numbers (got " + std::to_string(v) + ")");
       out.push_back(static_cast<int>(v));
     }
     return out;
@@ -134,9 +136,14 @@ struct FrameStack::Mapping {
     const int fd = ::open(path.c_str(), O_RDONLY);
     if (fd < 0) throw Error(path.string(), "", std::string("cannot be opened: ") + std::strerror(errno));
     struct stat st {};
-    if (::fstat(fd, &st) != 0 || st.st_size <= 0) {
+    const bool stated = ::fstat(fd, &st) == 0;
+    if (!stated || !S_ISREG(st.st_mode) || st.st_size <= 0) {
+      const int err = errno;
       ::close(fd);
-      throw Error(path.string(), "", "empty or unreadable file");
+      throw Error(path.string(), "", !stated                 ? std::string("cannot be read: ") + std::strerror(err)
+                                     : S_ISDIR(st.st_mode)   ? std::string("is a folder, expected a .npy file")
+                                     : !S_ISREG(st.st_mode)  ? std::string("is not a regular file")
+                                                             : std::string("is empty"));
     }
     length = static_cast<std::size_t>(st.st_size);
     base = ::mmap(nullptr, length, PROT_READ, MAP_PRIVATE, fd, 0);
@@ -244,6 +251,24 @@ std::string FrameRange::str() const {
   return std::to_string(begin) + ":" + (end == std::numeric_limits<int>::max() ? std::string() : std::to_string(end));
 }
 
+namespace {
+
+/// Every label of a frame's labels.npy is a class position or 255 (void); the error names the file and
+/// the frame, not the frame's position among those opened.
+void check_labels(const forest::FrameData& frame, const fs::path& file, std::size_t classes) {
+  const std::size_t n = static_cast<std::size_t>(frame.width) * frame.height;
+  for (std::size_t p = 0; p < n; ++p) {
+    const std::uint8_t l = frame.labels[p];
+    if (l != forest::kVoidLabel && l >= classes)
+      throw Error(file.string(), "",
+                  "pixel (" + std::to_string(p % frame.width) + ", " + std::to_string(p / frame.width) + ") has label " +
+                      std::to_string(l) + ", but the work folder has " + std::to_string(classes) +
+                      " classes (255 = void)");
+  }
+}
+
+}  // namespace
+
 StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
                      bool with_labels, const std::vector<std::string>& features) {
   if (works.empty()) throw Error("", "WORK", "name at least one work folder");
@@ -293,9 +318,49 @@ StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range
     forest::FrameData d = full;
     d.sats.clear();
     for (int fi : feature_index[set.origin[i].first]) d.sats.push_back(full.sats[fi]);
+    if (d.labels)
+      check_labels(d, labels_path(set.manifests[set.origin[i].first].work, set.origin[i].second),
+                   set.dataset.classes.size());
     set.dataset.frames.push_back(d);
   }
   return set;
+}
+
+namespace {
+
+bool holds_points(const forest::FrameData& frame) {
+  const std::size_t total = static_cast<std::size_t>(frame.height) * (frame.width + 1) + frame.width;
+  for (const double* sat : frame.sats)
+    if (sat[total] != 0.0) return true;
+  return false;
+}
+
+}  // namespace
+
+std::vector<std::pair<int, int>> frames_without_points(const StackSet& set) {
+  std::vector<std::pair<int, int>> empty;
+  for (std::size_t i = 0; i < set.dataset.frames.size(); ++i)
+    if (!holds_points(set.dataset.frames[i])) empty.push_back(set.origin[i]);
+  return empty;
+}
+
+std::string frames_without_points_message(const StackSet& set, const std::vector<std::pair<int, int>>& empty) {
+  constexpr int kNamedFrames = 5;
+  std::string text;
+  for (std::size_t w = 0; w < set.manifests.size(); ++w) {
+    int in_folder = 0, selected = 0;
+    std::string named;
+    for (const auto& o : set.origin) selected += o.first == static_cast<int>(w);
+    for (const auto& [work, frame] : empty) {
+      if (work != static_cast<int>(w)) continue;
+      if (++in_folder <= kNamedFrames) named += (named.empty() ? "" : ", ") + std::to_string(frame);
+    }
+    if (in_folder == 0) continue;
+    if (in_folder > kNamedFrames) named += ", ...";
+    text += (text.empty() ? "" : "; ") + set.manifests[w].work.string() + ": " + std::to_string(in_folder) + " of " +
+            std::to_string(selected) + " frames hold no tracked point (" + named + ")";
+  }
+  return text;
 }
 
 }  // namespace smseg::features

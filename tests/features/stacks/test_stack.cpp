@@ -136,3 +136,36 @@ TEST_F(StackFixture, ManifestErrors) {
     EXPECT_NE(std::string(e.what()).find("run extract-features first"), std::string::npos);
   }
 }
+
+TEST_F(StackFixture, AStackThatIsAFolderIsCalledAFolder) {
+  fs::remove(gray_path(work, 0));
+  fs::create_directories(gray_path(work, 0));
+  const std::string e = open_error(0, false);
+  EXPECT_NE(e.find("000000.gray.npy: is a folder"), std::string::npos) << e;
+}
+
+TEST_F(StackFixture, ALabelOutOfRangeNamesTheLabelsFileNotAPosition) {
+  labels.at<std::uint8_t>(4, 6) = 7;  // two classes: 0, 1 (and 255)
+  std::vector<cv::Mat> sats;
+  for (const auto& r : rasters) sats.push_back(summed_area_table(r));
+  write_frame_stack(work, 3, sats, gray, labels);
+  try {
+    open_stacks({work}, FrameRange{}, true, true, {});
+    FAIL() << "label 7 of 2 classes was accepted";
+  } catch (const smseg::Error& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find(labels_path(work, 3).string() + ": pixel (6, 4) has label 7"), std::string::npos) << msg;
+  }
+}
+
+TEST_F(StackFixture, FramesWithoutPointsAreFoundAndNamed) {
+  // Frame 0 holds points (random features); frame 3 gets all-zero tables, as a frame with no point has.
+  std::vector<cv::Mat> zeros;
+  for (const auto& r : rasters) zeros.push_back(summed_area_table(cv::Mat::zeros(r.size(), r.type())));
+  write_frame_stack(work, 3, zeros, gray, labels);
+  const StackSet set = open_stacks({work}, FrameRange{}, false, false, {});
+  const auto empty = frames_without_points(set);
+  ASSERT_EQ(empty.size(), 1u);
+  EXPECT_EQ(empty[0], std::make_pair(0, 3));
+  EXPECT_EQ(frames_without_points_message(set, empty), work.string() + ": 1 of 2 frames hold no tracked point (3)");
+}

@@ -88,6 +88,9 @@ struct EvalResult {
   double superpixel_seconds_per_frame = 0;  ///< superpixel segmentation, apart
   double smooth_seconds_per_frame = 0;      ///< graph-cut smoothing, apart
   BoundaryCounts boundary;                  ///< summed over the frames
+  /// Which test frames hold no tracked point (labelled from the class prior alone), for the user; empty
+  /// when all have points (evaluate stops when none has).
+  std::string frames_without_points;
 
   double tolerant_accuracy() const;  ///< (right + near misses) / pixels; NaN when empty
   /// results.json: global_accuracy, class_average_accuracy, mean_iou, boundary_tolerant_accuracy,

@@ -102,4 +102,14 @@ struct StackSet {
 StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
                      bool with_labels, const std::vector<std::string>& features);
 
+/// The frames of `set` that hold no tracked point, as (work folder index, frame): every feature's
+/// table sums to zero over the whole image. Trees learn nothing but the class prior from them, and
+/// scores on them say nothing of the features (a camera that does not move, blank frames, a front end
+/// that found no points); train-forest and eval-forest say so (frames_without_points_message).
+std::vector<std::pair<int, int>> frames_without_points(const StackSet& set);
+
+/// One line for the user: "WORK: 3 of 10 frames hold no tracked point (0, 10, 20)", naming each work
+/// folder that has such frames (at most a few frame numbers each).
+std::string frames_without_points_message(const StackSet& set, const std::vector<std::pair<int, int>>& empty);
+
 }  // namespace smseg::features
