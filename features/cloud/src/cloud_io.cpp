@@ -41,8 +41,9 @@ void save_atomic(const fs::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>&
   }
   fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path.string(), "", "cannot be replaced: " + ec.message());
+    const std::string why = fs::is_directory(path) ? "is a folder, expected a file" : "cannot be replaced: " + ec.message();
+    fs::remove(tmp, ec);  // (overwrites ec: the reason is taken first)
+    throw Error(path.string(), "", why);
   }
 }
 

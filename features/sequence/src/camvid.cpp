@@ -194,8 +194,10 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
       e.left = root / row[fi];
       e.label = root / row[fl];
       const std::string where = "line " + std::to_string(frames.line_of_row[r]);
-      if (!fs::is_regular_file(e.left, ec)) throw Error(frames.file.string(), where, "image " + e.left.string() + " does not exist");
-      if (!fs::is_regular_file(e.label, ec)) throw Error(frames.file.string(), where, "label " + e.label.string() + " does not exist");
+      if (const std::string why = why_not_a_file(e.left); !why.empty())
+        throw Error(frames.file.string(), where, "image " + e.left.string() + " " + why);
+      if (const std::string why = why_not_a_file(e.label); !why.empty())
+        throw Error(frames.file.string(), where, "label " + e.label.string() + " " + why);
       e.time = double(parse_long(frames, r, ff) - frame0) / opt.video_fps;
       seq.frames.push_back(e);
       seq.labelled_frames.push_back(static_cast<int>(k));

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <set>
 #include <unordered_map>
 
@@ -46,18 +47,38 @@ fs::path optional_path(const JsonView& f, std::string_view key) {
 }
 
 void require_file(const Sequence& seq, const fs::path& p, const std::string& what) {
-  std::error_code ec;
   const fs::path full = seq.resolve(p);
-  if (!fs::is_regular_file(full, ec))
-    throw Error(seq.manifest.string(), what, "names " + full.string() + ", which does not exist");
+  if (const std::string why = why_not_a_file(full); !why.empty())
+    throw Error(seq.manifest.string(), what, "names " + full.string() + ", which " + why);
+}
+
+/// What is wrong with the chunk structure of a PNG file (empty: nothing, or not a PNG): the chunks
+/// must follow each other inside the file up to IEND. A truncated or overwritten PNG is refused here,
+/// by our one line, before libpng sees it and prints its own "libpng error" line on stderr.
+std::string png_structure_problem(std::string_view bytes) {
+  static constexpr std::string_view kSignature("\x89PNG\r\n\x1a\n", 8);
+  if (bytes.substr(0, 8) != kSignature) return {};
+  std::size_t at = 8;
+  while (at + 12 <= bytes.size()) {
+    const auto byte = [&](std::size_t i) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[at + i])); };
+    const std::uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
+    const std::string_view type = bytes.substr(at + 4, 4);
+    if (length > bytes.size() - at - 12) return "PNG chunk " + std::string(type) + " runs past the end of the file (truncated?)";
+    if (type == "IEND") return {};
+    at += 12 + length;
+  }
+  return "PNG ends before its IEND chunk (truncated?)";
 }
 
 cv::Mat read_image(const fs::path& full, int flags) {
-  std::error_code ec;
-  if (!fs::is_regular_file(full, ec)) throw Error(full.string(), "", "no such image");
+  const std::string bytes = read_file(full);
+  if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
+    throw Error(full.string(), "", "is larger than 2 GiB, more than an image of a sequence can be");
+  if (const std::string problem = png_structure_problem(bytes); !problem.empty())
+    throw Error(full.string(), "", "cannot be decoded: " + problem);
   cv::Mat m;
   try {
-    m = cv::imread(full.string(), flags);
+    m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
   } catch (const cv::Exception& e) {
     throw Error(full.string(), "", std::string("cannot be decoded: ") + e.what());
   }
@@ -190,7 +211,14 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
     e.label = optional_path(f, "label");
     e.gt_depth = optional_path(f, "gt_depth");
     e.instances = optional_path(f, "instances");
-    e.time = f.has("time") ? f.num("time") : static_cast<double>(i);
+    // Times are given for every frame or for none (then the frame index is the time): a missing one
+    // among given ones is named where it is missing, not at the next frame that seems out of order.
+    const bool timed = frames.at(0).has("time");
+    if (f.has("time") != timed)
+      f.fail(timed ? "missing (frames[0] has a time, so every frame needs one)"
+                   : "given, but frames[0] has none (give every frame a time, or none)",
+             "time");
+    e.time = timed ? f.num("time") : static_cast<double>(i);
     if (seq.kind == SequenceKind::Stereo && e.right.empty() && e.disparity.empty())
       f.fail("a stereo sequence needs a \"right\" image or a \"disparity\" for every frame");
     if (i > 0 && !(e.time > seq.frames.back().time)) f.fail("frame times must increase", "time");

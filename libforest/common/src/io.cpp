@@ -31,8 +31,9 @@ void write_file_atomic(const fs::path& path, std::string_view bytes) {
   }
   fs::rename(tmp, path, ec);
   if (ec) {
-    fs::remove(tmp, ec);
-    throw Error(path.string(), "", "cannot be replaced: " + ec.message());
+    const std::string why = fs::is_directory(path) ? "is a folder, expected a file" : "cannot be replaced: " + ec.message();
+    fs::remove(tmp, ec);  // (overwrites ec: the reason is taken first)
+    throw Error(path.string(), "", why);
   }
 }
 
@@ -40,10 +41,17 @@ void write_json_atomic(const fs::path& path, const Json& j, int indent) {
   write_file_atomic(path, j.dump(indent) + "\n");
 }
 
-std::string read_file(const fs::path& path) {
+std::string why_not_a_file(const fs::path& path) {
   std::error_code ec;
-  if (!fs::exists(path, ec)) throw Error(path.string(), "", "no such file");
-  if (fs::is_directory(path, ec)) throw Error(path.string(), "", "is a folder, expected a file");
+  const fs::file_status st = fs::status(path, ec);
+  if (!fs::exists(st)) return "does not exist";
+  if (fs::is_directory(st)) return "is a folder, expected a file";
+  if (!fs::is_regular_file(st)) return "is not a regular file";
+  return {};
+}
+
+std::string read_file(const fs::path& path) {
+  if (const std::string why = why_not_a_file(path); !why.empty()) throw Error(path.string(), "", why);
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
   std::ostringstream ss;
@@ -51,6 +59,17 @@ std::string read_file(const fs::path& path) {
   if (in.bad()) throw Error(path.string(), "", "read failed");
   return ss.str();
 }
+
+namespace {
+
+/// nlohmann's message without its "[json.exception.out_of_range.406] " tag.
+std::string json_error_reason(const Json::exception& e) {
+  const std::string what = e.what();
+  const auto tag_end = what.find("] ");
+  return tag_end == std::string::npos ? what : what.substr(tag_end + 2);
+}
+
+}  // namespace
 
 Json read_json(const fs::path& path) {
   const std::string text = read_file(path);
@@ -70,6 +89,9 @@ Json read_json(const fs::path& path) {
     }
     throw Error(path.string(), "",
                 "malformed JSON at line " + std::to_string(line) + ", column " + std::to_string(col));
+  } catch (const Json::exception& e) {
+    // nlohmann's other parse failures (a number out of range, 1e999, is out_of_range 406), in our form.
+    throw Error(path.string(), "", std::string("malformed JSON: ") + json_error_reason(e));
   }
 }
 

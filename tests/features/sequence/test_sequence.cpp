@@ -142,11 +142,44 @@ TEST_F(SequenceFormat, MissingImage) {
   EXPECT_NE(e.find("does not exist"), std::string::npos) << e;
 }
 
+TEST_F(SequenceFormat, AFolderWhereAnImageShouldBeIsCalledAFolder) {
+  fs::remove(dir / "right/1.png");
+  fs::create_directories(dir / "right/1.png");
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("frames[1].right"), std::string::npos) << e;
+  EXPECT_NE(e.find("is a folder"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, AMissingTimeIsBlamedOnItsOwnFrame) {
+  manifest["frames"][1].erase("time");
+  std::string e = error_with(manifest);
+  EXPECT_NE(e.find("frames[1].time: missing"), std::string::npos) << e;
+  // Times on none of the frames is fine (the index is the time); on some but not the first is not.
+  for (auto& f : manifest["frames"]) f.erase("time");
+  EXPECT_EQ(error_with(manifest), "");
+  manifest["frames"][2]["time"] = 0.5;
+  e = error_with(manifest);
+  EXPECT_NE(e.find("frames[2].time: given, but frames[0] has none"), std::string::npos) << e;
+}
+
 TEST_F(SequenceFormat, UnreadableImage) {
   std::ofstream(dir / "left/1.png") << "this is not a PNG";
   const std::string e = error_with(manifest);
   EXPECT_NE(e.find("left/1.png"), std::string::npos) << e;
   EXPECT_NE(e.find("cannot be decoded"), std::string::npos) << e;
+}
+
+TEST_F(SequenceFormat, ATruncatedPngGetsOurLineOnly) {
+  const std::string png = smseg::read_file(dir / "left/1.png");
+  for (const std::size_t keep : {std::size_t{8}, std::size_t{40}, png.size() / 2, png.size() - 4}) {
+    std::ofstream(dir / "left/1.png", std::ios::binary) << png.substr(0, keep);
+    testing::internal::CaptureStderr();
+    const std::string e = error_with(manifest);
+    const std::string printed = testing::internal::GetCapturedStderr();
+    EXPECT_NE(e.find("left/1.png: cannot be decoded"), std::string::npos) << keep << ": " << e;
+    EXPECT_NE(e.find("truncated"), std::string::npos) << keep << ": " << e;
+    EXPECT_EQ(printed, "") << keep << ": libpng or OpenCV printed their own lines";
+  }
 }
 
 TEST_F(SequenceFormat, WrongImageSize) {

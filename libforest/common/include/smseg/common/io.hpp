@@ -29,6 +29,10 @@ void write_json_atomic(const fs::path& path, const Json& j, int indent = 1);
 /// Reads a whole file; Error("path", "", "cannot be read: ...") when missing or unreadable.
 std::string read_file(const fs::path& path);
 
+/// Why `path` is not a file we can read, in a few words for an error line ("does not exist", "is a
+/// folder, expected a file", "is not a regular file"); empty when it is a regular file.
+std::string why_not_a_file(const fs::path& path);
+
 /// Parses a JSON file; malformed JSON gives an Error with the line and column.
 Json read_json(const fs::path& path);
 
