@@ -1,4 +1,5 @@
 #include "smseg/common/io.hpp"
+#include "smseg/common/output.hpp"
 
 #include <unistd.h>
 
@@ -17,9 +18,7 @@ void write_file_atomic(const fs::path& path, std::string_view bytes) {
     fs::create_directories(path.parent_path(), ec);
     if (ec) throw Error(path.string(), "", "cannot create its folder: " + ec.message());
   }
-  static std::atomic<unsigned> counter{0};
-  fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  const fs::path tmp = temporary_beside(path);  // named so that a later run can clean up after a kill
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw Error(path.string(), "", std::string("cannot be written: ") + std::strerror(errno));
   const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() &&
