@@ -26,6 +26,7 @@ struct Scenario {
   std::vector<fs::path> outputs;  ///< files or folders the run writes
   fs::path base;                  ///< the test's folder: names are relative to it; no temporary may stay in it
   std::string summary;            ///< segment-cloud: the file (relative) that marks a complete set of outputs
+  std::vector<std::string> kill_when_named = {};  ///< also kill as soon as a file named so (prefix) appears
 };
 
 /// After a kill the outputs hold what they held before the run or what an uninterrupted run leaves.
@@ -64,7 +65,8 @@ void kill_and_rerun(const Scenario& s, const Files& previous, std::uint32_t seed
   const Files fresh = comparable(snapshot(s.base, s.outputs));
   ASSERT_FALSE(fresh.empty());
   ASSERT_NE(fresh, comparable(previous)) << "the previous content must differ from the new, or a mix would not show";
-  const auto points = kill_points(seed, by_time, m.seconds, by_files, m.peak_new_entries);
+  auto points = kill_points(seed, by_time, m.seconds, by_files, m.peak_new_entries);
+  for (const auto& name : s.kill_when_named) points.push_back({-1, 0, name});
   int landed = 0;
   for (const KillPoint& p : points) {
     restore(s.base, s.outputs, previous);
@@ -145,10 +147,13 @@ TEST(Kill, SegmentCloudLeavesNoSummaryBesideAnotherRunsFiles) {
   must_run(tool("segment-cloud") + " --make-tabletop 6000 --objects 4 --seed 3 -o " + q(input));
   const Command segment = {tool("segment-cloud"), input.string(), "--method", "mrf", "-o", out.string()};
   const fs::path summary = dir / "seg.pcd.json";
-  kill_and_rerun({segment, {out, summary}, dir, "seg.pcd.json"}, {}, 301, 2, 2);
+  // Also killed while the summary is being written, the cloud done: the moment a new cloud stands
+  // beside the old summary unless the old one was removed first.
+  const Scenario s{segment, {out, summary}, dir, "seg.pcd.json", {"seg.pcd.json.tmp."}};
+  kill_and_rerun(s, {}, 301, 2, 2);
   // An older result of another method: another cloud, another summary.
   must_run(tool("segment-cloud") + " " + q(input) + " --method centroid-mincut --radius 0.5 -o " + q(out));
-  kill_and_rerun({segment, {out, summary}, dir, "seg.pcd.json"}, snapshot(dir, {out, summary}), 302, 2, 2);
+  kill_and_rerun(s, snapshot(dir, {out, summary}), 302, 2, 2);
   fs::remove_all(dir);
 }
 
