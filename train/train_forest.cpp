@@ -6,6 +6,7 @@
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/option_names.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/stacks/stack.hpp"
 #include "smseg/forest/slurm_train.hpp"
 #include "smseg/forest/train.hpp"
@@ -168,6 +169,10 @@ int main(int argc, char** argv) {
   app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
 
   return run_tool(app, argc, argv, threads, [&] { return naming_options([&] {
+    // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
+    // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
+    // the same folder) and of other hosts are left alone.
+    if (!out.empty()) remove_stale_temporaries(fs::absolute(out).parent_path());
     if (!merge.empty()) return merge_parts(merge, works, tree_range, on_slurm, out);
     if (works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
     if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty() || no_wait ||

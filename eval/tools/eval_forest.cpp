@@ -4,10 +4,12 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
+#include <optional>
 
 #include <opencv2/core/utility.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/sweep.hpp"
 
@@ -44,8 +46,10 @@ int main(int argc, char** argv) {
       "of each region vote for its class. Prints global accuracy, class-average accuracy, mean IoU, the\n"
       "boundary-tolerant accuracy, the mean cost per pixel (--costs) and the row-normalised confusion\n"
       "matrix; writes OUT/results.json and, per test frame, OUT/frames/NNNNNN_{labels,overlay,error,\n"
-      "montage}.png. With --sweep, evaluates one point per value instead and appends one JSON line per\n"
-      "point to OUT/sweep.jsonl (a rerun resumes: finished points are skipped). Void pixels never count.",
+      "montage}.png, both at once: OUT is rebuilt beside itself and swapped in whole at the end (a killed or\n"
+      "failed run leaves OUT as it was; files in OUT that this run does not write are kept). With --sweep,\n"
+      "evaluates one point per value instead and appends one JSON line per point to OUT/sweep.jsonl (a\n"
+      "rerun resumes: finished points are skipped). Void pixels never count.",
       "eval-forest"};
   std::string forest_file, frames = "0:", out, superpixels, vote = "sum", costs, smooth = "none";
   std::vector<std::string> works, sweeps;
@@ -103,8 +107,13 @@ int main(int argc, char** argv) {
     opt.smooth.method = eval::smooth_method_from_string(smooth, "--smooth");
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
-    if (!no_pictures && specs.empty()) opt.pictures = fs::path(out) / "frames";
     as_usage([&] { opt.validate(); });
+    // results.json and the pictures are built in a folder beside OUT and swapped in whole at the end, so
+    // that OUT never mixes this run's pictures with another run's scores (killed or failed half-way).
+    std::optional<FolderReplacement> replacement;
+    if (specs.empty()) replacement.emplace(out);
+    const fs::path staging = replacement ? replacement->staging() : fs::path(out);
+    if (!no_pictures && specs.empty()) opt.pictures = staging / "frames";
     const forest::Forest f = forest::load_forest(forest_file);
     if (opt.trees > static_cast<int>(f.trees.size()))
       throw Error(forest_file, "--trees", std::to_string(opt.trees) + " trees asked, the forest has " +
@@ -116,6 +125,7 @@ int main(int argc, char** argv) {
     const std::vector<fs::path> work_paths(works.begin(), works.end());
 
     if (!specs.empty()) {
+      remove_stale_temporaries(out);  // a sweep appends to OUT/sweep.jsonl; a killed line is cut on reading
       const fs::path jsonl = fs::path(out) / "sweep.jsonl";
       for (const auto& spec : specs) {
         const auto report = eval::run_sweep(f, forest_file, work_paths, opt, spec, jsonl, [&](const Json& rec) {
@@ -137,7 +147,8 @@ int main(int argc, char** argv) {
     const eval::EvalResult r = eval::evaluate(f, work_paths, opt);
     if (!r.frames_without_points.empty() && !quiet)
       std::cerr << "eval-forest: warning: " << r.frames_without_points << "; they are labelled from the class prior alone\n";
-    write_json_atomic(fs::path(out) / "results.json", r.to_json(f, opt, works));
+    write_json_atomic(staging / "results.json", r.to_json(f, opt, works));
+    replacement->commit();
     std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
                        pct(r.confusion.global_accuracy()) + ", class-average accuracy " +
                        pct(r.confusion.class_average_accuracy()) + ", mean IoU " + pct(r.confusion.mean_iou()) +
@@ -172,7 +183,7 @@ int main(int argc, char** argv) {
       std::cout << "\nConfusion matrix (rows: ground truth, columns: output; % of the row):\n"
                 << r.confusion.table(f.classes) << "\n";
       std::cout << "results: " << (fs::path(out) / "results.json").string();
-      if (!no_pictures) std::cout << "\npictures: " << opt.pictures.string() << "/";
+      if (!no_pictures) std::cout << "\npictures: " << (fs::path(out) / "frames").string() << "/";
       std::cout << "\n";
     }
     return 0;

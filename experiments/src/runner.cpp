@@ -17,6 +17,7 @@
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/io.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
 namespace smseg::experiments {
@@ -100,6 +101,9 @@ fs::path prepare_sequence(const std::string& name, const SequenceSource& source,
   const json key = synth_json(source.synth);
   const fs::path dir = cache / "sequences" / (safe_name(source.synth.scene) + "-" + json_hash(key));
   if (fs::exists(dir / features::kManifestName)) return dir;
+  // No manifest: none yet, or a run was killed while making it (the manifest is written last). Its
+  // images and temporaries go; the sequence is made again, the same bytes for the same options.
+  fs::remove_all(dir);
   if (progress) std::cerr << "run-experiment: generating sequence \"" << name << "\" (" << key.dump() << ") in " << dir.string() << "\n";
   features::synth::SynthOptions o = source.synth;
   o.progress = progress;
@@ -145,6 +149,7 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   if (options.out.empty()) throw Error("", "--out", "name the results folder");
   const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
   fs::create_directories(options.out);
+  remove_stale_temporaries(options.out);  // a killed run's config.json or cache-marker temporaries
 
   // The config this folder belongs to. Only what decides the results must match; titles, descriptions
   // and figures may change (the snapshot then takes them, for export-notebooks).

@@ -8,6 +8,7 @@
 #include <unistd.h>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg_plots_py.hpp"
 
@@ -194,7 +195,9 @@ int main(int argc, char** argv) {
       "the figures its config lists (titled and labelled like the thesis figures), and OUT/NAME/fig-ID.png\n"
       "holds each figure as PNG (drawn by running the notebook's code with python3-matplotlib).\n"
       "OUT/index.md and OUT/index.html link them all. Notebooks run with\n"
-      "`jupyter nbconvert --to notebook --execute OUT/NAME.ipynb`.",
+      "`jupyter nbconvert --to notebook --execute OUT/NAME.ipynb`. OUT is rebuilt beside itself and swapped\n"
+      "in whole at the end: a killed or failed export leaves it as it was (files in OUT that this export\n"
+      "does not write are kept).",
       "export-notebooks"};
   std::string results, out, python = fs::exists("/usr/bin/python3") ? "/usr/bin/python3" : "python3";
   bool no_png = false, quiet = false;
@@ -216,7 +219,10 @@ int main(int argc, char** argv) {
     }
     if (dirs.empty()) throw Error(results, "", "holds no run-experiment results (no config.json in it or its folders)");
     const fs::path out_dir = fs::absolute(out).lexically_normal();
-    fs::create_directories(out_dir);
+    // Everything is written into a folder beside OUT and swapped in whole at the end: a killed or failed
+    // export leaves OUT as it was, never notebooks of this run beside an index of the last one.
+    FolderReplacement replacement(out_dir);
+    const fs::path staging = replacement.staging();
 
     std::string md = "# Experiment notebooks\n\nMade by `export-notebooks " + results + " -o " + out +
                      "` from run-experiment results. Each notebook loads its experiment's JSON Lines and draws its "
@@ -234,9 +240,11 @@ int main(int argc, char** argv) {
       std::string regenerate = "run-experiment " + (r.config_file.empty() ? std::string("CONFIG") : r.config_file) +
                                (r.quick ? " --quick" : "") + " -o " + dir.string() + "\nexport-notebooks " + results +
                                " -o " + out;
-      write_json_atomic(out_dir / (r.name + ".ipynb"), notebook(r, rel_jsonl, regenerate), 1);
-      fs::create_directories(out_dir / r.name);
-      if (!no_png && !r.figures.empty()) render_pngs(r, rel_jsonl, out_dir, python);
+      write_json_atomic(staging / (r.name + ".ipynb"), notebook(r, rel_jsonl, regenerate), 1);
+      fs::create_directories(staging / r.name);
+      // The notebook names the JSON Lines from OUT; the drawing runs in the staging folder beside it.
+      if (!no_png && !r.figures.empty())
+        render_pngs(r, fs::relative(fs::absolute(r.jsonl), staging), staging, python);
       std::string figs, figs_html;
       for (const auto& fig : r.figures) {
         const std::string id = fig.at("id").get<std::string>(), png = r.name + "/" + png_name(fig);
@@ -255,8 +263,9 @@ int main(int argc, char** argv) {
                   << (out_dir / (r.name + ".ipynb")).string() << "\n";
     }
     html += "</body></html>\n";
-    write_file_atomic(out_dir / "index.md", md);
-    write_file_atomic(out_dir / "index.html", html);
+    write_file_atomic(staging / "index.md", md);
+    write_file_atomic(staging / "index.html", html);
+    replacement.commit();
     if (!quiet) std::cout << "index: " << (out_dir / "index.html").string() << "\n";
     return 0;
   });

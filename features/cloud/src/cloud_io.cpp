@@ -10,6 +10,7 @@
 #include <pcl/point_types.h>
 
 #include "smseg/cloud/cloud_io.hpp"
+#include "smseg/common/output.hpp"
 #include "pcl_write.hpp"
 
 namespace smseg::features {
@@ -26,9 +27,7 @@ void save_atomic(const fs::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>&
   const std::string ext = path.extension().string();
   std::error_code ec;
   if (path.has_parent_path()) fs::create_directories(path.parent_path(), ec);
-  static std::atomic<unsigned> counter{0};
-  fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++) + ext;
+  const fs::path tmp = temporary_beside(path, ext);  // PCL picks the format by the extension
   // PCL warns on stderr about an empty cloud (a front end that kept no point), a valid file for us.
   const auto pcl_level = pcl::console::getVerbosityLevel();
   pcl::console::setVerbosityLevel(pcl::console::L_ERROR);

@@ -50,7 +50,8 @@ int main(int argc, char** argv) {
   int make_tabletop = 0, threads = 0, truth_object = 1;
   app.add_option("CLOUD", input, "input cloud (.pcd or .ply; fields x y z, optional rgb and label; grabcut-sfm: "
                  "default WORK/cloud.pcd)");
-  app.add_option("-o,--out", out, "output cloud (.pcd or .ply; grabcut-sfm: the mask, .png); the summary goes to the same name + .json")->required();
+  app.add_option("-o,--out", out, "output cloud (.pcd or .ply; grabcut-sfm: the mask, .png); the summary goes to the same name + .json, "
+                 "written last (the old one is removed first: a summary is only beside the files of its own run)")->required();
   app.add_option("--method", method, "centroid-mincut, mrf or grabcut-sfm")->capture_default_str();
   app.add_option("--seeds", seeds, "mrf: plane, saliency, or a seed file {\"format\": \"smseg-seeds\", \"version\": 1, \"radius\": r, "
                  "\"seeds\": [{\"label\": 0, \"position\": [x, y, z]}, ...]}")->capture_default_str();
@@ -177,6 +178,7 @@ int main(int argc, char** argv) {
     if (make_tabletop > 0) {
       tab.points = make_tabletop;
       const features::ColouredCloud c = features::make_tabletop_cloud(tab);
+      begin_output_set(out);  // one file, no summary; this cleans up after killed runs
       features::write_labelled_cloud(out, c, c.labels);
       std::cout << "tabletop cloud: " << c.size() << " points, " << tab.objects << " objects -> " << out << "\n";
       return 0;

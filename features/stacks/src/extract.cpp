@@ -2,6 +2,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <cstdio>
 
 #include <Eigen/LU>
 #include <opencv2/imgproc.hpp>
@@ -9,6 +10,7 @@
 #include <tbb/parallel_for_each.h>
 
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
 namespace smseg::features {
@@ -31,6 +33,21 @@ SfmOptions effective_sfm(const ExtractOptions& o) {
   return s;
 }
 
+// FNV-1a (64 bits) of the sequence's manifest: its frames, calibration and classes, what the stacks are
+// made of besides the options. Recorded in stacks.json so that a resume reuses only stacks of this input.
+std::string sequence_digest(const Sequence& seq) {
+  std::error_code ec;
+  if (seq.manifest.empty() || !fs::is_regular_file(seq.manifest, ec)) return "none";  // made in memory
+  std::uint64_t h = 1469598103934665603ull;
+  for (const unsigned char c : read_file(seq.manifest)) {
+    h ^= c;
+    h *= 1099511628211ull;
+  }
+  char hex[17];
+  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
+  return hex;
+}
+
 Json options_json(const Sequence& seq, const ExtractOptions& o) {
   Json fe;
   if (uses_sfm(seq, o)) {
@@ -41,7 +58,37 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
     fe = front_end_options_to_json(o.front_end);
   }
   if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
-  return {{"front_end", fe}, {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}}};
+  return {{"front_end", fe},
+          {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}},
+          {"input", {{"sequence_json_fnv1a64", sequence_digest(seq)}}}};
+}
+
+// Whether an earlier run's stacks.json describes stacks made the way this run makes them. Work folders
+// from before the input digest was recorded are judged without it.
+bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options) {
+  Json old_options = old.options, new_options = options;
+  if (!old_options.contains("input")) new_options.erase("input");
+  return old_options == new_options && old.size == seq.size &&
+         fs::weakly_canonical(old.sequence) == fs::weakly_canonical(seq.root);
+}
+
+// Stack files of another making (other options or sequence, or no stacks.json to say) must not be taken
+// for this run's by a resume: they go before the new stacks.json is written. The old stacks.json goes
+// first, so that a kill in between leaves stacks that no manifest vouches for (removed by the next run).
+void remove_foreign_stacks(const fs::path& work) {
+  std::error_code ec;
+  fs::remove(work / "stacks.json", ec);
+  if (ec) throw Error((work / "stacks.json").string(), "", "cannot be removed: " + ec.message());
+  fs::remove_all(work / "stacks", ec);
+  if (ec) throw Error((work / "stacks").string(), "", "cannot remove the stacks of other options: " + ec.message());
+}
+
+// The frames whose three files are on disk. Each file is written whole (temporary, then rename), so a
+// file that is there is complete; a frame killed between its files lacks one and is redone.
+bool frame_files_present(const fs::path& work, const Sequence& seq, int f) {
+  std::error_code ec;
+  return fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
+         (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
 }
 
 // False colour over the raster's range. A sparse feature is shown only where there are points (`points`,
@@ -172,13 +219,24 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   // A work folder made with other options is rebuilt only when asked.
   StackManifest m;
   std::error_code ec;
+  remove_stale_temporaries(work);  // what runs killed between write and rename left
+  remove_stale_temporaries(work / "stacks");
+  remove_stale_temporaries(work / "preview");
+  // Resume: with the same options and input, every frame whose files are on disk is kept, whether an
+  // earlier run finished (listed in stacks.json) or was killed (stacks.json is written first, so the
+  // files on disk were made under it).
+  bool resume_from_files = false;
   if (fs::exists(work / "stacks.json", ec)) {
     StackManifest old = load_stack_manifest(work);
-    const bool same = old.options == options && old.size == seq.size && fs::weakly_canonical(old.sequence) == fs::weakly_canonical(seq.root);
+    const bool same = same_stacks(old, seq, options);
     if (!same && !opt.force)
       throw Error((work / "stacks.json").string(), "options",
                   "this work folder was made from another sequence or with other options; use --force to rebuild it");
     if (same && !opt.force) m = old;
+    resume_from_files = same && old.options == options;
+    if (!same) remove_foreign_stacks(work);
+  } else {
+    remove_foreign_stacks(work);
   }
   m.work = work;
   m.sequence = fs::absolute(seq.root);
@@ -217,13 +275,13 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, report.cloud, seq));
   }
 
-  std::vector<int> todo;
+  std::vector<int> todo, kept;
   for (int f = 0; f < seq.frame_count(); ++f) {
     if (!opt.frames.contains(f)) continue;
-    const bool done = m.has_frame(f) && fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
-                      (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
+    const bool done = (m.has_frame(f) || resume_from_files) && frame_files_present(work, seq, f);
     if (done && !opt.force) {
       ++report.frames_skipped;
+      kept.push_back(f);
       continue;
     }
     todo.push_back(f);
@@ -261,9 +319,10 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   report.frames_written = static_cast<int>(todo.size());
   report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());
 
-  // Record the frames now on disk (all of them, including earlier runs').
+  // Record the frames now on disk (all of them, including earlier runs', finished or killed).
   std::vector<int> frames = m.frames;
   frames.insert(frames.end(), todo.begin(), todo.end());
+  frames.insert(frames.end(), kept.begin(), kept.end());
   std::sort(frames.begin(), frames.end());
   frames.erase(std::unique(frames.begin(), frames.end()), frames.end());
   m.frames = frames;

@@ -26,7 +26,8 @@ int main(int argc, char** argv) {
       "for labelled frames, the labels: WORK/stacks.json and WORK/stacks/*.npy. Also WORK/tracks.json\n"
       "(tracks, camera path, front-end summary), WORK/cloud.pcd (one point per track, class colours and\n"
       "labels; opens in pcl_viewer) and WORK/path.png (top-down camera path and cloud). Parallel over\n"
-      "frames; frames already written are skipped (resumable) unless --force.",
+      "frames; frames already written are skipped unless --force: a killed or failed run resumes, keeping\n"
+      "every stack on disk made with the same options from the same sequence (the front end runs again).",
       "extract-features"};
   std::string seq_dir, work, frames = "0:", stereo = "bm", detector = "sift", preview, motion = "auto",
       tracker = "auto";

@@ -1,8 +1,13 @@
 #include "smseg/common/io.hpp"
+#include "smseg/common/output.hpp"
 
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <thread>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -11,19 +16,35 @@
 
 namespace smseg {
 
+namespace {
+
+// For the kill -9 tests only (tests/faults): SMSEG_TEST_WRITE_PAUSE_MS=N pauses every write half-way
+// for N ms, so that a kill polled from outside lands in the middle of writing a file (without it, a
+// small file is written in microseconds and no kill catches it half-written). Unset: no pause.
+void pause_for_kill_tests() {
+  static const int ms = [] {
+    const char* v = std::getenv("SMSEG_TEST_WRITE_PAUSE_MS");
+    return v ? std::max(0, std::atoi(v)) : 0;
+  }();
+  if (ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(ms));
+}
+
+}  // namespace
+
 void write_file_atomic(const fs::path& path, std::string_view bytes) {
   std::error_code ec;
   if (path.has_parent_path()) {
     fs::create_directories(path.parent_path(), ec);
     if (ec) throw Error(path.string(), "", "cannot create its folder: " + ec.message());
   }
-  static std::atomic<unsigned> counter{0};
-  fs::path tmp = path;
-  tmp += ".tmp." + std::to_string(::getpid()) + "." + std::to_string(counter++);
+  const fs::path tmp = temporary_beside(path);  // named so that a later run can clean up after a kill
   FILE* f = std::fopen(tmp.c_str(), "wb");
   if (!f) throw Error(path.string(), "", std::string("cannot be written: ") + std::strerror(errno));
-  const bool ok = std::fwrite(bytes.data(), 1, bytes.size(), f) == bytes.size() &&
-                  std::fflush(f) == 0;
+  const std::size_t half = bytes.size() / 2;
+  bool ok = std::fwrite(bytes.data(), 1, half, f) == half && std::fflush(f) == 0;
+  pause_for_kill_tests();
+  ok = ok && std::fwrite(bytes.data() + half, 1, bytes.size() - half, f) == bytes.size() - half &&
+       std::fflush(f) == 0;
   const bool closed = std::fclose(f) == 0;
   if (!ok || !closed) {
     fs::remove(tmp, ec);

@@ -30,6 +30,7 @@ int run_centroid_mincut(const CentroidRun& run) {
   } catch (const Error& e) {
     throw Error(input, e.field(), e.reason());
   }
+  begin_output_set(out);
   features::write_labelled_cloud(out, cloud, labels);
   Json summary = {{"format", "smseg-segment-cloud"},
                   {"version", 1},

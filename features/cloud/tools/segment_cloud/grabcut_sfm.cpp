@@ -178,6 +178,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
   }
   const fs::path out(o.out);
   const fs::path stem = out.parent_path() / out.stem();
+  begin_output_set(o.out);
   sf::write_image_atomic(out, mask);
   sf::write_image_atomic(stem.string() + ".overlay.png", sf::grabcut_sfm_overlay(image, mask, rep));
 

@@ -29,6 +29,7 @@ int run_mrf_on_cloud(const MrfCloudRun& run) {
     throw Error(e.file().empty() ? input : e.file(), e.field(), e.reason());
   }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  begin_output_set(out);
   features::write_labelled_cloud(out, cloud, labels);
   Json seeds_json = Json::array();
   for (std::size_t l = 0; l < sd.regions.size(); ++l)

@@ -10,8 +10,21 @@
 #include "smseg/cloud/cloud_view.hpp"
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/io.hpp"
+#include "smseg/common/output.hpp"
 
 namespace segment_cloud {
+
+/// Called before a run writes the first file of its set (the cloud or mask, pictures beside it, and the
+/// summary OUT.json last): removes the old summary, so that a summary is only ever beside the files of
+/// its own run. A run killed while writing leaves complete files (each is written atomically) but no
+/// summary; the next run writes the whole set again. Also removes the temporaries killed runs left.
+inline void begin_output_set(const std::string& out) {
+  const smseg::fs::path summary = out + ".json";
+  smseg::remove_stale_temporaries(summary.has_parent_path() ? summary.parent_path() : smseg::fs::path("."));
+  std::error_code ec;
+  smseg::fs::remove(summary, ec);
+  if (ec) throw smseg::Error(summary.string(), "", "cannot remove the last run's summary: " + ec.message());
+}
 
 /// A number for the one-line summary ("n/a" for NaN).
 inline std::string fmt(double v, const char* f = "%.4f") {

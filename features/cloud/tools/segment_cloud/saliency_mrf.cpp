@@ -87,6 +87,7 @@ int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& m
 
   std::vector<int> labels(cloud.size(), -1);
   for (std::size_t k = 0; k < proj.visible.size(); ++k) labels[static_cast<std::size_t>(proj.visible[k])] = view_labels[k];
+  begin_output_set(run.out);
   write_labelled_cloud(run.out, cloud, labels);
   const std::string picture = run.out + ".png", saliency_picture = run.out + ".saliency.png";
   write_image_atomic(picture, splat_labels(proj, labels, seq.size, run.projection.splat_radius));

@@ -1,0 +1,199 @@
+#pragma once
+// Running a tool and killing it with SIGKILL at chosen moments, and looking at what it left: the
+// helpers of the kill -9 tests (docs/reliability.md, "Interrupted runs (kill -9)").
+#include <fcntl.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <random>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+namespace smseg::test {
+
+namespace fs = std::filesystem;
+
+/// A command line: the tool's path first.
+using Command = std::vector<std::string>;
+
+/// Starts `cmd` with its output thrown away; the child's pid.
+inline pid_t spawn(const Command& cmd) {
+  const pid_t pid = ::fork();
+  if (pid == 0) {
+    ::setenv("SMSEG_TEST_WRITE_PAUSE_MS", "5", 0);  // every file write pauses half-way: kills land in it
+    const int null = ::open("/dev/null", O_WRONLY);
+    ::dup2(null, 1);
+    ::dup2(null, 2);
+    std::vector<char*> argv;
+    for (const auto& a : cmd) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    ::execv(argv[0], argv.data());
+    ::_exit(127);
+  }
+  return pid;
+}
+
+inline int wait_for(pid_t pid) {
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return status;
+}
+
+/// An uninterrupted run: its wall time (negative when it did not exit 0) and the most entries it
+/// added at once under the watched folder (temporaries included), polled.
+struct Measured {
+  double seconds = -1;
+  int peak_new_entries = 0;
+};
+
+/// Every entry (file or folder, temporaries included) at any depth under `dir`.
+inline int count_entries(const fs::path& dir) {
+  int n = 0;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) ++n;
+  return n;
+}
+
+inline Measured measured_run(const Command& cmd, const fs::path& watch) {
+  const int before = count_entries(watch);
+  Measured m;
+  const auto t0 = std::chrono::steady_clock::now();
+  const pid_t pid = spawn(cmd);
+  int status = 0;
+  while (::waitpid(pid, &status, WNOHANG) != pid) {
+    m.peak_new_entries = std::max(m.peak_new_entries, count_entries(watch) - before);
+    std::this_thread::sleep_for(std::chrono::microseconds(500));
+  }
+  m.peak_new_entries = std::max(m.peak_new_entries, count_entries(watch) - before);
+  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  m.seconds = WIFEXITED(status) && WEXITSTATUS(status) == 0 ? s : -1.0;
+  return m;
+}
+
+/// Seeded kill moments within a run of `seconds`: `n` delays spread over (0, seconds), reproducible
+/// (our own arithmetic over mt19937, not a library distribution, so every platform draws the same).
+inline std::vector<double> kill_moments(std::uint32_t seed, int n, double seconds) {
+  std::mt19937 gen(seed);
+  std::vector<double> out;
+  for (int i = 0; i < n; ++i) {
+    const double u = (i + (gen() % 1000) / 1000.0) / n;  // one moment in each n-th of the run
+    out.push_back(seconds * (0.02 + 0.96 * u));
+  }
+  return out;
+}
+
+inline std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+/// The files under the output paths, each path relative to `base` -> its bytes. A missing path adds
+/// nothing; a folder adds every file below it.
+using Files = std::map<std::string, std::string>;
+
+inline Files snapshot(const fs::path& base, const std::vector<fs::path>& outputs) {
+  Files files;
+  for (const auto& out : outputs) {
+    if (fs::is_regular_file(out)) files[fs::relative(out, base).string()] = read_bytes(out);
+    if (!fs::is_directory(out)) continue;
+    for (const auto& e : fs::recursive_directory_iterator(out))
+      if (e.is_regular_file()) files[fs::relative(e.path(), base).string()] = read_bytes(e.path());
+  }
+  return files;
+}
+
+/// Puts `files` back under `base` in place of whatever the outputs hold now.
+inline void restore(const fs::path& base, const std::vector<fs::path>& outputs, const Files& files) {
+  for (const auto& out : outputs) fs::remove_all(out);
+  for (const auto& [rel, bytes] : files) {
+    fs::create_directories((base / rel).parent_path());
+    std::ofstream(base / rel, std::ios::binary) << bytes;
+  }
+}
+
+/// A JSON document without its timing fields (any member whose name holds "seconds"): they differ
+/// from run to run, nothing else may.
+inline nlohmann::json without_timing(nlohmann::json j) {
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end();) {
+      if (it.key().find("seconds") != std::string::npos) {
+        it = j.erase(it);
+      } else {
+        *it = without_timing(*it);
+        ++it;
+      }
+    }
+  } else if (j.is_array()) {
+    for (auto& e : j) e = without_timing(e);
+  }
+  return j;
+}
+
+/// A file's bytes as runs compare them: JSON and JSON Lines without timing fields (a file that does
+/// not parse stays as it is, and so differs from any complete one), anything else byte for byte.
+inline std::string comparable(const std::string& name, const std::string& bytes) {
+  const auto ends = [&](const std::string& s) { return name.size() >= s.size() && name.compare(name.size() - s.size(), s.size(), s) == 0; };
+  if (ends(".json")) {
+    const auto j = nlohmann::json::parse(bytes, nullptr, false);
+    return j.is_discarded() ? bytes : without_timing(j).dump();
+  }
+  if (ends(".jsonl")) {
+    std::string out;
+    std::istringstream in(bytes);
+    for (std::string line; std::getline(in, line);) {
+      const auto j = nlohmann::json::parse(line, nullptr, false);
+      out += (j.is_discarded() ? line : without_timing(j).dump()) + "\n";
+    }
+    return out;
+  }
+  return bytes;
+}
+
+inline Files comparable(const Files& files) {
+  Files out;
+  for (const auto& [name, bytes] : files) out[name] = comparable(name, bytes);
+  return out;
+}
+
+/// Names under `dir` (at any depth) of what an interrupted write leaves: `*.tmp.*`, `*.old.*` and
+/// export-notebooks' `.render-*` scripts.
+inline std::vector<std::string> leftover_temporaries(const fs::path& dir) {
+  std::vector<std::string> out;
+  if (!fs::exists(dir)) return out;
+  for (const auto& e : fs::recursive_directory_iterator(dir)) {
+    const std::string name = e.path().filename().string();
+    if (name.find(".tmp.") != std::string::npos || name.find(".old.") != std::string::npos ||
+        name.rfind(".render-", 0) == 0)
+      out.push_back(fs::relative(e.path(), dir).string());
+  }
+  return out;
+}
+
+/// What differs between two file sets, for a failure message: the names only in one or with other bytes.
+inline std::string difference(const Files& a, const Files& b) {
+  std::string out;
+  for (const auto& [k, v] : a)
+    if (!b.count(k)) out += " only-before:" + k;
+    else if (b.at(k) != v) out += " differs:" + k;
+  for (const auto& [k, v] : b)
+    if (!a.count(k)) out += " only-after:" + k;
+  return out.empty() ? " (same)" : out;
+}
+
+}  // namespace smseg::test
