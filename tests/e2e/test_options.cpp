@@ -71,6 +71,7 @@ TEST_F(Options, TrainForestRefusesAbsurdValues) {
       {"{W} --seed -1 -o {O}", 2, "--seed"},
       {"{W} --memory-mb 0 -o {O}", 2, "--memory-mb"},
       {"{W} --n-min 0 -o {O}", 2, "--n-min"},
+      {"{W} --corpus-tree 9 --export-corpus {O}.csv -M 2 -o {O}", 2, "--corpus-tree"},
       {"{W} --train-frames 500:600 -o {O}", 1, "500:600"},
       {"{W} --memory-mb 1 -o {O}", 1, "--memory-mb"},
       {"{W} --Kt 100000000 --memory-mb 1024 -o {O}", 1, "--memory-mb"},
@@ -79,6 +80,7 @@ TEST_F(Options, TrainForestRefusesAbsurdValues) {
     const Outcome r = run("timeout 120 " + tool("train-forest") + " -q " + expand(a.command));
     expect_one_line(a, r);
     EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+    EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
   }
 }
 
@@ -99,10 +101,11 @@ TEST_F(Options, EvalForestRefusesAbsurdValues) {
     const Outcome r = run("timeout 120 " + tool("eval-forest") + " -q " + expand(a.command));
     expect_one_line(a, r);
     EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+    EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
   }
 }
 
-TEST_F(Options, ExtractFeaturesAndMakeSequenceRefuseAbsurdValues) {
+TEST_F(Options, OtherToolsRefuseAbsurdValues) {
   const std::vector<std::pair<std::string, Absurd>> cases = {
       {"extract-features", {"{S} -o {O} --threads -1", 2, "--threads"}},
       {"extract-features", {"{S} -o {O} --seed -1", 2, "--seed"}},
@@ -111,10 +114,19 @@ TEST_F(Options, ExtractFeaturesAndMakeSequenceRefuseAbsurdValues) {
       {"make-sequence", {"--frames -5 -o {O}", 2, "--frames"}},
       {"make-sequence", {"--size 0x0 -o {O}", 2, "--size"}},
       {"make-sequence", {"--seed -1 -o {O}", 2, "--seed"}},
+      {"extract-features", {"{S} -o {O} --block-size 4", 2, "--block-size"}},
+      {"extract-features", {"{S} -o {O} --num-disparities 0", 2, "--num-disparities"}},
+      {"extract-features", {"{S} -o {O} --min-track-frames 0", 2, "--min-track-frames"}},
+      {"segment-cloud", {"--make-tabletop -5 -o {O}.pcd", 2, "--make-tabletop"}},
+      {"segment-cloud", {"--make-tabletop 1000000000 -o {O}.pcd", 2, "--make-tabletop"}},
+      {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --threads -3 -o {O}", 2, "--threads"}},
+      {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --memory-mb 0 -o {O}", 2, "--memory-mb"}},
+      {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --max-points -1 -o {O}", 2, "--max-points"}},
   };
   for (const auto& [name, a] : cases) {
     const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
     expect_one_line(a, r);
     EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+    EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
   }
 }
