@@ -21,6 +21,7 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 #include "smseg/cloud/cloud_segment.hpp"
 #include "smseg/graphcut/graphcut.hpp"
 #include "knn_graph.hpp"
@@ -51,9 +52,16 @@ std::array<std::uint8_t, 3> label_colour(int label) {
 
 /// PCL 1.13's readers crash on some malformed files: check the header ourselves first. PCD: FIELDS,
 /// SIZE, TYPE, WIDTH, HEIGHT, POINTS (> 0) and DATA lines; PLY: the "ply" magic and an end_header.
+/// The header must lie in the first 64 KiB (ours are a few hundred bytes), so that a file with no line
+/// breaks is not read whole by the check.
 void check_header(const fs::path& path, bool pcd) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path.string(), "", "cannot be opened");
+  constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error(path.string(), "", "cannot be opened");
+  std::string head(kMaxHeaderBytes, '\0');
+  file.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(file.gcount()));
+  std::istringstream in(head);
   std::string line;
   if (!pcd) {
     if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
@@ -88,6 +96,9 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
   if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
+  // PCL reads the whole file into memory: one larger than any cloud we write is refused first.
+  if (fs::file_size(path, ec) > kMaxLargeFileBytes)
+    throw Error(path.string(), "", "is larger than the " + std::to_string(kMaxLargeFileBytes / kMiB) + " MiB this reader accepts");
   check_header(path, ext == ".pcd");
   pcl::PCLPointCloud2 raw;
   const auto level = pcl::console::getVerbosityLevel();

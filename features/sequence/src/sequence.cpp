@@ -55,6 +55,10 @@ void require_file(const Sequence& seq, const fs::path& p, const std::string& wha
 cv::Mat read_image(const fs::path& full, int flags) {
   std::error_code ec;
   if (!fs::is_regular_file(full, ec)) throw Error(full.string(), "", "no such image");
+  // Image files are decoded by OpenCV from the file; one beyond the largest image a sequence can hold is
+  // refused before decoding.
+  if (fs::file_size(full, ec) > kMaxLargeFileBytes)
+    throw Error(full.string(), "", "is larger than the " + std::to_string(kMaxLargeFileBytes / kMiB) + " MiB this reader accepts");
   cv::Mat m;
   try {
     m = cv::imread(full.string(), flags);
