@@ -73,6 +73,19 @@ long parse_long(const CsvTable& t, std::size_t row, int col) {
               "expected an integer, found \"" + s + "\"");
 }
 
+/// A number of row's column col that must lie in lo..hi (a class index, a colour, a video frame).
+long parse_in_range(const CsvTable& t, std::size_t row, int col, long lo, long hi) {
+  const long v = parse_long(t, row, col);
+  if (v < lo || v > hi)
+    throw Error(t.file.string(), "line " + std::to_string(t.line_of_row[row]) + ", " + t.header[col],
+                "is " + std::to_string(v) + ", expected " + std::to_string(lo) + ".." + std::to_string(hi));
+  return v;
+}
+
+/// CamVid's frame numbers count 30 Hz video frames: a billion is ten years of video, and the bound keeps
+/// the differences between frame numbers far from overflowing.
+constexpr long kMaxVideoFrame = 1000000000;
+
 }  // namespace
 
 CamvidClasses read_camvid_classes(const fs::path& file) {
@@ -85,7 +98,7 @@ CamvidClasses read_camvid_classes(const fs::path& file) {
   for (std::size_t r = 0; r < classes.rows.size(); ++r) {
     ClassInfo c;
     c.name = classes.rows[r][cn];
-    c.file_value = static_cast<int>(parse_long(classes, r, ci));
+    c.file_value = static_cast<int>(parse_in_range(classes, r, ci, 0, 255));  // a label image's 8-bit value
     const long rgb[3] = {parse_long(classes, r, cr), parse_long(classes, r, cg), parse_long(classes, r, cb)};
     for (int k = 0; k < 3; ++k) {
       if (rgb[k] < 0 || rgb[k] > 255)
@@ -145,7 +158,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
   for (std::size_t r = 0; r < frames.rows.size(); ++r) {
     const auto& row = frames.rows[r];
     if (!wanted.count(row[fsp])) continue;
-    const long frame = parse_long(frames, r, ff);
+    const long frame = parse_in_range(frames, r, ff, 0, kMaxVideoFrame);
     bool extend = false;
     if (!runs.empty()) {
       Pending& p = runs.back();
@@ -186,7 +199,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
     seq.classes = class_list;
     seq.void_class = void_class;
     seq.camera_height = opt.camera_height;
-    const long frame0 = parse_long(frames, p.rows.front(), ff);
+    const long frame0 = parse_in_range(frames, p.rows.front(), ff, 0, kMaxVideoFrame);
     for (std::size_t k = 0; k < p.rows.size(); ++k) {
       const std::size_t r = p.rows[k];
       const auto& row = frames.rows[r];
@@ -196,7 +209,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
       const std::string where = "line " + std::to_string(frames.line_of_row[r]);
       if (!fs::is_regular_file(e.left, ec)) throw Error(frames.file.string(), where, "image " + e.left.string() + " does not exist");
       if (!fs::is_regular_file(e.label, ec)) throw Error(frames.file.string(), where, "label " + e.label.string() + " does not exist");
-      e.time = double(parse_long(frames, r, ff) - frame0) / opt.video_fps;
+      e.time = double(parse_in_range(frames, r, ff, 0, kMaxVideoFrame) - frame0) / opt.video_fps;
       seq.frames.push_back(e);
       seq.labelled_frames.push_back(static_cast<int>(k));
     }
