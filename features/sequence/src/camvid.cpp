@@ -35,6 +35,40 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return cells;
 }
 
+/// Whether text is well-formed UTF-8 (no overlong forms, surrogates or code points above U+10FFFF).
+/// The cells become names in sequence.json, and JSON text must be UTF-8.
+bool is_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+    const unsigned char c = byte(i);
+    std::size_t extra = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if (c >= 0xC2 && c <= 0xDF) {
+      extra = 1;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      extra = 2;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      extra = 3;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else {
+      return false;
+    }
+    if (i + extra >= text.size()) return false;  // truncated sequence
+    if (byte(i + 1) < lo || byte(i + 1) > hi) return false;
+    for (std::size_t k = 2; k <= extra; ++k)
+      if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return false;
+    i += extra + 1;
+  }
+  return true;
+}
+
 CsvTable read_csv(const fs::path& file) {
   const std::string text = read_file(file);
   CsvTable t;
@@ -46,6 +80,7 @@ CsvTable read_csv(const fs::path& file) {
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
+    if (!is_utf8(line)) throw Error(file.string(), "line " + std::to_string(lineno), "is not UTF-8 text");
     auto cells = split_csv_line(line);
     if (t.header.empty()) {
       t.header = std::move(cells);
