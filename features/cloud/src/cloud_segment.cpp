@@ -63,10 +63,24 @@ void check_header(const fs::path& path, bool pcd) {
   head.resize(static_cast<std::size_t>(file.gcount()));
   std::istringstream in(head);
   std::string line;
+  // A count the file cannot hold (every element takes at least a byte) is refused before PCL
+  // allocates for it: "element vertex 4000000000" in a small file made it ask for 80 GB.
+  std::error_code ec;
+  const auto file_size = static_cast<long long>(fs::file_size(path, ec));
+  const auto check_count = [&](long long count, const std::string& what) {
+    if (count > file_size)
+      throw Error(path.string(), what, "is " + std::to_string(count) + ", more than the file's " +
+                                           std::to_string(file_size) + " bytes can hold");
+  };
   if (!pcd) {
     if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
-    for (int n = 0; n < 200 && std::getline(in, line); ++n)
+    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
       if (line.rfind("end_header", 0) == 0) return;
+      std::istringstream ls(line);
+      std::string word, element;
+      long long count = 0;
+      if (ls >> word >> element >> count && word == "element") check_count(count, "element " + element);
+    }
     throw Error(path.string(), "", "not a PLY file (no end_header)");
   }
   std::set<std::string> seen;
@@ -76,8 +90,17 @@ void check_header(const fs::path& path, bool pcd) {
     std::istringstream ls(line);
     std::string key;
     ls >> key;
+    // PCL 1.13's PCDReader dereferences a null pointer on a header line it does not know (found by
+    // fuzz_cloud): only the keywords of the PCD format pass.
+    static const std::set<std::string> keywords = {"VERSION", "FIELDS", "SIZE",   "TYPE", "COUNT",
+                                                   "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+    if (!keywords.count(key))
+      throw Error(path.string(), "", "not a PCD file (unknown header line \"" + line.substr(0, 40) + "\")");
     seen.insert(key);
     if (key == "POINTS") ls >> points;
+    long long count = 0;
+    if ((key == "POINTS" || key == "WIDTH" || key == "HEIGHT") && std::istringstream(line.substr(key.size())) >> count)
+      check_count(count, key);
     if (key == "DATA") break;
   }
   for (const char* k : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS", "DATA"})
