@@ -74,12 +74,24 @@ void check_header(const fs::path& path, bool pcd) {
   };
   if (!pcd) {
     if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
+    // PCL 1.13's PLYReader fails an assertion (abort) on a vertex property it does not know, e.g. a
+    // "uchar rfd" before a "uint label" (found by fuzz_cloud): only the names it reads pass.
+    static const std::set<std::string> vertex_properties = {
+        "x", "y", "z", "nx", "ny", "nz", "normal_x", "normal_y", "normal_z", "red", "green", "blue",
+        "alpha", "rgb", "rgba", "intensity", "label", "curvature"};
+    std::string element;
     for (int n = 0; n < 200 && std::getline(in, line); ++n) {
       if (line.rfind("end_header", 0) == 0) return;
       std::istringstream ls(line);
-      std::string word, element;
+      std::string word, name;
+      ls >> word;
       long long count = 0;
-      if (ls >> word >> element >> count && word == "element") check_count(count, "element " + element);
+      if (word == "element" && ls >> element >> count) check_count(count, "element " + element);
+      if (word == "property" && element == "vertex") {
+        for (std::string w; ls >> w;) name = w;  // the last word: "property float x", "property list uchar int v"
+        if (!vertex_properties.count(name))
+          throw Error(path.string(), "element vertex", "property \"" + name.substr(0, 40) + "\" is not one this reader knows");
+      }
     }
     throw Error(path.string(), "", "not a PLY file (no end_header)");
   }

@@ -281,3 +281,18 @@ TEST(CloudSegment, CountsBeyondTheFileSizeAreRefused) {
   fs::remove(ply);
   fs::remove(pcd);
 }
+
+// Found by fuzz_cloud: PCL 1.13's PLYReader fails an assertion (the process aborts) on a vertex
+// property it does not know ("uchar rfd" before "uint label"); the header check refuses it first.
+TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
+  const fs::path p = temp("unknown-property.ply");
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar rfd\nproperty uint label\nend_header\n1 2 3 4 5\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": element vertex: property \"rfd\" is not one this reader knows");
+  }
+  fs::remove(p);
+}
