@@ -86,7 +86,11 @@ void check_header(const fs::path& path, bool pcd) {
       std::string word, name;
       ls >> word;
       long long count = 0;
-      if (word == "element" && ls >> element >> count) check_count(count, "element " + element);
+      if (word == "element" && ls >> element >> count) {
+        check_count(count, "element " + element);
+        // An empty vertex list made PCL's conversion index an empty vector (UBSan, found by fuzz_cloud).
+        if (element == "vertex" && count <= 0) throw Error(path.string(), "points", "the cloud is empty");
+      }
       if (word == "property" && element == "vertex") {
         for (std::string w; ls >> w;) name = w;  // the last word: "property float x", "property list uchar int v"
         if (!vertex_properties.count(name))

@@ -296,3 +296,18 @@ TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
   }
   fs::remove(p);
 }
+
+// Found by fuzz_cloud: a PLY with "element vertex 0" reached PCL's conversion, which indexed an empty
+// vector (UBSan: reference binding to a null pointer); it is refused as an empty cloud, like a PCD.
+TEST(CloudSegment, PlyWithNoVertexIsAnEmptyCloud) {
+  const fs::path p = temp("no-vertex.ply");
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+                      "property float z\nend_header\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": points: the cloud is empty");
+  }
+  fs::remove(p);
+}
