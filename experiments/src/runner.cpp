@@ -7,6 +7,7 @@
 #include <cstring>
 #include <fcntl.h>
 #include <iostream>
+#include <map>
 #include <set>
 #include <sys/file.h>
 #include <unistd.h>
@@ -144,6 +145,27 @@ fs::path prepare_work(const std::string& name, const SequenceSource& source, con
   return work;
 }
 
+std::set<std::string> read_done_points(const fs::path& jsonl) {
+  std::set<std::string> done;
+  std::map<std::string, int> line_of_point;
+  int line = 0;
+  for (const auto& rec : eval::read_jsonl(jsonl)) {
+    ++line;
+    const std::string where = "line " + std::to_string(line);
+    const auto format = rec.find("format");
+    if (format == rec.end() || *format != kRecordFormat || !rec.contains("point"))
+      throw Error(jsonl.string(), where, "is not a run-experiment record");
+    const std::string point = rec["point"].dump();
+    const auto [first, inserted] = line_of_point.emplace(point, line);
+    if (!inserted)
+      throw Error(jsonl.string(), where,
+                  "records the same point as line " + std::to_string(first->second) +
+                      " (a run writes each point once: remove the copy)");
+    done.insert(point);
+  }
+  return done;
+}
+
 RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   if (options.out.empty()) throw Error("", "--out", "name the results folder");
@@ -174,16 +196,7 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
 
   // Points already done.
   const fs::path jsonl = options.out / "experiment.jsonl";
-  std::set<std::string> done;
-  {
-    int line = 0;
-    for (const auto& rec : eval::read_jsonl(jsonl)) {
-      ++line;
-      if (rec.value("format", "") != kRecordFormat || !rec.contains("point"))
-        throw Error(jsonl.string(), "line " + std::to_string(line), "is not a run-experiment record");
-      done.insert(rec["point"].dump());
-    }
-  }
+  const std::set<std::string> done = read_done_points(jsonl);
   std::vector<const Point*> todo;
   RunReport report;
   report.total = static_cast<int>(ex.points.size());

@@ -13,6 +13,7 @@ namespace smseg::forest {
 namespace {
 constexpr const char* kFormat = "smseg-forest";
 constexpr int kVersion = 1;
+constexpr const char* kSplitKeys[] = {"f", "dx", "dy", "w", "h", "t", "left", "right"};
 
 std::vector<std::string> read_names(const JsonView& a, bool allow_empty) {
   std::vector<std::string> names;
@@ -138,6 +139,10 @@ Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path&
       const JsonView jn = nodes.at(i);
       Node& node = tree.nodes[i];
       if (auto counts = jn.maybe("counts")) {
+        // A leaf holds counts and nothing else: a node with both would be read as a leaf and its split
+        // silently dropped, changing every result below it.
+        for (const char* key : kSplitKeys)
+          if (jn.has(key)) jn.fail("has both \"counts\" (a leaf) and the split field \"" + std::string(key) + "\"");
         if (counts->size() != f.classes.size())
           counts->fail("has " + std::to_string(counts->size()) + " entries, expected one per class (" +
                        std::to_string(f.classes.size()) + ")");
@@ -181,7 +186,7 @@ void save_forest(const Forest& forest, const std::filesystem::path& path) {
   write_json_atomic(path, forest_to_json(forest), -1);
 }
 
-Forest load_forest(const std::filesystem::path& path) { return forest_from_json(read_json(path), path); }
+Forest load_forest(const std::filesystem::path& path) { return forest_from_json(read_json(path, kMaxLargeFileBytes), path); }
 
 void check_compatible(const Forest& forest, const std::vector<std::string>& classes,
                       const std::vector<std::string>& features, const std::filesystem::path& file) {

@@ -93,7 +93,7 @@ void save_forest_part(const Forest& part, TreeRange range, const std::filesystem
 }
 
 ForestPart load_forest_part(const std::filesystem::path& path) {
-  const nlohmann::json json = read_json(path);
+  const nlohmann::json json = read_json(path, kMaxLargeFileBytes);
   const JsonView j(json, path);
   check_format(j, kPartFormat, {kPartVersion});
   ForestPart part;

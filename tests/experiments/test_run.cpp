@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "jsonl.hpp"
+#include "temp_dir.hpp"
 #include "smseg/eval/sweep.hpp"
 #include "smseg/experiments/runner.hpp"
 #include "smseg/common/io.hpp"
@@ -265,4 +266,28 @@ TEST_F(Run, ToolAnswersBadInputInOneLine) {
   EXPECT_NE(outtext.find("bad.json"), std::string::npos) << outtext;
   EXPECT_NE(outtext.find("fixed.M"), std::string::npos) << outtext;
   EXPECT_FALSE(fs::exists(dir / "results" / "bad"));  // nothing written
+}
+
+// issue 19, defect 3: a point recorded twice in experiment.jsonl used to be accepted (the set of done
+// points hid the copy); now the resume reader names the file, the line and the first record.
+TEST(ResumeRecords, PointRecordedTwiceIsRefused) {
+  const fs::path dir = smseg::test::temp_dir("jsonl-dup");
+  const fs::path jsonl = dir / "experiment.jsonl";
+  const std::string a = R"({"format": "smseg-experiment-point", "point": {"M": 1}, "index": 0})";
+  const std::string b = R"({"format": "smseg-experiment-point", "point": {"M": 2}, "index": 1})";
+  { std::ofstream(jsonl) << a << "\n" << b << "\n"; }
+  EXPECT_EQ(smseg::experiments::read_done_points(jsonl).size(), 2u);
+  { std::ofstream(jsonl) << a << "\n" << b << "\n" << a << "\n"; }
+  try {
+    smseg::experiments::read_done_points(jsonl);
+    ADD_FAILURE() << "a duplicated point was accepted";
+  } catch (const smseg::Error& e) {
+    EXPECT_EQ(std::string(e.what()), jsonl.string() + ": line 3: records the same point as line 1 (a run writes each "
+                                                      "point once: remove the copy)");
+  }
+  // A "format" that is not a string threw nlohmann's type_error out of the old reader (seen in review).
+  { std::ofstream(jsonl) << R"({"format": 7, "point": {"M": 1}})" << "\n"; }
+  EXPECT_THROW(smseg::experiments::read_done_points(jsonl), smseg::Error);
+  EXPECT_TRUE(smseg::experiments::read_done_points(dir / "absent.jsonl").empty());
+  fs::remove_all(dir);
 }

@@ -1,6 +1,7 @@
 // The forest file: round trip, and refusal of anything that is not a valid smseg-forest v1.
 #include <gtest/gtest.h>
 
+#include <chrono>
 #include <cstring>
 #include <fstream>
 #include <functional>
@@ -127,11 +128,32 @@ TEST(ForestFile, InconsistentContentIsRefusedNamingTheField) {
       {"bad score", [](smseg::Json& j) { j["params"]["score"] = "gini"; }, "params.score"},
       {"score not a string", [](smseg::Json& j) { j["params"]["score"] = 1; }, "params.score"},
       {"no image size", [](smseg::Json& j) { j.erase("image"); }, "image"},
+      // issue 19, defect 3: a node with both a leaf's counts and a split used to be read as a leaf.
+      {"leaf with a split field", [&](smseg::Json& j) { first_leaf(j)["left"] = 1; }, "has both \"counts\" (a leaf) and the split field \"left\""},
+      {"split with counts", [&](smseg::Json& j) { first_split(j)["counts"] = first_leaf(j)["counts"]; }, "trees[0].nodes[0]: has both"},
   };
   for (const Case& c : cases) {
     const std::string err = fx.error_of(c.edit);
     EXPECT_NE(err.find(c.field), std::string::npos) << c.what << " gave: " << err;
   }
+}
+
+// issue 19, defect 1: a forest file is read up to kMaxLargeFileBytes; a larger one (here a sparse
+// file, which takes no disk) gets one line naming the file and the limit, before a byte is read.
+TEST(ForestFile, FilesBeyondTheSizeLimitAreRefusedAtOnce) {
+  const fs::path dir = temp_dir("limit");
+  const fs::path sparse = dir / "huge.json";
+  { std::ofstream(sparse) << "{"; }
+  fs::resize_file(sparse, smseg::kMaxLargeFileBytes + 1);
+  const auto t0 = std::chrono::steady_clock::now();
+  try {
+    load_forest(sparse);
+    ADD_FAILURE() << "accepted";
+  } catch (const smseg::Error& e) {
+    EXPECT_EQ(std::string(e.what()), sparse.string() + ": is larger than the 4096 MiB this reader accepts");
+  }
+  EXPECT_LT(std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), 1.0);
+  fs::remove_all(dir);
 }
 
 TEST(ForestFile, CompatibilityWithTheDataIsChecked) {

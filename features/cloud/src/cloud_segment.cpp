@@ -21,6 +21,7 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 #include "smseg/cloud/cloud_segment.hpp"
 #include "smseg/graphcut/graphcut.hpp"
 #include "knn_graph.hpp"
@@ -51,14 +52,51 @@ std::array<std::uint8_t, 3> label_colour(int label) {
 
 /// PCL 1.13's readers crash on some malformed files: check the header ourselves first. PCD: FIELDS,
 /// SIZE, TYPE, WIDTH, HEIGHT, POINTS (> 0) and DATA lines; PLY: the "ply" magic and an end_header.
+/// The header must lie in the first 64 KiB (ours are a few hundred bytes), so that a file with no line
+/// breaks is not read whole by the check.
 void check_header(const fs::path& path, bool pcd) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path.string(), "", "cannot be opened");
+  constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw Error(path.string(), "", "cannot be opened");
+  std::string head(kMaxHeaderBytes, '\0');
+  file.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<std::size_t>(file.gcount()));
+  std::istringstream in(head);
   std::string line;
+  // A count the file cannot hold (every element takes at least a byte) is refused before PCL
+  // allocates for it: "element vertex 4000000000" in a small file made it ask for 80 GB.
+  std::error_code ec;
+  const auto file_size = static_cast<long long>(fs::file_size(path, ec));
+  const auto check_count = [&](long long count, const std::string& what) {
+    if (count > file_size)
+      throw Error(path.string(), what, "is " + std::to_string(count) + ", more than the file's " +
+                                           std::to_string(file_size) + " bytes can hold");
+  };
   if (!pcd) {
     if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
-    for (int n = 0; n < 200 && std::getline(in, line); ++n)
+    // PCL 1.13's PLYReader fails an assertion (abort) on a vertex property it does not know, e.g. a
+    // "uchar rfd" before a "uint label" (found by fuzz_cloud): only the names it reads pass.
+    static const std::set<std::string> vertex_properties = {
+        "x", "y", "z", "nx", "ny", "nz", "normal_x", "normal_y", "normal_z", "red", "green", "blue",
+        "alpha", "rgb", "rgba", "intensity", "label", "curvature"};
+    std::string element;
+    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
       if (line.rfind("end_header", 0) == 0) return;
+      std::istringstream ls(line);
+      std::string word, name;
+      ls >> word;
+      long long count = 0;
+      if (word == "element" && ls >> element >> count) {
+        check_count(count, "element " + element);
+        // An empty vertex list made PCL's conversion index an empty vector (UBSan, found by fuzz_cloud).
+        if (element == "vertex" && count <= 0) throw Error(path.string(), "points", "the cloud is empty");
+      }
+      if (word == "property" && element == "vertex") {
+        for (std::string w; ls >> w;) name = w;  // the last word: "property float x", "property list uchar int v"
+        if (!vertex_properties.count(name))
+          throw Error(path.string(), "element vertex", "property \"" + name.substr(0, 40) + "\" is not one this reader knows");
+      }
+    }
     throw Error(path.string(), "", "not a PLY file (no end_header)");
   }
   std::set<std::string> seen;
@@ -68,8 +106,17 @@ void check_header(const fs::path& path, bool pcd) {
     std::istringstream ls(line);
     std::string key;
     ls >> key;
+    // PCL 1.13's PCDReader dereferences a null pointer on a header line it does not know (found by
+    // fuzz_cloud): only the keywords of the PCD format pass.
+    static const std::set<std::string> keywords = {"VERSION", "FIELDS", "SIZE",   "TYPE", "COUNT",
+                                                   "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+    if (!keywords.count(key))
+      throw Error(path.string(), "", "not a PCD file (unknown header line \"" + line.substr(0, 40) + "\")");
     seen.insert(key);
     if (key == "POINTS") ls >> points;
+    long long count = 0;
+    if ((key == "POINTS" || key == "WIDTH" || key == "HEIGHT") && std::istringstream(line.substr(key.size())) >> count)
+      check_count(count, key);
     if (key == "DATA") break;
   }
   for (const char* k : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS", "DATA"})
@@ -88,6 +135,9 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
   if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
   std::error_code ec;
   if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
+  // PCL reads the whole file into memory: one larger than any cloud we write is refused first.
+  if (fs::file_size(path, ec) > kMaxLargeFileBytes)
+    throw Error(path.string(), "", "is larger than the " + std::to_string(kMaxLargeFileBytes / kMiB) + " MiB this reader accepts");
   check_header(path, ext == ".pcd");
   pcl::PCLPointCloud2 raw;
   const auto level = pcl::console::getVerbosityLevel();

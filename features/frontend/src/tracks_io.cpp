@@ -1,6 +1,7 @@
 #include "smseg/frontend/tracks_io.hpp"
 
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Dense>
 
@@ -43,6 +44,13 @@ std::vector<long> integers(const JsonView& v, std::size_t expected) {
     out[i] = j[i].get<long>();
   }
   return out;
+}
+
+/// A frame index or a point count: an integer in 0..2^31-1 (checked before it is narrowed to int).
+int count(const JsonView& j, const char* key) {
+  const std::int64_t v = j.integer(key);
+  if (v < 0 || v > std::numeric_limits<int>::max()) j.fail("must be in 0..2147483647", key);
+  return static_cast<int>(v);
 }
 
 Eigen::Matrix3d rotation_from(const JsonView& v) {
@@ -283,18 +291,18 @@ void write_tracks(const fs::path& path, const FrontEndResult& r, const std::stri
 }
 
 TracksFile read_tracks(const fs::path& path) {
-  const Json doc = read_json(path);
+  const Json doc = read_json(path, kMaxLargeFileBytes);
   const JsonView j(doc, path);
   check_format(j, kTracksFormat, {kTracksVersion});
   TracksFile out;
   out.sequence_name = j.str("sequence");
   const auto size = integers(j.at("image_size"), 2);
-  if (size[0] < 1 || size[1] < 1) j.fail("must be positive", "image_size");
+  if (size[0] < 1 || size[1] < 1 || size[0] > 20000 || size[1] > 20000)
+    j.fail("must be in 1..20000 (as a sequence's)", "image_size");
   out.image_size = cv::Size(static_cast<int>(size[0]), static_cast<int>(size[1]));
   if (auto o = j.maybe("options")) out.options = o->json();
   FrontEndResult& r = out.result;
-  r.first_frame = static_cast<int>(j.integer("first_frame"));
-  if (r.first_frame < 0) j.fail("must be >= 0", "first_frame");
+  r.first_frame = count(j, "first_frame");
   const long n = j.integer("frame_count");
   if (n < 0) j.fail("must be >= 0", "frame_count");
   const JsonView poses = j.at("poses");
@@ -320,8 +328,8 @@ TracksFile read_tracks(const fs::path& path) {
     pm.motion.R = rotation_from(m.at("R"));
     const auto t = numbers(m.at("t"), 3, "3 numbers");
     pm.motion.t = Eigen::Vector3d(t[0], t[1], t[2]);
-    pm.points = static_cast<int>(m.integer("points"));
-    pm.inliers = static_cast<int>(m.integer("inliers"));
+    pm.points = count(m, "points");
+    pm.inliers = count(m, "inliers");
     pm.ok = m.boolean("ok");
     pm.bridged = m.boolean("bridged");
     pm.rms = m.num("rms");
@@ -356,8 +364,9 @@ TracksFile read_tracks(const fs::path& path) {
       if (labels[k] < -1 || labels[k] > 254) t.at("labels").at(k).fail("expected -1 or a class position 0..254");
       tr.labels.push_back(static_cast<int>(labels[k]));
     }
-    tr.label = static_cast<int>(t.integer("label"));
-    if (tr.label < -1 || tr.label > 254) t.fail("expected -1 or a class position 0..254", "label");
+    const std::int64_t label = t.integer("label");
+    if (label < -1 || label > 254) t.fail("expected -1 or a class position 0..254", "label");
+    tr.label = static_cast<int>(label);
     r.tracks.push_back(std::move(tr));
   }
   r.summary = summary_from_json(j.at("summary"));

@@ -35,6 +35,40 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return cells;
 }
 
+/// Whether text is well-formed UTF-8 (no overlong forms, surrogates or code points above U+10FFFF).
+/// The cells become names in sequence.json, and JSON text must be UTF-8.
+bool is_utf8(std::string_view text) {
+  std::size_t i = 0;
+  while (i < text.size()) {
+    const auto byte = [&](std::size_t k) { return static_cast<unsigned char>(text[k]); };
+    const unsigned char c = byte(i);
+    std::size_t extra = 0;
+    unsigned lo = 0x80, hi = 0xBF;  // the allowed range of the second byte
+    if (c < 0x80) {
+      ++i;
+      continue;
+    } else if (c >= 0xC2 && c <= 0xDF) {
+      extra = 1;
+    } else if (c >= 0xE0 && c <= 0xEF) {
+      extra = 2;
+      if (c == 0xE0) lo = 0xA0;
+      if (c == 0xED) hi = 0x9F;
+    } else if (c >= 0xF0 && c <= 0xF4) {
+      extra = 3;
+      if (c == 0xF0) lo = 0x90;
+      if (c == 0xF4) hi = 0x8F;
+    } else {
+      return false;
+    }
+    if (i + extra >= text.size()) return false;  // truncated sequence
+    if (byte(i + 1) < lo || byte(i + 1) > hi) return false;
+    for (std::size_t k = 2; k <= extra; ++k)
+      if (byte(i + k) < 0x80 || byte(i + k) > 0xBF) return false;
+    i += extra + 1;
+  }
+  return true;
+}
+
 CsvTable read_csv(const fs::path& file) {
   const std::string text = read_file(file);
   CsvTable t;
@@ -46,6 +80,7 @@ CsvTable read_csv(const fs::path& file) {
     ++lineno;
     if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty()) continue;
+    if (!is_utf8(line)) throw Error(file.string(), "line " + std::to_string(lineno), "is not UTF-8 text");
     auto cells = split_csv_line(line);
     if (t.header.empty()) {
       t.header = std::move(cells);
@@ -73,6 +108,19 @@ long parse_long(const CsvTable& t, std::size_t row, int col) {
               "expected an integer, found \"" + s + "\"");
 }
 
+/// A number of row's column col that must lie in lo..hi (a class index, a colour, a video frame).
+long parse_in_range(const CsvTable& t, std::size_t row, int col, long lo, long hi) {
+  const long v = parse_long(t, row, col);
+  if (v < lo || v > hi)
+    throw Error(t.file.string(), "line " + std::to_string(t.line_of_row[row]) + ", " + t.header[col],
+                "is " + std::to_string(v) + ", expected " + std::to_string(lo) + ".." + std::to_string(hi));
+  return v;
+}
+
+/// CamVid's frame numbers count 30 Hz video frames: a billion is ten years of video, and the bound keeps
+/// the differences between frame numbers far from overflowing.
+constexpr long kMaxVideoFrame = 1000000000;
+
 }  // namespace
 
 CamvidClasses read_camvid_classes(const fs::path& file) {
@@ -85,7 +133,7 @@ CamvidClasses read_camvid_classes(const fs::path& file) {
   for (std::size_t r = 0; r < classes.rows.size(); ++r) {
     ClassInfo c;
     c.name = classes.rows[r][cn];
-    c.file_value = static_cast<int>(parse_long(classes, r, ci));
+    c.file_value = static_cast<int>(parse_in_range(classes, r, ci, 0, 255));  // a label image's 8-bit value
     const long rgb[3] = {parse_long(classes, r, cr), parse_long(classes, r, cg), parse_long(classes, r, cb)};
     for (int k = 0; k < 3; ++k) {
       if (rgb[k] < 0 || rgb[k] > 255)
@@ -145,7 +193,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
   for (std::size_t r = 0; r < frames.rows.size(); ++r) {
     const auto& row = frames.rows[r];
     if (!wanted.count(row[fsp])) continue;
-    const long frame = parse_long(frames, r, ff);
+    const long frame = parse_in_range(frames, r, ff, 0, kMaxVideoFrame);
     bool extend = false;
     if (!runs.empty()) {
       Pending& p = runs.back();
@@ -186,7 +234,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
     seq.classes = class_list;
     seq.void_class = void_class;
     seq.camera_height = opt.camera_height;
-    const long frame0 = parse_long(frames, p.rows.front(), ff);
+    const long frame0 = parse_in_range(frames, p.rows.front(), ff, 0, kMaxVideoFrame);
     for (std::size_t k = 0; k < p.rows.size(); ++k) {
       const std::size_t r = p.rows[k];
       const auto& row = frames.rows[r];
@@ -198,7 +246,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
         throw Error(frames.file.string(), where, "image " + e.left.string() + " " + why);
       if (const std::string why = why_not_a_file(e.label); !why.empty())
         throw Error(frames.file.string(), where, "label " + e.label.string() + " " + why);
-      e.time = double(parse_long(frames, r, ff) - frame0) / opt.video_fps;
+      e.time = double(parse_in_range(frames, r, ff, 0, kMaxVideoFrame) - frame0) / opt.video_fps;
       seq.frames.push_back(e);
       seq.labelled_frames.push_back(static_cast<int>(k));
     }

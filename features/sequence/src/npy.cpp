@@ -1,12 +1,68 @@
 #include "smseg/sequence/npy.hpp"
 
 #include <cstring>
-#include <regex>
+#include <functional>
 
 namespace smseg::features {
 
+namespace {
+
+// The header dict is a Python literal, e.g. {'descr': '<f4', 'fortran_order': False, 'shape': (3, 4), }.
+// A small scanner reads the three keys we need; anything else in it is ignored, as numpy does.
+
+/// The largest header numpy itself reads (numpy.lib.format's max_header_size is 10 000 bytes): a
+/// longer one is not a file numpy writes, and it bounds the work spent on a hostile header.
+constexpr std::size_t kMaxHeaderBytes = 65535;
+/// Every dimension fits an OpenCV matrix's int, and the whole array stays far below 2^63 bytes.
+constexpr std::size_t kMaxDimension = 2147483647;
+constexpr std::size_t kMaxElements = std::size_t{1} << 48;
+
+bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r'; }
+
+std::size_t skip_spaces(std::string_view s, std::size_t i) {
+  while (i < s.size() && is_space(s[i])) ++i;
+  return i;
+}
+
+/// The position just after "'key':" (and any spaces), or npos when the key is absent.
+std::size_t value_of(std::string_view dict, std::string_view key) {
+  const std::string quoted = "'" + std::string(key) + "'";
+  const std::size_t at = dict.find(quoted);
+  if (at == std::string_view::npos) return at;
+  const std::size_t colon = skip_spaces(dict, at + quoted.size());
+  if (colon >= dict.size() || dict[colon] != ':') return std::string_view::npos;
+  return skip_spaces(dict, colon + 1);
+}
+
+/// The shape tuple at dict[i] ("(3, 4)", "(5,)", "()"): non-negative decimal integers only.
+std::vector<std::size_t> parse_shape(std::string_view dict, std::size_t i, const std::function<void(const std::string&)>& fail) {
+  if (i >= dict.size() || dict[i] != '(') fail("'shape' is not a tuple");
+  std::vector<std::size_t> shape;
+  std::size_t elements = 1;
+  i = skip_spaces(dict, i + 1);
+  while (i < dict.size() && dict[i] != ')') {
+    if (dict[i] == '-') fail("negative dimension in 'shape'");
+    std::size_t value = 0, digits = 0;
+    for (; i < dict.size() && dict[i] >= '0' && dict[i] <= '9'; ++i, ++digits) {
+      value = value * 10 + static_cast<std::size_t>(dict[i] - '0');
+      if (value > kMaxDimension) fail("a dimension in 'shape' is larger than " + std::to_string(kMaxDimension));
+    }
+    if (digits == 0) fail("'shape' holds something other than non-negative integers");
+    if (value > 0 && elements > kMaxElements / value) fail("'shape' describes more than 2^48 elements");
+    elements *= value;
+    shape.push_back(value);
+    i = skip_spaces(dict, i);
+    if (i < dict.size() && dict[i] == ',') i = skip_spaces(dict, i + 1);
+    else if (i < dict.size() && dict[i] != ')') fail("'shape' items must be separated by commas");
+  }
+  if (i >= dict.size()) fail("'shape' tuple is not closed");
+  return shape;
+}
+
+}  // namespace
+
 NpyHeader parse_npy_header(std::string_view bytes, const fs::path& file) {
-  const auto fail = [&](const std::string& why) {
+  const std::function<void(const std::string&)> fail = [&](const std::string& why) {
     throw Error(file.string(), "", "not a valid .npy file: " + why);
   };
   if (bytes.size() < 10 || std::memcmp(bytes.data(), "\x93NUMPY", 6) != 0) fail("bad magic");
@@ -23,20 +79,23 @@ NpyHeader parse_npy_header(std::string_view bytes, const fs::path& file) {
   } else {
     fail("unsupported version " + std::to_string(major));
   }
+  if (len > kMaxHeaderBytes) fail("header of " + std::to_string(len) + " bytes (at most " + std::to_string(kMaxHeaderBytes) + ")");
   if (bytes.size() < start + len) fail("truncated header");
-  const std::string dict(bytes.substr(start, len));
+  const std::string_view dict = bytes.substr(start, len);
   NpyHeader h;
   h.data_offset = start + len;
-  std::smatch m;
-  if (!std::regex_search(dict, m, std::regex("'descr'\\s*:\\s*'([^']*)'"))) fail("no 'descr'");
-  h.descr = m[1];
-  if (!std::regex_search(dict, m, std::regex("'fortran_order'\\s*:\\s*(True|False)"))) fail("no 'fortran_order'");
-  if (m[1] == "True") fail("Fortran order is not supported");
-  if (!std::regex_search(dict, m, std::regex("'shape'\\s*:\\s*\\(([^)]*)\\)"))) fail("no 'shape'");
-  const std::string shape = m[1];
-  const std::regex number("\\d+");
-  for (std::sregex_iterator it(shape.begin(), shape.end(), number), end; it != end; ++it)
-    h.shape.push_back(static_cast<std::size_t>(std::stoull(it->str())));
+  std::size_t at = value_of(dict, "descr");
+  if (at == std::string_view::npos) fail("no 'descr'");
+  const std::size_t descr_end = at < dict.size() && dict[at] == '\'' ? dict.find('\'', at + 1) : std::string_view::npos;
+  if (descr_end == std::string_view::npos) fail("'descr' is not a quoted string");
+  h.descr = std::string(dict.substr(at + 1, descr_end - at - 1));
+  at = value_of(dict, "fortran_order");
+  if (at == std::string_view::npos) fail("no 'fortran_order'");
+  if (dict.substr(at, 4) == "True") fail("Fortran order is not supported");
+  if (dict.substr(at, 5) != "False") fail("'fortran_order' is neither True nor False");
+  at = value_of(dict, "shape");
+  if (at == std::string_view::npos) fail("no 'shape'");
+  h.shape = parse_shape(dict, at, fail);
   return h;
 }
 
@@ -55,11 +114,14 @@ std::string make_npy_header(const std::string& descr, const std::vector<std::siz
 }
 
 cv::Mat read_npy_f32(const fs::path& path) {
-  const std::string bytes = read_file(path);
+  // The largest 2-D float32 image a sequence can name (20000 x 20000) after the largest header.
+  constexpr std::uintmax_t kMaxBytes = 12 + kMaxHeaderBytes + std::uintmax_t{20000} * 20000 * 4;
+  const std::string bytes = read_file(path, kMaxBytes);
   const NpyHeader h = parse_npy_header(bytes, path);
   if (h.descr != "<f4") throw Error(path.string(), "descr", "is '" + h.descr + "', expected '<f4' (float32)");
   if (h.shape.size() != 2) throw Error(path.string(), "shape", "expected a 2-D array");
-  const std::size_t n = h.shape[0] * h.shape[1];
+  const std::size_t n = h.shape[0] * h.shape[1];  // at most 2^48 (parse_npy_header)
+  if (n == 0) throw Error(path.string(), "shape", "the array is empty");
   if (bytes.size() != h.data_offset + n * 4)
     throw Error(path.string(), "", "size does not match its shape (truncated?)");
   cv::Mat m(static_cast<int>(h.shape[0]), static_cast<int>(h.shape[1]), CV_32FC1);

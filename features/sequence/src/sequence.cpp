@@ -70,10 +70,13 @@ std::string png_structure_problem(std::string_view bytes) {
   return "PNG ends before its IEND chunk (truncated?)";
 }
 
+/// The largest image file read (2047 MiB: a cv::Mat of the bytes is indexed with int).
+constexpr std::uintmax_t kMaxImageBytes = 2047 * kMiB;
+
 cv::Mat read_image(const fs::path& full, int flags) {
-  const std::string bytes = read_file(full);
-  if (bytes.size() > static_cast<std::size_t>(std::numeric_limits<int>::max()))
-    throw Error(full.string(), "", "is larger than 2 GiB, more than an image of a sequence can be");
+  // Decoded from memory, so that the file is read once, bounded (an image beyond what cv::Mat and the
+  // decoders index with int is refused), and checked before libpng sees it.
+  const std::string bytes = read_file(full, kMaxImageBytes);
   if (const std::string problem = png_structure_problem(bytes); !problem.empty())
     throw Error(full.string(), "", "cannot be decoded: " + problem);
   cv::Mat m;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <limits>
@@ -26,6 +27,22 @@ std::string npy_bytes(const std::string& descr, const std::vector<std::size_t>& 
   std::string out = make_npy_header(descr, shape);
   out.append(static_cast<const char*>(data), n);
   return out;
+}
+
+/// A SAT built from finite feature values holds only finite sums; a NaN or infinity comes from a damaged
+/// or foreign file and would silently turn every window that covers it into NaN (and so into the
+/// right branch of every split), so it is refused with its place in the file.
+void check_finite_sats(const fs::path& path, const double* sat, std::size_t features, std::size_t rows,
+                       std::size_t cols) {
+  const std::size_t n = features * rows * cols;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (std::isfinite(sat[i])) continue;
+    const std::size_t f = i / (rows * cols), y = i / cols % rows, x = i % cols;
+    throw Error(path.string(), "",
+                "SAT value " + std::to_string(i) + " (feature " + std::to_string(f) + ", row " + std::to_string(y) +
+                    ", column " + std::to_string(x) + ") is " + (std::isnan(sat[i]) ? "NaN" : "infinite") +
+                    "; the file is damaged (extract the frame again)");
+  }
 }
 
 }  // namespace
@@ -96,7 +113,7 @@ StackManifest load_stack_manifest(const fs::path& work) {
   m.sequence_name = j.has("sequence_name") ? j.str("sequence_name") : std::string();
   const JsonView size = j.at("image_size");
   const auto w = size.integer("width"), h = size.integer("height");
-  if (w <= 0 || h <= 0) size.fail("width and height must be positive");
+  if (w <= 0 || h <= 0 || w > 20000 || h > 20000) size.fail("width and height must be in 1..20000 (as a sequence's)");
   m.size = cv::Size(static_cast<int>(w), static_cast<int>(h));
   const auto strings = [&](const char* key) {
     std::vector<std::string> out;
@@ -194,6 +211,9 @@ FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels)
   const std::size_t H = m.size.height, W = m.size.width;
   s.sat_ = std::make_unique<Mapping>(sat_path(m.work, frame), "<f8",
                                      std::vector<std::size_t>{m.features.size(), H + 1, W + 1});
+  check_finite_sats(sat_path(m.work, frame), reinterpret_cast<const double*>(s.sat_->data), m.features.size(), H + 1,
+                    W + 1);
+  s.sat_->drop_pages();  // the check read every page; training and evaluation map back what they use
   s.gray_ = std::make_unique<Mapping>(gray_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
   if (with_labels) s.labels_ = std::make_unique<Mapping>(labels_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
   return s;

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
@@ -71,50 +72,72 @@ std::string why_not_a_file(const fs::path& path) {
   return {};
 }
 
-std::string read_file(const fs::path& path) {
-  if (const std::string why = why_not_a_file(path); !why.empty()) throw Error(path.string(), "", why);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
-  std::ostringstream ss;
-  ss << in.rdbuf();
-  if (in.bad()) throw Error(path.string(), "", "read failed");
-  return ss.str();
-}
-
 namespace {
 
-/// nlohmann's message without its "[json.exception.out_of_range.406] " tag.
-std::string json_error_reason(const Json::exception& e) {
-  const std::string what = e.what();
-  const auto tag_end = what.find("] ");
-  return tag_end == std::string::npos ? what : what.substr(tag_end + 2);
+std::string describe_limit(std::uintmax_t max_bytes) {
+  if (max_bytes % kMiB == 0) return std::to_string(max_bytes / kMiB) + " MiB";
+  return std::to_string(max_bytes) + " bytes";
+}
+
+[[noreturn]] void fail_too_large(const fs::path& path, std::uintmax_t max_bytes) {
+  throw Error(path.string(), "", "is larger than the " + describe_limit(max_bytes) + " this reader accepts");
+}
+
+/// "line L, column C" of the byte before offset in text (nlohmann counts bytes from 1).
+std::string line_and_column(std::string_view text, std::size_t byte) {
+  std::size_t line = 1, col = 1;
+  const std::size_t end = std::min<std::size_t>(byte > 0 ? byte - 1 : 0, text.size());
+  for (std::size_t i = 0; i < end; ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      col = 1;
+    } else {
+      ++col;
+    }
+  }
+  return "line " + std::to_string(line) + ", column " + std::to_string(col);
 }
 
 }  // namespace
 
-Json read_json(const fs::path& path) {
-  const std::string text = read_file(path);
+std::string read_file(const fs::path& path, std::uintmax_t max_bytes) {
+  std::error_code ec;
+  // Devices and FIFOs are read (bounded, below); what cannot be read at all is named for what it is.
+  if (!fs::exists(path, ec) || fs::is_directory(path, ec)) throw Error(path.string(), "", why_not_a_file(path));
+  // A regular file that is too large is refused before a byte is read; anything else (a device, a
+  // FIFO, a file still growing) is read in chunks until it ends or passes the limit.
+  std::uintmax_t expected_size = 0;
+  if (fs::is_regular_file(path, ec)) {
+    expected_size = fs::file_size(path, ec);
+    if (ec) expected_size = 0;
+    if (expected_size > max_bytes) fail_too_large(path, max_bytes);
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+  std::string bytes;
+  bytes.reserve(static_cast<std::size_t>(expected_size));
+  std::array<char, 16384> chunk;
+  while (bytes.size() <= max_bytes) {
+    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
+    bytes.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
+    if (!in) break;
+  }
+  if (in.bad()) throw Error(path.string(), "", "read failed");
+  if (bytes.size() > max_bytes) fail_too_large(path, max_bytes);
+  return bytes;
+}
+
+Json parse_json(std::string_view text, const fs::path& file) {
   try {
     return Json::parse(text);
   } catch (const Json::parse_error& e) {
-    // Turn the byte offset into line:column for the user.
-    std::size_t line = 1, col = 1;
-    const std::size_t end = std::min<std::size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
-    for (std::size_t i = 0; i < end; ++i) {
-      if (text[i] == '\n') {
-        ++line;
-        col = 1;
-      } else {
-        ++col;
-      }
-    }
-    throw Error(path.string(), "",
-                "malformed JSON at line " + std::to_string(line) + ", column " + std::to_string(col));
-  } catch (const Json::exception& e) {
-    // nlohmann's other parse failures (a number out of range, 1e999, is out_of_range 406), in our form.
-    throw Error(path.string(), "", std::string("malformed JSON: ") + json_error_reason(e));
+    throw Error(file.string(), "", "malformed JSON at " + line_and_column(text, e.byte));
+  } catch (const Json::out_of_range&) {  // a number beyond a double (1e999); nlohmann gives no offset
+    throw Error(file.string(), "", "a number is too large for a double (beyond 1.8e308)");
   }
 }
+
+Json read_json(const fs::path& path, std::uintmax_t max_bytes) { return parse_json(read_file(path, max_bytes), path); }
 
 JsonView::JsonView(const Json& j, fs::path file, std::string where)
     : j_(&j), file_(std::move(file)), where_(std::move(where)) {}

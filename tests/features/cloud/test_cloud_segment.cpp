@@ -237,3 +237,77 @@ TEST(CloudMrf, SeedFilesAndBadSeeds) {
   one.regions.resize(1);
   EXPECT_THROW(mrf_segment(c, one, {}), Error);
 }
+
+// Found by fuzz_cloud: PCL 1.13's PCDReader crashed (a null pointer) on a header line with a keyword it
+// does not know; our header check now refuses it, naming the line.
+TEST(CloudSegment, PcdHeaderLineOfUnknownKeywordIsRefused) {
+  const fs::path p = temp("unknown-keyword.pcd");
+  std::ofstream(p) << "# .PCD v0.7\nVERSION 0.7\nFOO 1\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                      "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": not a PCD file (unknown header line \"FOO 1\")");
+  }
+  // Without the stray line the same file is read.
+  std::ofstream(p) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
+                      "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  EXPECT_EQ(read_coloured_cloud(p).size(), 1u);
+  fs::remove(p);
+}
+
+// A point count the file cannot hold is refused before PCL allocates for it (a 3-line PLY claiming 4e9
+// vertices made PCL ask for 80 GB).
+TEST(CloudSegment, CountsBeyondTheFileSizeAreRefused) {
+  const fs::path ply = temp("huge-count.ply");
+  std::ofstream(ply) << "ply\nformat ascii 1.0\nelement vertex 4000000000\nproperty float x\nproperty float y\n"
+                        "property float z\nend_header\n1 2 3\n";
+  EXPECT_THROW(
+      {
+        try {
+          read_coloured_cloud(ply);
+        } catch (const Error& e) {
+          EXPECT_NE(std::string(e.what()).find("element vertex: is 4000000000, more than the file's"), std::string::npos)
+              << e.what();
+          throw;
+        }
+      },
+      Error);
+  const fs::path pcd = temp("huge-count.pcd");
+  std::ofstream(pcd) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
+                        "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1000000000\nDATA ascii\n1 2 3\n";
+  EXPECT_THROW(read_coloured_cloud(pcd), Error);
+  fs::remove(ply);
+  fs::remove(pcd);
+}
+
+// Found by fuzz_cloud: PCL 1.13's PLYReader fails an assertion (the process aborts) on a vertex
+// property it does not know ("uchar rfd" before "uint label"); the header check refuses it first.
+TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
+  const fs::path p = temp("unknown-property.ply");
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar rfd\nproperty uint label\nend_header\n1 2 3 4 5\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": element vertex: property \"rfd\" is not one this reader knows");
+  }
+  fs::remove(p);
+}
+
+// Found by fuzz_cloud: a PLY with "element vertex 0" reached PCL's conversion, which indexed an empty
+// vector (UBSan: reference binding to a null pointer); it is refused as an empty cloud, like a PCD.
+TEST(CloudSegment, PlyWithNoVertexIsAnEmptyCloud) {
+  const fs::path p = temp("no-vertex.ply");
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+                      "property float z\nend_header\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": points: the cloud is empty");
+  }
+  fs::remove(p);
+}

@@ -115,3 +115,54 @@ TEST(ImportCamvid, AnySplitNameImportsTheSameWay) {
   fs::remove_all(src);
   fs::remove_all(out);
 }
+
+namespace {
+
+std::string import_error(const fs::path& src, const fs::path& out) {
+  CamvidImportOptions opt;
+  opt.splits = {"train"};
+  try {
+    import_camvid(src, out, opt);
+  } catch (const smseg::Error& e) {
+    return e.what();
+  }
+  return "(accepted)";
+}
+
+}  // namespace
+
+// Found by fuzz_camvid_frames: a frames.csv cell that is not UTF-8 (a sequence name with byte 0xFF)
+// reached sequence.json's writer, where nlohmann threw type_error 316 instead of our one-line error.
+// Also: class indices outside 0..255 and frame numbers whose differences overflow are refused.
+TEST(ImportCamvid, NonUtf8AndOutOfRangeCellsAreRefusedNamingTheLine) {
+  const fs::path src = temp_dir("camvid_bad"), out = temp_dir("camvid_bad_out");
+  fs::create_directories(src / "train");
+  fs::create_directories(src / "trainannot");
+  for (const char* stem : {"A_1", "A_31"}) {
+    cv::imwrite((src / "train" / (std::string(stem) + ".png")).string(), cv::Mat(3, 4, CV_8UC3, cv::Scalar::all(9)));
+    cv::imwrite((src / "trainannot" / (std::string(stem) + ".png")).string(), cv::Mat(3, 4, CV_8UC1, cv::Scalar(0)));
+  }
+  const auto write = [&](const std::string& classes, const std::string& frames) {
+    std::ofstream(src / "classes.csv") << "index,name,r,g,b\n" << classes;
+    std::ofstream(src / "frames.csv") << "sequence,frame,split,image,label\n" << frames;
+  };
+  const std::string good_classes = "0,Sky,128,128,128\n11,Void,0,0,0\n";
+  const std::string good_frames = "A,1,train,train/A_1.png,trainannot/A_1.png\nA,31,train,train/A_31.png,trainannot/A_31.png\n";
+  write(good_classes, good_frames);
+  EXPECT_EQ(import_error(src, out), "(accepted)");
+  write(good_classes, "A\xff\xff,1,train,train/A_1.png,trainannot/A_1.png\n");
+  EXPECT_EQ(import_error(src, out), (src / "frames.csv").string() + ": line 2: is not UTF-8 text");
+  write("0,Sky\xc3,128,128,128\n11,Void,0,0,0\n", good_frames);
+  EXPECT_EQ(import_error(src, out), (src / "classes.csv").string() + ": line 2: is not UTF-8 text");
+  write("0,Sky,128,128,128\n256,Void,0,0,0\n", good_frames);
+  EXPECT_EQ(import_error(src, out), (src / "classes.csv").string() + ": line 3, index: is 256, expected 0..255");
+  write(good_classes, "A,-9223372036854775807,train,train/A_1.png,trainannot/A_1.png\n"
+                      "A,9223372036854775807,train,train/A_31.png,trainannot/A_31.png\n");
+  EXPECT_EQ(import_error(src, out),
+            (src / "frames.csv").string() + ": line 2, frame: is -9223372036854775807, expected 0..1000000000");
+  // UTF-8 names are fine.
+  write("0,Himmel \xc3\xa9\xe2\x82\xac,128,128,128\n11,Void,0,0,0\n", good_frames);
+  EXPECT_EQ(import_error(src, out), "(accepted)");
+  fs::remove_all(src);
+  fs::remove_all(out);
+}

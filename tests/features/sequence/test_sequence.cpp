@@ -284,3 +284,68 @@ TEST(Npy, RoundTripAndCorruption) {
   EXPECT_THROW(read_npy_f32(p), smseg::Error);
   fs::remove(p);
 }
+
+namespace {
+
+/// A version 1.0 .npy header with the given dict (no padding: the reader does not need it).
+std::string npy_with_dict(const std::string& dict) {
+  std::string h("\x93NUMPY\x01\x00", 8);
+  h += static_cast<char>(dict.size() & 0xff);
+  h += static_cast<char>((dict.size() >> 8) & 0xff);
+  return h + dict;
+}
+
+std::string npy_error(const std::string& bytes) {
+  try {
+    parse_npy_header(bytes, "x.npy");
+  } catch (const smseg::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+}  // namespace
+
+// issue 19, defect 3: a negative dimension used to be read without its minus sign.
+TEST(Npy, NegativeShapeIsRefused) {
+  const std::string e = npy_error(npy_with_dict("{'descr': '<f4', 'fortran_order': False, 'shape': (-3, 4), }"));
+  EXPECT_EQ(e, "x.npy: not a valid .npy file: negative dimension in 'shape'");
+}
+
+// The old regex reader let std::stoull's std::out_of_range escape for a huge dimension, and a product of
+// dimensions that overflows could pass the size check of a short file; anything but non-negative
+// integers in the tuple is refused too.
+TEST(Npy, ShapesBeyondTheLimitsOrMalformedAreRefused) {
+  const auto shape_error = [](const std::string& shape) {
+    return npy_error(npy_with_dict("{'descr': '<f4', 'fortran_order': False, 'shape': " + shape + ", }"));
+  };
+  EXPECT_NE(shape_error("(99999999999999999999999, 4)").find("larger than 2147483647"), std::string::npos);
+  EXPECT_NE(shape_error("(2147483647, 2147483647)").find("more than 2^48 elements"), std::string::npos);
+  EXPECT_NE(shape_error("(3; 4)").find("separated by commas"), std::string::npos);
+  EXPECT_NE(shape_error("(3, x)").find("other than non-negative integers"), std::string::npos);
+  EXPECT_NE(npy_error(npy_with_dict("{'descr': '<f4', 'fortran_order': False, 'shape': (3, 4")).find("not closed"),
+            std::string::npos);
+  EXPECT_NE(shape_error("[3, 4]").find("not a tuple"), std::string::npos);
+  // What numpy writes is read: 2-D, 1-D with its trailing comma, 0-D.
+  EXPECT_EQ(parse_npy_header(npy_with_dict("{'descr': '<f4', 'fortran_order': False, 'shape': (3, 4), }"), "x").shape,
+            (std::vector<std::size_t>{3, 4}));
+  EXPECT_EQ(parse_npy_header(npy_with_dict("{'descr':'|u1','fortran_order':False,'shape':(5,)}"), "x").shape,
+            (std::vector<std::size_t>{5}));
+  EXPECT_TRUE(parse_npy_header(npy_with_dict("{'descr': '<f8', 'fortran_order': False, 'shape': ()}"), "x").shape.empty());
+}
+
+TEST(Npy, EmptyArrayIsRefused) {
+  const fs::path p = fs::temp_directory_path() / ("smseg_npy_empty_" + std::to_string(::getpid()) + ".npy");
+  smseg::write_file_atomic(p, make_npy_header("<f4", {0, 7}));
+  EXPECT_THROW(
+      {
+        try {
+          read_npy_f32(p);
+        } catch (const smseg::Error& e) {
+          EXPECT_NE(std::string(e.what()).find("shape: the array is empty"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      smseg::Error);
+  fs::remove(p);
+}

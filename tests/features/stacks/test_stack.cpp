@@ -1,7 +1,10 @@
 // Feature stacks: write, memory-map, read back exactly; corrupt or foreign files are refused.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstring>
 #include <fstream>
+#include <limits>
 
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/stacks/stack.hpp"
@@ -112,6 +115,25 @@ TEST_F(StackFixture, CorruptAndForeignFilesAreRefused) {
   // Frames that do not exist or are not labelled.
   EXPECT_NE(open_error(5, false).find("frame 5 has no feature stack"), std::string::npos);
   EXPECT_NE(open_error(0, true).find("frame 0 is not labelled"), std::string::npos);
+}
+
+// issue 19, defect 3: a NaN or an infinity in a SAT file (damaged or foreign) is refused with the file
+// and the value's place, not passed on to training and evaluation.
+TEST_F(StackFixture, NonFiniteSatValuesAreRefused) {
+  const std::string bytes = smseg::read_file(sat_path(work, 3));
+  const std::size_t offset = parse_npy_header(bytes, sat_path(work, 3)).data_offset;
+  // Shape 2 x 8 x 10: value 93 is feature 1, row 1, column 3.
+  for (const double bad : {std::numeric_limits<double>::quiet_NaN(), std::numeric_limits<double>::infinity(),
+                           -std::numeric_limits<double>::infinity()}) {
+    std::string damaged = bytes;
+    std::memcpy(damaged.data() + offset + 93 * sizeof(double), &bad, sizeof bad);
+    smseg::write_file_atomic(sat_path(work, 3), damaged);
+    const std::string e = open_error(3, false);
+    EXPECT_NE(e.find("000003.sat.npy: SAT value 93 (feature 1, row 1, column 3) is "), std::string::npos) << e;
+    EXPECT_NE(e.find(std::isnan(bad) ? "is NaN" : "is infinite"), std::string::npos) << e;
+  }
+  smseg::write_file_atomic(sat_path(work, 3), bytes);
+  EXPECT_NO_THROW(FrameStack::open(load_stack_manifest(work), 3, false));
 }
 
 TEST_F(StackFixture, ManifestErrors) {

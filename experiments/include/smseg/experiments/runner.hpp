@@ -30,6 +30,7 @@
 
 #include <functional>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -69,6 +70,12 @@ fs::path prepare_sequence(const std::string& name, const SequenceSource& source,
 /// The work folder of a sequence for one front end (extracted into the cache unless prepared).
 fs::path prepare_work(const std::string& name, const SequenceSource& source, const FrontEnd& fe, const fs::path& cache,
                       bool progress);
+
+/// The points already recorded in a results folder's experiment.jsonl (each point's canonical JSON
+/// text; none when the file is absent), as a resumed run reads them. Error naming the file and line for
+/// a line that is not a run-experiment record, and for a point recorded twice: a run appends each point
+/// once, so a copy means the file was edited or merged by hand, and its records cannot be trusted.
+std::set<std::string> read_done_points(const fs::path& jsonl);
 
 /// Runs every point not yet in OUT/experiment.jsonl.
 RunReport run_experiment(const Experiment& ex, const RunOptions& options);

@@ -26,15 +26,29 @@ void write_file_atomic(const fs::path& path, std::string_view bytes);
 /// write_file_atomic of j.dump(indent) plus a final newline.
 void write_json_atomic(const fs::path& path, const Json& j, int indent = 1);
 
-/// Reads a whole file; Error("path", "", "cannot be read: ...") when missing or unreadable.
-std::string read_file(const fs::path& path);
+/// The most bytes a reader takes from one file, by what its format can hold (docs/reliability.md):
+/// a larger file, or an endless one (/dev/zero, a FIFO), is refused with one line naming the file and
+/// the limit instead of growing the process until the kernel kills it.
+inline constexpr std::uintmax_t kMiB = std::uintmax_t{1} << 20;
+/// Manifests, configs, class tables, results and other JSON/CSV written by hand or per run.
+inline constexpr std::uintmax_t kMaxTextFileBytes = 256 * kMiB;
+/// The big JSON files: forests (and forest parts) and tracks files.
+inline constexpr std::uintmax_t kMaxLargeFileBytes = 4096 * kMiB;
 
 /// Why `path` is not a file we can read, in a few words for an error line ("does not exist", "is a
 /// folder, expected a file", "is not a regular file"); empty when it is a regular file.
 std::string why_not_a_file(const fs::path& path);
 
-/// Parses a JSON file; malformed JSON gives an Error with the line and column.
-Json read_json(const fs::path& path);
+/// Reads a whole file of at most max_bytes (the size is checked first, then the reading stops at the
+/// limit, so a device or FIFO cannot grow it); Error naming the file when missing, unreadable or larger.
+std::string read_file(const fs::path& path, std::uintmax_t max_bytes = kMaxTextFileBytes);
+
+/// Parses a JSON file of at most max_bytes; malformed JSON gives an Error with the line and column.
+Json read_json(const fs::path& path, std::uintmax_t max_bytes = kMaxTextFileBytes);
+
+/// Parses JSON text that came from file (named in errors): malformed JSON, or a number too large for a
+/// double (1e999), gives an Error with the line and column.
+Json parse_json(std::string_view text, const fs::path& file);
 
 /// A view of one JSON object inside a file, whose accessors throw Error naming the file and the
 /// dotted path of the field ("frames[3].left") with what was expected.

@@ -1,0 +1,12 @@
+// Fuzzes segment-cloud's point cloud reader (read_coloured_cloud: our header checks, then PCL's PCD or
+// PLY reader, then the x/y/z, rgb and label fields). Byte 0 picks the extension (even: .pcd, odd: .ply),
+// the rest is the file.
+#include "fuzz_support.hpp"
+#include "smseg/cloud/cloud_segment.hpp"
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  using namespace smseg;
+  if (size < 1) return 0;
+  const auto file = fuzz::write_temp(data[0] % 2 == 0 ? "cloud.pcd" : "cloud.ply", fuzz::as_bytes(data + 1, size - 1));
+  return fuzz::run_reader([&] { features::read_coloured_cloud(file); });
+}
