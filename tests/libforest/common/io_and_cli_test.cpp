@@ -65,7 +65,7 @@ TEST(Files, AJsonNumberOutOfRangeNamesTheFile) {
   const fs::path dir = smseg::test::temp_dir("io_json_overflow");
   std::ofstream(dir / "big.json") << "{\"K\": 1e999}";
   const std::string e = error_of([&] { smseg::read_json(dir / "big.json"); });
-  EXPECT_EQ(e.rfind((dir / "big.json").string() + ": malformed JSON: ", 0), 0u) << e;
+  EXPECT_EQ(e, (dir / "big.json").string() + ": a number is too large for a double (beyond 1.8e308)");
   EXPECT_EQ(e.find("[json.exception"), std::string::npos) << e;
   fs::remove_all(dir);
 }
