@@ -79,12 +79,24 @@ void check_header(const fs::path& path, bool pcd) {
     static const std::set<std::string> vertex_properties = {
         "x", "y", "z", "nx", "ny", "nz", "normal_x", "normal_y", "normal_z", "red", "green", "blue",
         "alpha", "rgb", "rgba", "intensity", "label", "curvature"};
+    // PCL also aborts on header lines it half-understands (a damaged "property" line followed by colour
+    // properties without "red", found by fuzz_cloud): every line must be one of PLY's own keywords, and
+    // the vertex colours come as the three of red, green and blue or not at all.
+    static const std::set<std::string> keywords = {"format", "comment", "obj_info", "element", "property"};
     std::string element;
+    std::set<std::string> colours;
     for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-      if (line.rfind("end_header", 0) == 0) return;
+      if (line.rfind("end_header", 0) == 0) {
+        if (!colours.empty() && colours.size() != 3)
+          throw Error(path.string(), "element vertex", "has some of the colour properties red, green, blue but not all three");
+        return;
+      }
       std::istringstream ls(line);
       std::string word, name;
       ls >> word;
+      if (!keywords.count(word))
+        throw Error(path.string(), "header", "line " + std::to_string(n + 2) + " is not a PLY header line (\"" +
+                                                 line.substr(0, 40) + "\")");
       long long count = 0;
       if (word == "element" && ls >> element >> count) {
         check_count(count, "element " + element);
@@ -95,6 +107,7 @@ void check_header(const fs::path& path, bool pcd) {
         for (std::string w; ls >> w;) name = w;  // the last word: "property float x", "property list uchar int v"
         if (!vertex_properties.count(name))
           throw Error(path.string(), "element vertex", "property \"" + name.substr(0, 40) + "\" is not one this reader knows");
+        if (name == "red" || name == "green" || name == "blue") colours.insert(name);
       }
     }
     throw Error(path.string(), "", "not a PLY file (no end_header)");

@@ -311,3 +311,30 @@ TEST(CloudSegment, PlyWithNoVertexIsAnEmptyCloud) {
   }
   fs::remove(p);
 }
+
+// Found by fuzz_cloud: PCL 1.13 aborts (an assertion in vertexScalarPropertyCallback<unsigned int>) on a
+// header with a damaged "property" line followed by green and blue without red. Both are refused first,
+// each on its own.
+TEST(CloudSegment, PlyHeaderLinesThatAreNotPlyAndPartialColoursAreRefused) {
+  const fs::path p = temp("damaged-header.ply");
+  std::ofstream(p) << "ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\n"
+                      "propertIEWPOINT 0 0 0 1 0 0 0\nPOINTS 9\nproperty uchar green\nproperty uchar blue\n"
+                      "property uint label\nend_header\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              p.string() + ": header: line 5 is not a PLY header line (\"propertIEWPOINT 0 0 0 1 0 0 0\")");
+  }
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              p.string() + ": element vertex: has some of the colour properties red, green, blue but not all three");
+  }
+  fs::remove(p);
+}
