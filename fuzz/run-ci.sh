@@ -21,11 +21,7 @@ if ((${#missing[@]})); then
   DEBIAN_FRONTEND=noninteractive apt-get install -y -q --no-install-recommends "${missing[@]}" >&2
 fi
 
-launcher=()
-if command -v ccache > /dev/null; then
-  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-  export CCACHE_BASEDIR="$here" CCACHE_NOHASHDIR=1
-fi
+source .ci/ccache.sh
 cmake -S . -B "$build" -DCMAKE_CXX_COMPILER=clang++ -DSMSEG_FUZZ=ON -DSMSEG_BUILD_TESTS=OFF \
   -DSMSEG_BUILD_BENCHMARKS=OFF "${launcher[@]}" > "$build.configure.log" || { cat "$build.configure.log"; exit 1; }
 cmake --build "$build" -j"$(nproc)" --target smseg_fuzzers

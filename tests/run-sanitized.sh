@@ -12,11 +12,7 @@ cd "$here"
 bash .ci/install-deps.sh
 build="${SANITIZE_BUILD_DIR:-build-sanitize}"
 jobs="$(nproc)"
-launcher=()
-if command -v ccache > /dev/null; then
-  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-  export CCACHE_BASEDIR="$here" CCACHE_NOHASHDIR=1
-fi
+source .ci/ccache.sh
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1" \
   -DSMSEG_SANITIZE=address,undefined -DSMSEG_BUILD_BENCHMARKS=OFF "${launcher[@]}"
 cmake --build "$build" -j"$jobs"

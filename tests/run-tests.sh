@@ -7,13 +7,7 @@ cd "$here"
 bash .ci/install-deps.sh
 build="${BUILD_DIR:-build}"
 jobs="$(nproc)"
-# ccache (installed by install-deps.sh) keeps a rebuild of unchanged sources short; the base folder
-# makes its cache shared by clones at other paths.
-launcher=()
-if command -v ccache > /dev/null; then
-  launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
-  export CCACHE_BASEDIR="$here" CCACHE_NOHASHDIR=1
-fi
+source .ci/ccache.sh
 cmake -S . -B "$build" -DCMAKE_BUILD_TYPE=Release "${launcher[@]}"
 cmake --build "$build" -j"$jobs"
 ctest --test-dir "$build" --output-on-failure -j"$jobs"

@@ -22,6 +22,8 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "without_timing.hpp"
+
 namespace smseg::test {
 
 namespace fs = std::filesystem;
@@ -125,24 +127,6 @@ inline void restore(const fs::path& base, const std::vector<fs::path>& outputs, 
     fs::create_directories((base / rel).parent_path());
     std::ofstream(base / rel, std::ios::binary) << bytes;
   }
-}
-
-/// A JSON document without its timing fields (any member whose name holds "seconds"): they differ
-/// from run to run, nothing else may.
-inline nlohmann::json without_timing(nlohmann::json j) {
-  if (j.is_object()) {
-    for (auto it = j.begin(); it != j.end();) {
-      if (it.key().find("seconds") != std::string::npos) {
-        it = j.erase(it);
-      } else {
-        *it = without_timing(*it);
-        ++it;
-      }
-    }
-  } else if (j.is_array()) {
-    for (auto& e : j) e = without_timing(e);
-  }
-  return j;
 }
 
 /// A file's bytes as runs compare them: JSON and JSON Lines without timing fields (a file that does
