@@ -22,5 +22,9 @@ cmake --build "$build" -j"$jobs"
 export ASAN_OPTIONS="detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=1:check_initialization_order=1"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$here/tests/sanitizers/lsan.supp:print_suppressions=0"
+# Left out, named: the slowest end-to-end test (Determinism.CamVidVal...: SfM of CamVid's 101 val frames,
+# three trainings and three evaluations at 480x360, 1-2.5 min in the Release suite, several times that
+# under the sanitizers); the Release suite runs it.
+skip='Determinism\.CamVidValForestAndResultsWhateverTheThreadCount'
 # shellcheck disable=SC2086
-ctest --test-dir "$build" --output-on-failure -j"$jobs" ${CTEST_ARGS:-}
+ctest --test-dir "$build" --output-on-failure -j"$jobs" -E "$skip" ${CTEST_ARGS:-}
