@@ -6,7 +6,9 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <map>
 #include <set>
+#include <vector>
 #include <sstream>
 
 #include <pcl/common/io.h>
@@ -54,6 +56,13 @@ std::array<std::uint8_t, 3> label_colour(int label) {
 /// SIZE, TYPE, WIDTH, HEIGHT, POINTS (> 0) and DATA lines; PLY: the "ply" magic and an end_header.
 /// The header must lie in the first 64 KiB (ours are a few hundred bytes), so that a file with no line
 /// breaks is not read whole by the check.
+/// `text` with every byte that is not printable ASCII shown as '?', for an error line.
+std::string printable(std::string text) {
+  for (char& c : text)
+    if (c < 0x20 || c > 0x7e) c = '?';
+  return text;
+}
+
 void check_header(const fs::path& path, bool pcd) {
   constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
   std::ifstream file(path, std::ios::binary);
@@ -74,40 +83,62 @@ void check_header(const fs::path& path, bool pcd) {
   };
   if (!pcd) {
     if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
-    // PCL 1.13's PLYReader fails an assertion (abort) on a vertex property it does not know, e.g. a
-    // "uchar rfd" before a "uint label" (found by fuzz_cloud): only the names it reads pass.
-    static const std::set<std::string> vertex_properties = {
-        "x", "y", "z", "nx", "ny", "nz", "normal_x", "normal_y", "normal_z", "red", "green", "blue",
-        "alpha", "rgb", "rgba", "intensity", "label", "curvature"};
-    // PCL also aborts on header lines it half-understands (a damaged "property" line followed by colour
-    // properties without "red", found by fuzz_cloud): every line must be one of PLY's own keywords, and
-    // the vertex colours come as the three of red, green and blue or not at all.
-    static const std::set<std::string> keywords = {"format", "comment", "obj_info", "element", "property"};
+    // PCL 1.13's PLYReader aborts (assertions) or misreads on headers it half-understands: a vertex
+    // property it does not know ("uchar rfd"), a damaged property line ("property uchar property uchar
+    // red"), colours without red (all found by fuzz_cloud). Only the header grammar PCL reads passes:
+    // "format F 1.0", "element NAME COUNT", "property TYPE NAME" with a known vertex property of the
+    // type PCL expects for it, comments; the colours come as the three of red, green, blue or not at all.
+    static const std::set<std::string> formats = {"ascii", "binary_little_endian", "binary_big_endian"};
+    static const std::set<std::string> float_types = {"float", "float32", "double", "float64"};
+    static const std::set<std::string> byte_types = {"uchar", "uint8"};
+    static const std::set<std::string> label_types = {"uint", "uint32", "int", "int32"};
+    static const std::map<std::string, const std::set<std::string>*> vertex_properties = {
+        {"x", &float_types},        {"y", &float_types},         {"z", &float_types},
+        {"nx", &float_types},       {"ny", &float_types},        {"nz", &float_types},
+        {"normal_x", &float_types}, {"normal_y", &float_types},  {"normal_z", &float_types},
+        {"curvature", &float_types}, {"intensity", &float_types}, {"red", &byte_types},
+        {"green", &byte_types},     {"blue", &byte_types},       {"alpha", &byte_types},
+        {"rgb", &label_types},      {"rgba", &label_types},      {"label", &label_types}};
+    const auto bad_line = [&](int n, const std::string& why) {
+      throw Error(path.string(), "header", "line " + std::to_string(n + 2) + " (\"" + printable(line.substr(0, 40)) +
+                                               "\"): " + why);
+    };
     std::string element;
-    std::set<std::string> colours;
+    std::set<std::string> properties;
     for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-      if (line.rfind("end_header", 0) == 0) {
-        if (!colours.empty() && colours.size() != 3)
+      if (!line.empty() && line.back() == '\r') line.pop_back();
+      std::istringstream ls(line);
+      std::vector<std::string> words;
+      for (std::string w; ls >> w;) words.push_back(w);
+      if (words.empty()) bad_line(n, "is empty");
+      const std::string& word = words[0];
+      if (word == "comment" || word == "obj_info") continue;
+      if (word == "end_header" && words.size() == 1) {
+        const int colours = int(properties.count("red") + properties.count("green") + properties.count("blue"));
+        if (colours != 0 && colours != 3)
           throw Error(path.string(), "element vertex", "has some of the colour properties red, green, blue but not all three");
         return;
       }
-      std::istringstream ls(line);
-      std::string word, name;
-      ls >> word;
-      if (!keywords.count(word))
-        throw Error(path.string(), "header", "line " + std::to_string(n + 2) + " is not a PLY header line (\"" +
-                                                 line.substr(0, 40) + "\")");
-      long long count = 0;
-      if (word == "element" && ls >> element >> count) {
+      if (word == "format") {
+        if (words.size() != 3 || !formats.count(words[1]) || words[2] != "1.0") bad_line(n, "expected format ascii|binary_little_endian|binary_big_endian 1.0");
+      } else if (word == "element") {
+        long long count = -1;
+        if (words.size() != 3 || !(std::istringstream(words[2]) >> count) || count < 0) bad_line(n, "expected element NAME COUNT");
+        element = words[1];
         check_count(count, "element " + element);
         // An empty vertex list made PCL's conversion index an empty vector (UBSan, found by fuzz_cloud).
         if (element == "vertex" && count <= 0) throw Error(path.string(), "points", "the cloud is empty");
-      }
-      if (word == "property" && element == "vertex") {
-        for (std::string w; ls >> w;) name = w;  // the last word: "property float x", "property list uchar int v"
-        if (!vertex_properties.count(name))
-          throw Error(path.string(), "element vertex", "property \"" + name.substr(0, 40) + "\" is not one this reader knows");
-        if (name == "red" || name == "green" || name == "blue") colours.insert(name);
+      } else if (word == "property") {
+        if (element.empty()) bad_line(n, "a property before any element");
+        if (element != "vertex") continue;  // other elements' properties are skipped by PCL
+        if (words.size() != 3) bad_line(n, "expected property TYPE NAME (no lists in a vertex)");
+        const auto known = vertex_properties.find(words[2]);
+        if (known == vertex_properties.end())
+          throw Error(path.string(), "element vertex", "property \"" + printable(words[2].substr(0, 40)) + "\" is not one this reader knows");
+        if (!known->second->count(words[1])) bad_line(n, "property " + words[2] + " of a type this reader does not read");
+        if (!properties.insert(words[2]).second) bad_line(n, "property " + words[2] + " given twice");
+      } else {
+        bad_line(n, "is not a PLY header line");
       }
     }
     throw Error(path.string(), "", "not a PLY file (no end_header)");

@@ -254,6 +254,17 @@ TEST(CloudSegment, PcdHeaderLineOfUnknownKeywordIsRefused) {
   std::ofstream(p) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
                       "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n";
   EXPECT_EQ(read_coloured_cloud(p).size(), 1u);
+  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
+                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
+                                                  "expected property TYPE NAME (no lists in a vertex)");
+  }
   fs::remove(p);
 }
 
@@ -294,6 +305,17 @@ TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), p.string() + ": element vertex: property \"rfd\" is not one this reader knows");
   }
+  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
+                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
+                                                  "expected property TYPE NAME (no lists in a vertex)");
+  }
   fs::remove(p);
 }
 
@@ -308,6 +330,17 @@ TEST(CloudSegment, PlyWithNoVertexIsAnEmptyCloud) {
     ADD_FAILURE() << "accepted";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), p.string() + ": points: the cloud is empty");
+  }
+  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
+                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
+                                                  "expected property TYPE NAME (no lists in a vertex)");
   }
   fs::remove(p);
 }
@@ -325,7 +358,7 @@ TEST(CloudSegment, PlyHeaderLinesThatAreNotPlyAndPartialColoursAreRefused) {
     ADD_FAILURE() << "accepted";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()),
-              p.string() + ": header: line 5 is not a PLY header line (\"propertIEWPOINT 0 0 0 1 0 0 0\")");
+              p.string() + ": header: line 5 (\"propertIEWPOINT 0 0 0 1 0 0 0\"): is not a PLY header line");
   }
   std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
                       "property float z\nproperty uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5\n";
@@ -335,6 +368,17 @@ TEST(CloudSegment, PlyHeaderLinesThatAreNotPlyAndPartialColoursAreRefused) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()),
               p.string() + ": element vertex: has some of the colour properties red, green, blue but not all three");
+  }
+  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
+  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
+                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
+                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
+                                                  "expected property TYPE NAME (no lists in a vertex)");
   }
   fs::remove(p);
 }
