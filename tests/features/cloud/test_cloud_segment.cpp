@@ -254,17 +254,6 @@ TEST(CloudSegment, PcdHeaderLineOfUnknownKeywordIsRefused) {
   std::ofstream(p) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
                       "WIDTH 1\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n";
   EXPECT_EQ(read_coloured_cloud(p).size(), 1u);
-  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
-  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
-                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
-  try {
-    read_coloured_cloud(p);
-    ADD_FAILURE() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
-                                                  "expected property TYPE NAME (no lists in a vertex)");
-  }
   fs::remove(p);
 }
 
@@ -305,17 +294,6 @@ TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), p.string() + ": element vertex: property \"rfd\" is not one this reader knows");
   }
-  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
-  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
-                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
-  try {
-    read_coloured_cloud(p);
-    ADD_FAILURE() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
-                                                  "expected property TYPE NAME (no lists in a vertex)");
-  }
   fs::remove(p);
 }
 
@@ -330,17 +308,6 @@ TEST(CloudSegment, PlyWithNoVertexIsAnEmptyCloud) {
     ADD_FAILURE() << "accepted";
   } catch (const Error& e) {
     EXPECT_EQ(std::string(e.what()), p.string() + ": points: the cloud is empty");
-  }
-  // Found by fuzz_cloud next: a damaged property line whose last word is a known name.
-  std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
-                      "property float z\nproperty uchar property uchar red\nproperty uchar green\n"
-                      "property uchar blue\nend_header\n1 2 3 4 5 6\n";
-  try {
-    read_coloured_cloud(p);
-    ADD_FAILURE() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), p.string() + ": header: line 7 (\"property uchar property uchar red\"): "
-                                                  "expected property TYPE NAME (no lists in a vertex)");
   }
   fs::remove(p);
 }
