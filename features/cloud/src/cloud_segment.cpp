@@ -157,6 +157,20 @@ void check_header(const fs::path& path, bool pcd) {
     if (!keywords.count(key))
       throw Error(path.string(), "", "not a PCD file (unknown header line \"" + line.substr(0, 40) + "\")");
     seen.insert(key);
+    // Per-field SIZE, TYPE and COUNT are read by PCL as ints and multiplied into the point's size: an
+    // overflowing SIZE made it allocate gigabytes (found by fuzz_cloud). Only the sizes and types of
+    // the format, and counts a point can have, pass.
+    if (key == "SIZE" || key == "TYPE" || key == "COUNT") {
+      static const std::set<std::string> sizes = {"1", "2", "4", "8"}, types = {"I", "U", "F"};
+      for (std::string v; ls >> v;) {
+        const bool ok = key == "SIZE"   ? sizes.count(v) > 0
+                        : key == "TYPE" ? types.count(v) > 0
+                                        : v.size() <= 4 && v.find_first_not_of("0123456789") == std::string::npos &&
+                                              v != "0" && v.front() != '0';
+        if (!ok) throw Error(path.string(), key, "\"" + printable(v.substr(0, 20)) + "\" is not a value of the PCD format");
+      }
+      continue;
+    }
     if (key == "POINTS") ls >> points;
     long long count = 0;
     if ((key == "POINTS" || key == "WIDTH" || key == "HEIGHT") && std::istringstream(line.substr(key.size())) >> count)

@@ -349,3 +349,18 @@ TEST(CloudSegment, PlyHeaderLinesThatAreNotPlyAndPartialColoursAreRefused) {
   }
   fs::remove(p);
 }
+
+// Found by fuzz_cloud: an overflowing SIZE in a PCD header made PCL allocate gigabytes; SIZE, TYPE and
+// COUNT take only the format's values.
+TEST(CloudSegment, PcdFieldSizesTypesAndCountsOutsideTheFormatAreRefused) {
+  const fs::path p = temp("bad-size.pcd");
+  std::ofstream(p) << "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 42222222222222222222\nTYPE F F F\nCOUNT 1 1 1\n"
+                      "WIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n";
+  try {
+    read_coloured_cloud(p);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), p.string() + ": SIZE: \"42222222222222222222\" is not a value of the PCD format");
+  }
+  fs::remove(p);
+}
