@@ -143,42 +143,62 @@ void check_header(const fs::path& path, bool pcd) {
     }
     throw Error(path.string(), "", "not a PLY file (no end_header)");
   }
-  std::set<std::string> seen;
-  long points = -1;
-  for (int n = 0; n < 100 && std::getline(in, line); ++n) {
+  // PCL 1.13's PCDReader crashes or misreads on headers it half-understands: an unknown keyword (null
+  // pointer), an overflowing SIZE (gigabytes allocated), header lines repeated after a damaged DATA
+  // line (use after free); all found by fuzz_cloud. Only the header PCL writes passes: each keyword
+  // once, in the format's order, FIELDS/SIZE/TYPE/COUNT of the same length with the format's values,
+  // WIDTH x HEIGHT = POINTS, and DATA ascii, binary or binary_compressed.
+  static const std::vector<std::string> order = {"VERSION", "FIELDS", "SIZE",      "TYPE",   "COUNT",
+                                                 "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
+  static const std::set<std::string> sizes = {"1", "2", "4", "8"}, types = {"I", "U", "F"},
+                                     data_kinds = {"ascii", "binary", "binary_compressed"};
+  const auto bad = [&](const std::string& key, const std::string& why) {
+    throw Error(path.string(), key, why);
+  };
+  const auto whole_number = [](const std::string& v, std::size_t digits) {
+    return !v.empty() && v.size() <= digits && v.find_first_not_of("0123456789") == std::string::npos &&
+           !(v.size() > 1 && v.front() == '0');
+  };
+  std::size_t next = 0, fields = 0;
+  long long width = -1, height = -1, points = -1;
+  for (int n = 0; n < 100 && next < order.size() && std::getline(in, line); ++n) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
     if (line.empty() || line[0] == '#') continue;
     std::istringstream ls(line);
     std::string key;
     ls >> key;
-    // PCL 1.13's PCDReader dereferences a null pointer on a header line it does not know (found by
-    // fuzz_cloud): only the keywords of the PCD format pass.
-    static const std::set<std::string> keywords = {"VERSION", "FIELDS", "SIZE",   "TYPE", "COUNT",
-                                                   "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
-    if (!keywords.count(key))
-      throw Error(path.string(), "", "not a PCD file (unknown header line \"" + line.substr(0, 40) + "\")");
-    seen.insert(key);
-    // Per-field SIZE, TYPE and COUNT are read by PCL as ints and multiplied into the point's size: an
-    // overflowing SIZE made it allocate gigabytes (found by fuzz_cloud). Only the sizes and types of
-    // the format, and counts a point can have, pass.
-    if (key == "SIZE" || key == "TYPE" || key == "COUNT") {
-      static const std::set<std::string> sizes = {"1", "2", "4", "8"}, types = {"I", "U", "F"};
-      for (std::string v; ls >> v;) {
-        const bool ok = key == "SIZE"   ? sizes.count(v) > 0
-                        : key == "TYPE" ? types.count(v) > 0
-                                        : v.size() <= 4 && v.find_first_not_of("0123456789") == std::string::npos &&
-                                              v != "0" && v.front() != '0';
-        if (!ok) throw Error(path.string(), key, "\"" + printable(v.substr(0, 20)) + "\" is not a value of the PCD format");
-      }
-      continue;
+    std::vector<std::string> values;
+    for (std::string v; ls >> v;) values.push_back(v);
+    if (key != order[next]) {
+      // VERSION, COUNT and VIEWPOINT may be left out; the others come in the format's order.
+      while (next < order.size() && key != order[next] &&
+             (order[next] == "VERSION" || order[next] == "COUNT" || order[next] == "VIEWPOINT"))
+        ++next;
+      if (next == order.size() || key != order[next])
+        bad("", "not a PCD file (header line \"" + printable(line.substr(0, 40)) + "\" out of place or unknown)");
     }
-    if (key == "POINTS") ls >> points;
-    long long count = 0;
-    if ((key == "POINTS" || key == "WIDTH" || key == "HEIGHT") && std::istringstream(line.substr(key.size())) >> count)
-      check_count(count, key);
-    if (key == "DATA") break;
+    ++next;
+    if (key == "FIELDS") fields = values.size();
+    if (key == "FIELDS" && (fields == 0 || fields > 64)) bad(key, "expected 1 to 64 fields");
+    if (key == "SIZE" || key == "TYPE" || key == "COUNT") {
+      if (values.size() != fields) bad(key, "has " + std::to_string(values.size()) + " values for " + std::to_string(fields) + " fields");
+      for (const std::string& v : values) {
+        const bool ok = key == "SIZE" ? sizes.count(v) > 0 : key == "TYPE" ? types.count(v) > 0 : whole_number(v, 4) && v != "0";
+        if (!ok) bad(key, "\"" + printable(v.substr(0, 20)) + "\" is not a value of the PCD format");
+      }
+    }
+    if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
+      if (values.size() != 1 || !whole_number(values[0], 12)) bad(key, "expected one whole number");
+      const long long v = std::stoll(values[0]);
+      check_count(v, key);
+      (key == "WIDTH" ? width : key == "HEIGHT" ? height : points) = v;
+    }
+    if (key == "DATA" && (values.size() != 1 || !data_kinds.count(values[0])))
+      bad(key, "expected ascii, binary or binary_compressed");
   }
-  for (const char* k : {"FIELDS", "SIZE", "TYPE", "WIDTH", "HEIGHT", "POINTS", "DATA"})
-    if (!seen.count(k)) throw Error(path.string(), "", std::string("not a PCD file (no ") + k + " line in the header)");
+  if (next < order.size()) bad("", "not a PCD file (its header ends before DATA)");
+  if (width < 0 || height < 0 || points < 0) bad("", "not a PCD file (no WIDTH, HEIGHT or POINTS)");
+  if (width * height != points) bad("POINTS", "is " + std::to_string(points) + ", not WIDTH x HEIGHT");
   if (points <= 0) throw Error(path.string(), "points", "the cloud is empty");
 }
 

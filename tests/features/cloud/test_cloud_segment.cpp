@@ -248,7 +248,7 @@ TEST(CloudSegment, PcdHeaderLineOfUnknownKeywordIsRefused) {
     read_coloured_cloud(p);
     ADD_FAILURE() << "accepted";
   } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), p.string() + ": not a PCD file (unknown header line \"FOO 1\")");
+    EXPECT_EQ(std::string(e.what()), p.string() + ": not a PCD file (header line \"FOO 1\" out of place or unknown)");
   }
   // Without the stray line the same file is read.
   std::ofstream(p) << "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\n"
