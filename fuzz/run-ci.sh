@@ -25,7 +25,7 @@ fi
 
 source .ci/ccache.sh
 cmake -S . -B "$build" -DCMAKE_CXX_COMPILER=clang++ -DSMSEG_FUZZ=ON -DSMSEG_BUILD_TESTS=OFF \
-  -DSMSEG_BUILD_BENCHMARKS=OFF "${launcher[@]}" > "$build.configure.log" || { cat "$build.configure.log"; exit 1; }
+  -DSMSEG_BUILD_BENCHMARKS=OFF "${launcher[@]}" > "${TMPDIR:-/tmp}/smseg-fuzz-configure.log" || { cat "${TMPDIR:-/tmp}/smseg-fuzz-configure.log"; exit 1; }
 cmake --build "$build" -j"$(nproc)" --target smseg_fuzzers
 # Left out of CI, named: fuzz_cloud. PCL 1.13's PCD/PLY readers, which read_coloured_cloud calls after
 # its own header checks, still corrupt the heap on some malformed files (PCL is not instrumented, so
