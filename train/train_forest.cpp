@@ -1,6 +1,5 @@
 // train-forest: extremely randomized trees over sampling windows, trained on feature stacks.
 #include <iostream>
-#include <map>
 #include <optional>
 #include <sstream>
 
@@ -77,24 +76,10 @@ void check_points(const smseg::features::StackSet& set, bool quiet) {
   if (!quiet) std::cerr << "train-forest: warning: " << which << "; they teach the trees only the class prior\n";
 }
 
-/// body(), with the training library's errors about its parameters (fields named as in TrainParams
-/// and the forest file) turned to name the option the user typed.
+/// TrainParams' fields (as its validate() and the training's memory plan name them) -> the options.
 const smseg::OptionNames kOptionOf = {{"K", "-K"},         {"Ks", "--Ks"},       {"Kt", "--Kt"},
                                       {"M", "-M"},         {"n_min", "--n-min"}, {"memory_mb", "--memory-mb"},
                                       {"score", "--score"}, {"windows", "--windows"}};
-
-template <class Body>
-int naming_options(Body&& body) {
-  try {
-    return body();
-  } catch (const smseg::UsageError&) {
-    throw;
-  } catch (const smseg::Error& e) {
-    const auto it = kOptionOf.find(e.field());
-    if (it == kOptionOf.end()) throw;
-    throw smseg::Error(e.file(), it->second, e.reason());
-  }
-}
 
 }  // namespace
 
@@ -168,7 +153,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
   app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
 
-  return run_tool(app, argc, argv, threads, [&] { return naming_options([&] {
+  return run_tool(app, argc, argv, threads, [&] { return naming_options(kOptionOf, [&] {
     // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
     // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
     // the same folder) and of other hosts are left alone.

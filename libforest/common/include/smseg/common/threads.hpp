@@ -2,7 +2,6 @@
 // --threads, as every tool has it: 0 means all cores; N > 0 means exactly N worker threads, even more
 // than the machine has cores (so the determinism tests can run 8 threads on a 2-core machine; the
 // results must not depend on it). Values outside [0, kMaxThreads] are bad usage (exit status 2).
-#include <memory>
 #include <string>
 #include <utility>
 
