@@ -155,18 +155,27 @@ inline Files comparable(const Files& files) {
   return out;
 }
 
-/// Names under `dir` (at any depth) of what an interrupted write leaves: `*.tmp.*`, `*.old.*` and
+/// Whether a file name is one of what an interrupted write leaves: `*.tmp.*`, `*.old.*` and
 /// export-notebooks' `.render-*` scripts.
+inline bool is_temporary_name(const std::string& name) {
+  return name.find(".tmp.") != std::string::npos || name.find(".old.") != std::string::npos ||
+         name.rfind(".render-", 0) == 0;
+}
+
+/// Names under `dir` (at any depth) of the temporaries an interrupted write left.
 inline std::vector<std::string> leftover_temporaries(const fs::path& dir) {
   std::vector<std::string> out;
   if (!fs::exists(dir)) return out;
-  for (const auto& e : fs::recursive_directory_iterator(dir)) {
-    const std::string name = e.path().filename().string();
-    if (name.find(".tmp.") != std::string::npos || name.find(".old.") != std::string::npos ||
-        name.rfind(".render-", 0) == 0)
-      out.push_back(fs::relative(e.path(), dir).string());
-  }
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (is_temporary_name(e.path().filename().string())) out.push_back(fs::relative(e.path(), dir).string());
   return out;
+}
+
+/// `files` without the temporaries a kill may leave inside an output folder (a later run removes
+/// them: the tests check that separately).
+inline Files without_temporaries(Files files) {
+  std::erase_if(files, [](const auto& entry) { return is_temporary_name(fs::path(entry.first).filename().string()); });
+  return files;
 }
 
 /// What differs between two file sets, for a failure message: the names only in one or with other bytes.
