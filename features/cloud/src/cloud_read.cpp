@@ -271,12 +271,11 @@ void read_binary_points(std::string_view data, const Layout& l, std::size_t n, b
   }
 }
 
-/// An ASCII data section of `n` points with `values` values each needs at least two bytes a value
-/// ("1 2 3\n"): a larger count is refused before anything is reserved for it.
-void check_ascii_room(std::size_t n, std::size_t values, std::size_t bytes, const std::string& file, const std::string& what) {
-  if (n > (bytes + 1) / std::max<std::size_t>(2 * values, 1))
-    throw Error(file, what, "is " + std::to_string(n) + ", more points than the " + std::to_string(bytes) +
-                                " bytes of ASCII data can hold");
+/// The most points `bytes` of ASCII data can hold with `values` values each (two bytes a value, "1 2 3\n"):
+/// the reservation for a count the header claims never exceeds it. A larger claim is then refused by the
+/// line that is missing ("truncated: 1 of 50 points"), which tells the user more.
+std::size_t ascii_room(std::size_t values, std::size_t bytes) {
+  return (bytes + 1) / std::max<std::size_t>(2 * values, 1);
 }
 
 }  // namespace
@@ -469,8 +468,7 @@ ColouredCloud parse_pcd(std::string_view bytes, const std::string& file) {
   const auto n = static_cast<std::size_t>(h.points);
   ColouredCloud c;
   if (h.data == "ascii") {
-    check_ascii_room(n, l.values.size(), data.size(), file, "POINTS");
-    reserve(c, l, n);
+    reserve(c, l, std::min(n, ascii_room(l.values.size(), data.size())));
     Lines lines(bytes, h.data_offset, h.data_line + 1);
     read_ascii_points(lines, l, n, true, false, c, file);
     return c;
@@ -736,8 +734,7 @@ ColouredCloud parse_ply(std::string_view bytes, const std::string& file) {
   if (h.format == PlyHeader::Ascii) {
     Lines lines(bytes, h.data_offset, h.lines + 1);
     for (auto e = h.elements.begin(); e != vertex; ++e) skip_ascii(lines, *e, file);
-    check_ascii_room(n, l.values.size(), bytes.size() - lines.pos(), file, "element vertex");
-    reserve(c, l, n);
+    reserve(c, l, std::min(n, ascii_room(l.values.size(), bytes.size() - lines.pos())));
     read_ascii_points(lines, l, n, true, vertex + 1 != h.elements.end(), c, file);
     return c;
   }
