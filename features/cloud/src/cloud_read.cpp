@@ -72,7 +72,8 @@ class Lines {
 void split(std::string_view line, std::vector<std::string_view>& words) {
   words.clear();
   constexpr std::string_view space = " \t\r\v\f";
-  for (std::size_t b = line.find_first_not_of(space); b != std::string_view::npos; b = line.find_first_not_of(space, b)) {
+  for (std::size_t b = line.find_first_not_of(space); b != std::string_view::npos;
+       b = line.find_first_not_of(space, b)) {
     const std::size_t e = std::min(line.find_first_of(space, b), line.size());
     words.push_back(line.substr(b, e - b));
     b = e;
@@ -98,8 +99,7 @@ struct Scalar {
 /// The value of `size` bytes at `p` as the bits of its type (zero-extended), from either byte order.
 std::uint64_t load(const char* p, std::size_t size, bool big_endian) {
   std::uint64_t v = 0;
-  for (std::size_t i = 0; i < size; ++i)
-    v = (v << 8) | static_cast<unsigned char>(p[big_endian ? i : size - 1 - i]);
+  for (std::size_t i = 0; i < size; ++i) v = (v << 8) | static_cast<unsigned char>(p[big_endian ? i : size - 1 - i]);
   return v;
 }
 
@@ -119,7 +119,7 @@ double real_value(std::uint64_t bits, Scalar s) {
 std::int64_t integer_value(std::uint64_t bits, Scalar s) {
   if (s.kind == Scalar::Int) return signed_value(bits, s.size);
   return bits > std::uint64_t(std::numeric_limits<std::int64_t>::max()) ? std::numeric_limits<std::int64_t>::max()
-                                                                         : static_cast<std::int64_t>(bits);
+                                                                        : static_cast<std::int64_t>(bits);
 }
 
 /// One ASCII value of type `s` as the bits binary data would hold; false when it is not a number of that
@@ -144,12 +144,13 @@ bool parse_value(std::string_view w, Scalar s, bool colour_bits, std::uint64_t& 
     const auto r = std::from_chars(b, e, v);
     if (r.ec != std::errc() || r.ptr != e) return false;
     const int bits_of = 8 * static_cast<int>(s.size);
-    if (bits_of < 64 && (v < -(std::int64_t{1} << (bits_of - 1)) || v >= (std::int64_t{1} << (bits_of - 1)))) return false;
+    if (bits_of < 64 && (v < -(std::int64_t{1} << (bits_of - 1)) || v >= (std::int64_t{1} << (bits_of - 1))))
+      return false;
     bits = static_cast<std::uint64_t>(v) & (bits_of < 64 ? (std::uint64_t{1} << bits_of) - 1 : ~std::uint64_t{0});
     return true;
   }
   double v = 0;
-  const auto r = std::from_chars(b, e, v);  // takes "nan" and "inf": validate() refuses them in x/y/z
+  const auto r = std::from_chars(b, e, v);              // takes "nan" and "inf": validate() refuses them in x/y/z
   if (r.ec != std::errc() || r.ptr != e) return false;  // also out of a double's range
   if (s.size == 8 && !colour_bits) {
     bits = std::bit_cast<std::uint64_t>(v);
@@ -162,7 +163,9 @@ bool parse_value(std::string_view w, Scalar s, bool colour_bits, std::uint64_t& 
 
 /// "a float of 4 bytes", "an unsigned integer of 1 byte", for error lines.
 std::string type_name(Scalar s) {
-  const char* kind = s.kind == Scalar::Int ? "a signed integer" : s.kind == Scalar::UInt ? "an unsigned integer" : "a float";
+  const char* kind = s.kind == Scalar::Int    ? "a signed integer"
+                     : s.kind == Scalar::UInt ? "an unsigned integer"
+                                              : "a float";
   return std::string(kind) + " of " + std::to_string(s.size) + " byte" + (s.size == 1 ? "" : "s");
 }
 
@@ -210,13 +213,13 @@ void append_point(ColouredCloud& c, const Layout& l, const RoleBits& bits, const
     const auto packed = static_cast<std::uint32_t>(bits[Rgb]);  // 0x00RRGGBB or 0xAARRGGBB
     c.colours.push_back({std::uint8_t(packed >> 16), std::uint8_t(packed >> 8), std::uint8_t(packed)});
   } else if (l.role[Red] >= 0) {
+    static constexpr const char* kChannels[] = {"red", "green", "blue"};
     std::array<std::uint8_t, 3> rgb{};
     for (int k = 0; k < 3; ++k) {
       const std::int64_t v = integer_value(bits[Red + k], l.values[std::size_t(l.role[Red + k])]);
       if (v < 0 || v > 255)
         throw Error(file, "point " + std::to_string(index),
-                    std::string(k == 0 ? "red" : k == 1 ? "green" : "blue") + " is " + std::to_string(v) +
-                        ", outside 0..255");
+                    std::string(kChannels[k]) + " is " + std::to_string(v) + ", outside 0..255");
       rgb[std::size_t(k)] = static_cast<std::uint8_t>(v);
     }
     c.colours.push_back(rgb);
@@ -240,8 +243,9 @@ void read_ascii_points(Lines& lines, const Layout& l, std::size_t n, bool colour
     const std::string where = "line " + std::to_string(lines.number());
     split(line, words);
     if (words.size() != l.values.size())
-      throw Error(file, where, std::to_string(words.size()) + " values, expected " + std::to_string(l.values.size()) +
-                                   " (one point per line)");
+      throw Error(file, where,
+                  std::to_string(words.size()) + " values, expected " + std::to_string(l.values.size()) +
+                      " (one point per line)");
     for (std::size_t v = 0; v < words.size(); ++v) {
       const bool colour_bits = colour_bits_for_rgb && int(v) == l.role[Rgb];
       if (!parse_value(words[v], l.values[v], colour_bits, row[v]))
@@ -253,7 +257,8 @@ void read_ascii_points(Lines& lines, const Layout& l, std::size_t n, bool colour
     append_point(c, l, bits, file, i);
   }
   if (!trailing_allowed && lines.next_nonblank(line))
-    throw Error(file, "line " + std::to_string(lines.number()), "data after the last of the " + std::to_string(n) + " points");
+    throw Error(file, "line " + std::to_string(lines.number()),
+                "data after the last of the " + std::to_string(n) + " points");
 }
 
 /// Reads `n` binary points, value v of point i at data[address(v, i)] (checked by the caller), either byte order.
@@ -319,9 +324,9 @@ struct PcdHeader {
   std::vector<Scalar> types;
   std::vector<std::uint64_t> counts;
   std::uint64_t points = 0;
-  std::string data;         ///< ascii | binary | binary_compressed
+  std::string data;             ///< ascii | binary | binary_compressed
   std::size_t data_offset = 0;  ///< the first byte after the DATA line
-  int data_line = 0;        ///< the DATA line's number, for ASCII data errors
+  int data_line = 0;            ///< the DATA line's number, for ASCII data errors
 };
 
 /// The PCD header exactly as PCL writes it: each keyword once, in the format's order (VERSION, COUNT and
@@ -335,7 +340,8 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
   const auto bad = [&](const std::string& key, const std::string& why) { throw Error(file, key, why); };
   const auto check_count = [&](std::uint64_t count, const std::string& what) {
     if (count > bytes.size())
-      bad(what, "is " + std::to_string(count) + ", more than the file's " + std::to_string(bytes.size()) + " bytes can hold");
+      bad(what,
+          "is " + std::to_string(count) + ", more than the file's " + std::to_string(bytes.size()) + " bytes can hold");
   };
   PcdHeader h;
   Lines lines(bytes.substr(0, kMaxHeaderBytes));
@@ -369,7 +375,9 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
         bad(k, "has " + std::to_string(values.size()) + " values for " + std::to_string(h.fields.size()) + " fields");
       for (const auto v : values) {
         std::uint64_t count = 0;
-        const bool ok = key == "SIZE" ? sizes.count(v) > 0 : key == "TYPE" ? types.count(v) > 0 : whole_number(v, 4, count) && count > 0;
+        const bool ok = key == "SIZE"   ? sizes.count(v) > 0
+                        : key == "TYPE" ? types.count(v) > 0
+                                        : whole_number(v, 4, count) && count > 0;
         if (!ok) bad(k, "\"" + printable(v, 20) + "\" is not a value of the PCD format");
       }
       (key == "SIZE" ? sizes_given : key == "TYPE" ? types_given : counts_given) = values;
@@ -388,7 +396,8 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
     }
   }
   if (next < order.size()) bad("", "not a PCD file (its header ends before DATA)");
-  if (!lines.terminated() && bytes.size() > kMaxHeaderBytes) bad("", "not a PCD file (no header within the first 64 KiB)");
+  if (!lines.terminated() && bytes.size() > kMaxHeaderBytes)
+    bad("", "not a PCD file (no header within the first 64 KiB)");
   if (!have_width || !have_height || !have_points) bad("", "not a PCD file (no WIDTH, HEIGHT or POINTS)");
   // width x height = points without overflow: each is at most the file size, up to 2^32.
   if (height == 0 ? h.points != 0 : h.points % height != 0 || h.points / height != width)
@@ -397,7 +406,10 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
   if (sizes_given.empty() || types_given.empty()) bad("", "not a PCD file (no SIZE or TYPE line)");
   for (std::size_t f = 0; f < h.fields.size(); ++f) {
     const char t = types_given[f][0];
-    h.types.push_back({t == 'I' ? Scalar::Int : t == 'U' ? Scalar::UInt : Scalar::Float, std::size_t(sizes_given[f][0] - '0')});
+    h.types.push_back({t == 'I'   ? Scalar::Int
+                       : t == 'U' ? Scalar::UInt
+                                  : Scalar::Float,
+                       std::size_t(sizes_given[f][0] - '0')});
     std::uint64_t count = 1;
     if (!counts_given.empty()) whole_number(counts_given[f], 4, count);
     h.counts.push_back(count);
@@ -410,8 +422,8 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
 /// (4 bytes), label (an integer of 1, 2 or 4 bytes), each once with COUNT 1; "_" (padding) and other
 /// fields are skipped.
 Layout pcd_layout(const PcdHeader& h, const std::string& file) {
-  static const std::map<std::string, Role> roles = {{"x", X},     {"y", Y},       {"z", Z},
-                                                    {"rgb", Rgb}, {"rgba", Rgb},  {"label", Label}};
+  static const std::map<std::string, Role> roles = {{"x", X},     {"y", Y},      {"z", Z},
+                                                    {"rgb", Rgb}, {"rgba", Rgb}, {"label", Label}};
   Layout l;
   for (std::size_t f = 0; f < h.fields.size(); ++f) {
     const std::string& name = h.fields[f];
@@ -442,17 +454,20 @@ std::string pcd_decompress(std::string_view data, std::size_t expected, const st
   const auto compressed = static_cast<std::size_t>(load(data.data(), 4, false));
   const auto uncompressed = static_cast<std::size_t>(load(data.data() + 4, 4, false));
   if (compressed > data.size() - 8)
-    throw Error(file, "data", "compressed size " + std::to_string(compressed) + " is larger than the " +
-                                  std::to_string(data.size() - 8) + " bytes after the header");
+    throw Error(file, "data",
+                "compressed size " + std::to_string(compressed) + " is larger than the " +
+                    std::to_string(data.size() - 8) + " bytes after the header");
   if (compressed < data.size() - 8)
     throw Error(file, "data", std::to_string(data.size() - 8 - compressed) + " bytes after the compressed data");
   if (uncompressed != expected)
-    throw Error(file, "data", "uncompressed size " + std::to_string(uncompressed) + ", expected POINTS x point size = " +
-                                  std::to_string(expected));
+    throw Error(file, "data",
+                "uncompressed size " + std::to_string(uncompressed) +
+                    ", expected POINTS x point size = " + std::to_string(expected));
   // LZF makes at most 264 bytes from 3 (a long back reference): a larger claim is refused unallocated.
   if (uncompressed / 88 > compressed)
-    throw Error(file, "data", "uncompressed size " + std::to_string(uncompressed) + " is more than LZF can make from " +
-                                  std::to_string(compressed) + " bytes");
+    throw Error(file, "data",
+                "uncompressed size " + std::to_string(uncompressed) + " is more than LZF can make from " +
+                    std::to_string(compressed) + " bytes");
   std::string out;
   if (!lzf_decompress(data.substr(8, compressed), out, uncompressed))
     throw Error(file, "data", "the LZF-compressed data is damaged");
@@ -477,19 +492,22 @@ ColouredCloud parse_pcd(std::string_view bytes, const std::string& file) {
   const std::size_t need = n * l.record_bytes;
   if (h.data == "binary") {
     if (data.size() < need)
-      throw Error(file, "data", "truncated: POINTS x point size = " + std::to_string(need) + " bytes, the file holds " +
-                                    std::to_string(data.size()) + " after the header");
-    if (data.size() > need) throw Error(file, "data", std::to_string(data.size() - need) + " bytes after the last point");
+      throw Error(file, "data",
+                  "truncated: POINTS x point size = " + std::to_string(need) + " bytes, the file holds " +
+                      std::to_string(data.size()) + " after the header");
+    if (data.size() > need)
+      throw Error(file, "data", std::to_string(data.size() - need) + " bytes after the last point");
     reserve(c, l, n);
-    read_binary_points(data, l, n, false, [&](std::size_t v, std::size_t i) { return i * l.record_bytes + l.offsets[v]; },
-                       c, file);
+    read_binary_points(
+        data, l, n, false, [&](std::size_t v, std::size_t i) { return i * l.record_bytes + l.offsets[v]; }, c, file);
     return c;
   }
   const std::string plain = pcd_decompress(data, need, file);
   reserve(c, l, n);
   // Field by field: value v (a field of COUNT 1) of point i after all points' earlier fields.
-  read_binary_points(plain, l, n, false, [&](std::size_t v, std::size_t i) { return n * l.offsets[v] + i * l.values[v].size; },
-                     c, file);
+  read_binary_points(
+      plain, l, n, false, [&](std::size_t v, std::size_t i) { return n * l.offsets[v] + i * l.values[v].size; }, c,
+      file);
   return c;
 }
 
@@ -519,11 +537,11 @@ struct PlyHeader {
 
 bool ply_type(std::string_view name, Scalar& s) {
   static const std::map<std::string_view, Scalar> types = {
-      {"char", {Scalar::Int, 1}},    {"int8", {Scalar::Int, 1}},     {"uchar", {Scalar::UInt, 1}},
-      {"uint8", {Scalar::UInt, 1}},  {"short", {Scalar::Int, 2}},    {"int16", {Scalar::Int, 2}},
-      {"ushort", {Scalar::UInt, 2}}, {"uint16", {Scalar::UInt, 2}},  {"int", {Scalar::Int, 4}},
-      {"int32", {Scalar::Int, 4}},   {"uint", {Scalar::UInt, 4}},    {"uint32", {Scalar::UInt, 4}},
-      {"float", {Scalar::Float, 4}}, {"float32", {Scalar::Float, 4}}, {"double", {Scalar::Float, 8}},
+      {"char", {Scalar::Int, 1}},     {"int8", {Scalar::Int, 1}},      {"uchar", {Scalar::UInt, 1}},
+      {"uint8", {Scalar::UInt, 1}},   {"short", {Scalar::Int, 2}},     {"int16", {Scalar::Int, 2}},
+      {"ushort", {Scalar::UInt, 2}},  {"uint16", {Scalar::UInt, 2}},   {"int", {Scalar::Int, 4}},
+      {"int32", {Scalar::Int, 4}},    {"uint", {Scalar::UInt, 4}},     {"uint32", {Scalar::UInt, 4}},
+      {"float", {Scalar::Float, 4}},  {"float32", {Scalar::Float, 4}}, {"double", {Scalar::Float, 8}},
       {"float64", {Scalar::Float, 8}}};
   const auto t = types.find(name);
   if (t == types.end()) return false;
@@ -553,8 +571,9 @@ void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, 
   if (h.elements.empty()) bad_line("a property before any element");
   PlyElement& e = h.elements.back();
   const bool vertex = e.name == "vertex";
-  const std::string unknown_type = "a type that is not a PLY type (char, uchar, short, ushort, int, uint, float, double, "
-                                   "int8, uint8, int16, uint16, int32, uint32, float32, float64)";
+  const std::string unknown_type =
+      "a type that is not a PLY type (char, uchar, short, ushort, int, uint, float, double, "
+      "int8, uint8, int16, uint16, int32, uint32, float32, float64)";
   PlyProperty p;
   if (words.size() == 5 && words[1] == "list") {
     if (vertex) bad_line("a list property in the vertex element: this reader takes scalar vertex properties only");
@@ -588,7 +607,9 @@ void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, 
 /// red/green/blue all or none), comments; at most 200 lines, within the first 64 KiB.
 PlyHeader parse_ply_header(std::string_view bytes, const std::string& file) {
   static const std::map<std::string_view, PlyHeader::Format> formats = {
-      {"ascii", PlyHeader::Ascii}, {"binary_little_endian", PlyHeader::LittleEndian}, {"binary_big_endian", PlyHeader::BigEndian}};
+      {"ascii", PlyHeader::Ascii},
+      {"binary_little_endian", PlyHeader::LittleEndian},
+      {"binary_big_endian", PlyHeader::BigEndian}};
   Lines lines(bytes.substr(0, kMaxHeaderBytes));
   std::string_view line;
   std::vector<std::string_view> words;
@@ -624,8 +645,9 @@ PlyHeader parse_ply_header(std::string_view bytes, const std::string& file) {
       if (r.ec != std::errc() || r.ptr != words[2].data() + words[2].size()) bad_line("expected element NAME COUNT");
       const std::string name(words[1]);
       if (count > bytes.size())  // every element takes at least a byte (or a line)
-        throw Error(file, "element " + name, "is " + std::to_string(count) + ", more than the file's " +
-                                                 std::to_string(bytes.size()) + " bytes can hold");
+        throw Error(file, "element " + name,
+                    "is " + std::to_string(count) + ", more than the file's " + std::to_string(bytes.size()) +
+                        " bytes can hold");
       if (name == "vertex" && count == 0) throw Error(file, "points", "the cloud is empty");
       for (const auto& e : h.elements)
         if (e.name == name && name == "vertex") bad_line("a second vertex element");
@@ -641,9 +663,9 @@ PlyHeader parse_ply_header(std::string_view bytes, const std::string& file) {
 
 /// The vertex element's record layout and what the cloud takes from it.
 Layout ply_layout(const PlyElement& vertex, const std::string& file) {
-  static const std::map<std::string_view, Role> roles = {{"x", X},       {"y", Y},          {"z", Z},
-                                                         {"rgb", Rgb},   {"rgba", Rgb},     {"red", Red},
-                                                         {"green", Green}, {"blue", Blue},  {"label", Label}};
+  static const std::map<std::string_view, Role> roles = {{"x", X},         {"y", Y},       {"z", Z},
+                                                         {"rgb", Rgb},     {"rgba", Rgb},  {"red", Red},
+                                                         {"green", Green}, {"blue", Blue}, {"label", Label}};
   Layout l;
   for (const auto& p : vertex.properties) {
     const auto role = roles.find(p.name);
@@ -657,12 +679,14 @@ Layout ply_layout(const PlyElement& vertex, const std::string& file) {
   const int channels = (l.role[Red] >= 0) + (l.role[Green] >= 0) + (l.role[Blue] >= 0);
   if (channels != 0 && channels != 3)
     throw Error(file, "element vertex", "has some of the colour properties red, green, blue but not all three");
-  if (channels == 3 && l.role[Rgb] >= 0) throw Error(file, "element vertex", "has both red, green, blue and a packed rgb");
+  if (channels == 3 && l.role[Rgb] >= 0)
+    throw Error(file, "element vertex", "has both red, green, blue and a packed rgb");
   return l;
 }
 
 /// Skips binary element `e` starting at data[pos]; returns the position after it.
-std::size_t skip_binary(std::string_view data, std::size_t pos, const PlyElement& e, bool big_endian, const std::string& file) {
+std::size_t skip_binary(std::string_view data, std::size_t pos, const PlyElement& e, bool big_endian,
+                        const std::string& file) {
   const auto truncated = [&] { throw Error(file, "element " + e.name, "truncated: the file ends inside it"); };
   const bool lists = std::any_of(e.properties.begin(), e.properties.end(), [](const PlyProperty& p) { return p.list; });
   if (!lists) {  // fixed-size records: skipped at once, however many (an element of no property takes no byte)
@@ -696,7 +720,8 @@ void skip_ascii(Lines& lines, const PlyElement& e, const std::string& file) {
   std::string_view line;
   for (std::uint64_t i = 0; i < e.count; ++i) {
     if (!lines.next_nonblank(line))
-      throw Error(file, "element " + e.name, "truncated: " + std::to_string(i) + " of " + std::to_string(e.count) + " lines");
+      throw Error(file, "element " + e.name,
+                  "truncated: " + std::to_string(i) + " of " + std::to_string(e.count) + " lines");
     const auto bad = [&](const std::string& why) {
       throw Error(file, "line " + std::to_string(lines.number()), "element " + e.name + ": " + why);
     };
@@ -715,7 +740,8 @@ void skip_ascii(Lines& lines, const PlyElement& e, const std::string& file) {
         continue;
       }
       const std::int64_t items = integer_value(value(p.count_type), p.count_type);
-      if (items < 0 || std::uint64_t(items) > words.size() - w) bad("a list of " + std::to_string(items) + " items, more than the line holds");
+      if (items < 0 || std::uint64_t(items) > words.size() - w)
+        bad("a list of " + std::to_string(items) + " items, more than the line holds");
       for (std::int64_t k = 0; k < items; ++k) value(p.type);
     }
     if (w != words.size()) bad(std::to_string(words.size() - w) + " values too many");
@@ -726,7 +752,8 @@ void skip_ascii(Lines& lines, const PlyElement& e, const std::string& file) {
 
 ColouredCloud parse_ply(std::string_view bytes, const std::string& file) {
   const PlyHeader h = parse_ply_header(bytes, file);
-  const auto vertex = std::find_if(h.elements.begin(), h.elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
+  const auto vertex =
+      std::find_if(h.elements.begin(), h.elements.end(), [](const PlyElement& e) { return e.name == "vertex"; });
   if (vertex == h.elements.end()) throw Error(file, "fields", "the cloud has no x, y, z fields (no vertex element)");
   const Layout l = ply_layout(*vertex, file);
   const auto n = static_cast<std::size_t>(vertex->count);
@@ -744,11 +771,12 @@ ColouredCloud parse_ply(std::string_view bytes, const std::string& file) {
   for (auto e = h.elements.begin(); e != vertex; ++e) pos = skip_binary(data, pos, *e, big, file);
   // n <= file size, record_bytes <= 200 x 8: the product fits. Bytes after the vertices (later elements) are not read.
   if (n * l.record_bytes > data.size() - pos)
-    throw Error(file, "data", "truncated: " + std::to_string(n) + " vertices x " + std::to_string(l.record_bytes) +
-                                  " bytes, the file holds " + std::to_string(data.size() - pos));
+    throw Error(file, "data",
+                "truncated: " + std::to_string(n) + " vertices x " + std::to_string(l.record_bytes) +
+                    " bytes, the file holds " + std::to_string(data.size() - pos));
   reserve(c, l, n);
-  read_binary_points(data, l, n, big, [&](std::size_t v, std::size_t i) { return pos + i * l.record_bytes + l.offsets[v]; },
-                     c, file);
+  read_binary_points(
+      data, l, n, big, [&](std::size_t v, std::size_t i) { return pos + i * l.record_bytes + l.offsets[v]; }, c, file);
   return c;
 }
 
@@ -761,7 +789,8 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
   if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
   // Read whole: the largest cloud file we accept is refused above kMaxLargeFileBytes before a byte is read.
   const std::string bytes = read_file(path, kMaxLargeFileBytes);
-  ColouredCloud c = ext == ".pcd" ? cloud_read::parse_pcd(bytes, path.string()) : cloud_read::parse_ply(bytes, path.string());
+  ColouredCloud c =
+      ext == ".pcd" ? cloud_read::parse_pcd(bytes, path.string()) : cloud_read::parse_ply(bytes, path.string());
   c.validate(path.string());
   return c;
 }

@@ -108,8 +108,9 @@ void expect_sample(const ColouredCloud& c, const pcl::PointCloud<pcl::PointXYZRG
   }
 }
 
-const std::string kPcdXyz = "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
-                            "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
+const std::string kPcdXyz =
+    "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 2\nHEIGHT 1\n"
+    "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 2\n";
 const std::string kPlyXyz = "property float x\nproperty float y\nproperty float z\n";
 
 }  // namespace
@@ -159,9 +160,10 @@ TEST(CloudRead, ReadsWhatOurWriterWrites) {
 
 TEST(CloudRead, PcdPaddingFieldsAndDoubleCoordinates) {
   // x y z as F8, padding "_" (COUNT 3), a float rgb read bit for bit, an I2 label (-1: none), a field we skip.
-  const std::string header = "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z _ rgb label intensity\nSIZE 8 8 8 1 4 2 4\n"
-                             "TYPE F F F U F I F\nCOUNT 1 1 1 3 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
-                             "POINTS 2\n";
+  const std::string header =
+      "# .PCD v0.7\nVERSION 0.7\nFIELDS x y z _ rgb label intensity\nSIZE 8 8 8 1 4 2 4\n"
+      "TYPE F F F U F I F\nCOUNT 1 1 1 3 1 1 1\nWIDTH 2\nHEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\n"
+      "POINTS 2\n";
   std::string data;
   const double xyz[2][3] = {{1.25, -2.5, 1e-3}, {0.1, 0.2, 0.3}};
   const std::uint32_t rgb[2] = {0x00102030u, 0xff0000ffu};
@@ -182,7 +184,8 @@ TEST(CloudRead, PcdPaddingFieldsAndDoubleCoordinates) {
   EXPECT_EQ(c.colours[1], (std::array<std::uint8_t, 3>{0x00, 0x00, 0xff}));
   EXPECT_EQ(c.labels, (std::vector<int>{4, -1}));
   // The same in ASCII (a blank line and CRLF line ends are fine; "nan" in a skipped field too).
-  std::ofstream(p) << header << "DATA ascii\r\n1.25 -2.5 0.001 0 0 0 1056816 4 nan\r\n\r\n0.1 0.2 0.3 1 2 3 4278190335 -1 2\r\n";
+  std::ofstream(p) << header
+                   << "DATA ascii\r\n1.25 -2.5 0.001 0 0 0 1056816 4 nan\r\n\r\n0.1 0.2 0.3 1 2 3 4278190335 -1 2\r\n";
   const ColouredCloud a = read_coloured_cloud(p);
   EXPECT_EQ(a.points, c.points);
   EXPECT_EQ(a.colours, c.colours);
@@ -195,11 +198,14 @@ TEST(CloudRead, PcdFieldsOfTypesThatMakeNoSenseAreRefused) {
                "FIELDS: field z: is a float of 2 bytes, expected a float of 4 or 8 bytes");
   expect_error("t.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F U\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
                "field z: is an unsigned integer of 4 bytes, expected a float");
-  expect_error("t.pcd", "FIELDS x y z rgb\nSIZE 4 4 4 2\nTYPE F F F U\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
+  expect_error("t.pcd",
+               "FIELDS x y z rgb\nSIZE 4 4 4 2\nTYPE F F F U\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
                "field rgb: is an unsigned integer of 2 bytes, expected a packed colour of 4 bytes");
-  expect_error("t.pcd", "FIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
+  expect_error("t.pcd",
+               "FIELDS x y z label\nSIZE 4 4 4 4\nTYPE F F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
                "field label: is a float of 4 bytes, expected an integer of 1, 2 or 4 bytes");
-  expect_error("t.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 2 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
+  expect_error("t.pcd",
+               "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 2 1\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3 4\n",
                "field y: has COUNT 2, expected 1");
   expect_error("t.pcd", "FIELDS x y x\nSIZE 4 4 4\nTYPE F F F\nWIDTH 1\nHEIGHT 1\nPOINTS 1\nDATA ascii\n1 2 3\n",
                "field x: given twice");
@@ -215,14 +221,17 @@ TEST(CloudRead, PcdNonFiniteCoordinatesAreRefusedByTheCloud) {
 
 TEST(CloudRead, PlyBigEndianWithAnyScalarTypes) {
   // double x, short y, float z, ushort/uchar/uint colours, int label (-5: none).
-  const std::string header = "ply\nformat binary_big_endian 1.0\ncomment made by hand\nelement vertex 2\n"
-                             "property double x\nproperty int16 y\nproperty float z\nproperty ushort red\n"
-                             "property uchar green\nproperty uint blue\nproperty int label\nend_header\n";
+  const std::string header =
+      "ply\nformat binary_big_endian 1.0\ncomment made by hand\nelement vertex 2\n"
+      "property double x\nproperty int16 y\nproperty float z\nproperty ushort red\n"
+      "property uchar green\nproperty uint blue\nproperty int label\nend_header\n";
   std::string data;
-  data += bytes_of(1.5, true) + bytes_of(std::int16_t(-7), true) + bytes_of(0.25f, true) + bytes_of(std::uint16_t(255), true) +
-          bytes_of(std::uint8_t(1), true) + bytes_of(std::uint32_t(2), true) + bytes_of(std::int32_t(3), true);
-  data += bytes_of(-1.0, true) + bytes_of(std::int16_t(300), true) + bytes_of(8.0f, true) + bytes_of(std::uint16_t(0), true) +
-          bytes_of(std::uint8_t(9), true) + bytes_of(std::uint32_t(10), true) + bytes_of(std::int32_t(-5), true);
+  data += bytes_of(1.5, true) + bytes_of(std::int16_t(-7), true) + bytes_of(0.25f, true) +
+          bytes_of(std::uint16_t(255), true) + bytes_of(std::uint8_t(1), true) + bytes_of(std::uint32_t(2), true) +
+          bytes_of(std::int32_t(3), true);
+  data += bytes_of(-1.0, true) + bytes_of(std::int16_t(300), true) + bytes_of(8.0f, true) +
+          bytes_of(std::uint16_t(0), true) + bytes_of(std::uint8_t(9), true) + bytes_of(std::uint32_t(10), true) +
+          bytes_of(std::int32_t(-5), true);
   const fs::path p = write("big.ply", header + data + "extra bytes after the vertices are not read");
   const ColouredCloud c = read_coloured_cloud(p);
   ASSERT_EQ(c.size(), 2u);
@@ -235,17 +244,20 @@ TEST(CloudRead, PlyBigEndianWithAnyScalarTypes) {
   std::string wide = data;
   wide.replace(8 + 2 + 4, 2, bytes_of(std::uint16_t(256), true));
   expect_error("wide.ply", header + wide, "point 0: red is 256, outside 0..255");
-  expect_error("wide.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
-                               "property int red\nproperty int green\nproperty int blue\nend_header\n1 2 3 -1 0 0\n",
+  expect_error("wide.ply",
+               "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
+                   "property int red\nproperty int green\nproperty int blue\nend_header\n1 2 3 -1 0 0\n",
                "point 0: red is -1, outside 0..255");
   fs::remove(p);
 }
 
 TEST(CloudRead, PlyFaceElementsBeforeAndAfterTheVertices) {
   const std::string face = "element face 2\nproperty list uchar int vertex_indices\nproperty uchar flags\n";
-  const std::string vertex = "element vertex 2\n" + kPlyXyz + "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  const std::string vertex =
+      "element vertex 2\n" + kPlyXyz + "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   // ASCII, faces first.
-  const std::string ascii = "ply\nformat ascii 1.0\n" + face + vertex + "end_header\n3 0 1 1 7\n0 9\n1 2 3 10 20 30\n4 5 6 40 50 60\n";
+  const std::string ascii =
+      "ply\nformat ascii 1.0\n" + face + vertex + "end_header\n3 0 1 1 7\n0 9\n1 2 3 10 20 30\n4 5 6 40 50 60\n";
   const fs::path p = write("faces.ply", ascii);
   ColouredCloud c = read_coloured_cloud(p);
   ASSERT_EQ(c.size(), 2u);
@@ -253,7 +265,8 @@ TEST(CloudRead, PlyFaceElementsBeforeAndAfterTheVertices) {
   EXPECT_EQ(c.colours[1], (std::array<std::uint8_t, 3>{40, 50, 60}));
   EXPECT_FALSE(c.has_labels());
   // ASCII, faces after: not read.
-  std::ofstream(p) << "ply\nformat ascii 1.0\n" + vertex + face + "end_header\n1 2 3 10 20 30\n4 5 6 40 50 60\n3 0 1 1 7\n0 9\n";
+  std::ofstream(p) << "ply\nformat ascii 1.0\n" + vertex + face +
+                          "end_header\n1 2 3 10 20 30\n4 5 6 40 50 60\n3 0 1 1 7\n0 9\n";
   EXPECT_EQ(read_coloured_cloud(p).points, c.points);
   // Binary little endian, faces first (a list of 3 ints, then one of none).
   std::string faces = bytes_of(std::uint8_t(3)) + bytes_of(0) + bytes_of(1) + bytes_of(1) + bytes_of(std::uint8_t(7)) +
@@ -263,11 +276,13 @@ TEST(CloudRead, PlyFaceElementsBeforeAndAfterTheVertices) {
     points += bytes_of(float(1 + 3 * i)) + bytes_of(float(2 + 3 * i)) + bytes_of(float(3 + 3 * i));
     points += std::string{char(10 + 30 * i), char(20 + 30 * i), char(30 + 30 * i)};
   }
-  std::ofstream(p, std::ios::binary) << "ply\nformat binary_little_endian 1.0\n" + face + vertex + "end_header\n" + faces + points;
+  std::ofstream(p, std::ios::binary) << "ply\nformat binary_little_endian 1.0\n" + face + vertex + "end_header\n" +
+                                            faces + points;
   ColouredCloud b = read_coloured_cloud(p);
   EXPECT_EQ(b.points, c.points);
   EXPECT_EQ(b.colours, c.colours);
-  std::ofstream(p, std::ios::binary) << "ply\nformat binary_little_endian 1.0\n" + vertex + face + "end_header\n" + points + faces;
+  std::ofstream(p, std::ios::binary) << "ply\nformat binary_little_endian 1.0\n" + vertex + face + "end_header\n" +
+                                            points + faces;
   b = read_coloured_cloud(p);
   EXPECT_EQ(b.points, c.points);
   // A face list that runs past the end of the file.
@@ -284,20 +299,24 @@ TEST(CloudRead, TruncatedBinaryDataIsRefused) {
   expect_error("short.pcd", kPcdXyz + "DATA binary\n" + point + point.substr(0, 11),
                "data: truncated: POINTS x point size = 24 bytes, the file holds 23 after the header");
   expect_error("long.pcd", kPcdXyz + "DATA binary\n" + point + point + "x", "data: 1 bytes after the last point");
-  expect_error("short.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 2\n" + kPlyXyz + "end_header\n" + point,
+  expect_error("short.ply",
+               "ply\nformat binary_little_endian 1.0\nelement vertex 2\n" + kPlyXyz + "end_header\n" + point,
                "data: truncated: 2 vertices x 12 bytes, the file holds 12");
 }
 
 TEST(CloudRead, AsciiLinesOfTheWrongLengthOrNotNumbersAreRefused) {
-  expect_error("a.pcd", kPcdXyz + "DATA ascii\n1.5 2.5 3.5\n4.5 5.5\n", "line 12: 2 values, expected 3 (one point per line)");
+  expect_error("a.pcd", kPcdXyz + "DATA ascii\n1.5 2.5 3.5\n4.5 5.5\n",
+               "line 12: 2 values, expected 3 (one point per line)");
   expect_error("a.pcd", kPcdXyz + "DATA ascii\n1 2 3\n4 5 6 7\n", "line 12: 4 values, expected 3");
   expect_error("a.pcd", kPcdXyz + "DATA ascii\n1 2 3\n4 five 6\n", "line 12: \"five\" is not a float of 4 bytes");
   expect_error("a.pcd", kPcdXyz + "DATA ascii\n1.5 2.5 3.5\n", "data: truncated: 1 of 2 points");
   expect_error("a.pcd", kPcdXyz + "DATA ascii\n1 2 3\n4 5 6\n7 8 9\n", "line 13: data after the last of the 2 points");
   expect_error("a.ply", "ply\nformat ascii 1.0\nelement vertex 2\n" + kPlyXyz + "end_header\n1.5 2.5 3.5\n4.5 5.5\n",
                "line 9: 2 values, expected 3");
-  expect_error("a.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz + "property uchar red\nproperty uchar green\n"
-                        "property uchar blue\nend_header\n1 2 3 300 0 0\n",
+  expect_error("a.ply",
+               "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
+                   "property uchar red\nproperty uchar green\n"
+                   "property uchar blue\nend_header\n1 2 3 300 0 0\n",
                "line 11: \"300\" is not an unsigned integer of 1 byte");
 }
 
@@ -315,24 +334,30 @@ TEST(CloudRead, DamagedCompressedPcdIsRefused) {
   expect_error("lzf.pcd", header + sizes(3, 24) + std::string{char(0xe0), char(20), char(5)},
                "data: the LZF-compressed data is damaged");
   // A literal run longer than the stream, and a stream that makes too few bytes.
-  expect_error("lzf.pcd", header + sizes(5, 24) + std::string{char(23), 1, 2, 3, 4}, "the LZF-compressed data is damaged");
+  expect_error("lzf.pcd", header + sizes(5, 24) + std::string{char(23), 1, 2, 3, 4},
+               "the LZF-compressed data is damaged");
   expect_error("lzf.pcd", header + sizes(3, 24) + std::string{char(1), 1, 2}, "the LZF-compressed data is damaged");
-  expect_error("lzf.pcd", header + sizes(1000, 24) + literal, "data: compressed size 1000 is larger than the 25 bytes after the header");
-  expect_error("lzf.pcd", header + sizes(25, 48) + literal, "data: uncompressed size 48, expected POINTS x point size = 24");
+  expect_error("lzf.pcd", header + sizes(1000, 24) + literal,
+               "data: compressed size 1000 is larger than the 25 bytes after the header");
+  expect_error("lzf.pcd", header + sizes(25, 48) + literal,
+               "data: uncompressed size 48, expected POINTS x point size = 24");
   expect_error("lzf.pcd", header + sizes(4, 24), "compressed size 4 is larger than the 0 bytes");
   expect_error("lzf.pcd", header + "\x01\x02", "data: truncated: no compressed sizes after the header");
 }
 
 TEST(CloudRead, CountsTheDataCannotHoldAreRefusedBeforeAllocating) {
   const std::string point = bytes_of(1.f) + bytes_of(2.f) + bytes_of(3.f);
-  expect_error("many.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 100\n" + kPlyXyz + "end_header\n" + point,
+  expect_error("many.ply",
+               "ply\nformat binary_little_endian 1.0\nelement vertex 100\n" + kPlyXyz + "end_header\n" + point,
                "data: truncated: 100 vertices x 12 bytes, the file holds 12");
   expect_error("many.ply", "ply\nformat ascii 1.0\nelement vertex 100\n" + kPlyXyz + "end_header\n1 2 3\n",
                "data: truncated: 1 of 100 points");
   expect_error("many.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 50\nHEIGHT 1\nPOINTS 50\nDATA ascii\n1 2 3\n",
                "data: truncated: 1 of 50 points");
-  expect_error("many.ply", "ply\nformat binary_little_endian 1.0\nelement face 90\nproperty list uint int vertex_indices\n"
-                           "element vertex 1\n" + kPlyXyz + "end_header\n" + bytes_of(std::uint32_t(1u << 30)) + point,
+  expect_error("many.ply",
+               "ply\nformat binary_little_endian 1.0\nelement face 90\nproperty list uint int vertex_indices\n"
+               "element vertex 1\n" +
+                   kPlyXyz + "end_header\n" + bytes_of(std::uint32_t(1u << 30)) + point,
                "element face: truncated: the file ends inside it");
 }
 
@@ -342,8 +367,9 @@ TEST(CloudRead, PlyHeadersThisReaderDoesNotTakeAreRefused) {
                "header: line 7 (\"property list uchar int vertex_indices\"): a list property in the vertex element");
   expect_error("h.ply", start + "property half intensity\nend_header\n",
                "header: line 7 (\"property half intensity\"): a type that is not a PLY type");
-  expect_error("h.ply", "ply\nformat ascii 1.0\nelement face 1\nproperty list float int v\n" + std::string("element vertex 1\n") +
-                            kPlyXyz + "end_header\n",
+  expect_error("h.ply",
+               "ply\nformat ascii 1.0\nelement face 1\nproperty list float int v\n" +
+                   std::string("element vertex 1\n") + kPlyXyz + "end_header\n",
                "header: line 4 (\"property list float int v\"): a list's count must be of an integer type");
   expect_error("h.ply", start + "property float label\nend_header\n", "property label must be of an integer type");
   expect_error("h.ply", start + "property uchar rgb\nend_header\n", "property rgb must be a packed colour of 4 bytes");
@@ -358,25 +384,32 @@ TEST(CloudRead, PlyHeadersThisReaderDoesNotTakeAreRefused) {
 // each one clear line now, from our own reader.
 TEST(CloudRead, FuzzFindingsAreOneLineErrors) {
   const std::vector<std::pair<std::string, std::string>> inputs = {
-      {"keyword.pcd", "# .PCD v0.7\nVERSION 0.7\nFOO 1\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
-                      "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n"},
+      {"keyword.pcd",
+       "# .PCD v0.7\nVERSION 0.7\nFOO 1\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\n"
+       "HEIGHT 1\nVIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1\nDATA ascii\n1 2 3\n"},
       {"versformat.pcd", "VERSformat ascii 1.0\nFIELDS x y z\n"},
       {"repeated.pcd", kPcdXyz + "DATA asci\x01\nFIELDS x y z\nSIZE 4 4 4\nPOINTS 2\nDATA binary\n"},
-      {"size.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 42222222222222222222\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
-                   "POINTS 1\nDATA ascii\n1 2 3\n"},
-      {"huge.pcd", "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
-                   "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1000000000\nDATA ascii\n1 2 3\n"},
+      {"size.pcd",
+       "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 42222222222222222222\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1\nHEIGHT 1\n"
+       "POINTS 1\nDATA ascii\n1 2 3\n"},
+      {"huge.pcd",
+       "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
+       "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1000000000\nDATA ascii\n1 2 3\n"},
       {"zero.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA binary\n"},
-      {"rfd.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz + "property uchar rfd\nproperty uint label\n"
-                  "end_header\n1 2 3 4 5\n"},
+      {"rfd.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
+                      "property uchar rfd\nproperty uint label\n"
+                      "end_header\n1 2 3 4 5\n"},
       {"no-vertex.ply", "ply\nformat ascii 1.0\nelement vertex 0\n" + kPlyXyz + "end_header\n"},
-      {"damaged.ply", "ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\n"
-                      "propertIEWPOINT 0 0 0 1 0 0 0\nPOINTS 9\nproperty uchar green\nproperty uchar blue\n"
-                      "property uint label\nend_header\n"},
-      {"green-blue.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz + "property uchar green\n"
-                         "property uchar blue\nend_header\n1 2 3 4 5\n"},
-      {"property-red.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz + "property uchar property uchar red\n"
-                           "property uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5 6\n"},
+      {"damaged.ply",
+       "ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\n"
+       "propertIEWPOINT 0 0 0 1 0 0 0\nPOINTS 9\nproperty uchar green\nproperty uchar blue\n"
+       "property uint label\nend_header\n"},
+      {"green-blue.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
+                             "property uchar green\n"
+                             "property uchar blue\nend_header\n1 2 3 4 5\n"},
+      {"property-red.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
+                               "property uchar property uchar red\n"
+                               "property uchar green\nproperty uchar blue\nend_header\n1 2 3 4 5 6\n"},
       {"huge.ply", "ply\nformat ascii 1.0\nelement vertex 4000000000\n" + kPlyXyz + "end_header\n1 2 3\n"},
       {"no-end.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz},
       {"empty.ply", ""},
