@@ -1,6 +1,6 @@
-// Fuzzes segment-cloud's point cloud reader (read_coloured_cloud: our header checks, then PCL's PCD or
-// PLY reader, then the x/y/z, rgb and label fields). Byte 0 picks the extension (even: .pcd, odd: .ply),
-// the rest is the file.
+// Fuzzes segment-cloud's point cloud reader (read_coloured_cloud: our own PCD and PLY reader, header,
+// data of every kind, the x/y/z, colour and label fields). Byte 0 picks the extension (even: .pcd, odd:
+// .ply), the rest is the file.
 #include "fuzz_support.hpp"
 #include "smseg/cloud/cloud_segment.hpp"
 

@@ -1,20 +1,11 @@
-// The PCL part of cloud_segment.hpp: cloud files, k-nearest-neighbour graphs, centroid min-cut.
-#include <unistd.h>
-
+// The PCL part of cloud_segment.hpp: writing cloud files, k-nearest-neighbour graphs, centroid min-cut
+// (read_coloured_cloud, our own reader, is in cloud_read.cpp).
 #include <algorithm>
-#include <atomic>
+#include <array>
 #include <chrono>
 #include <cmath>
-#include <fstream>
-#include <map>
-#include <set>
 #include <vector>
-#include <sstream>
 
-#include <pcl/common/io.h>
-#include <pcl/console/print.h>
-#include <pcl/io/pcd_io.h>
-#include <pcl/io/ply_io.h>
 #include <pcl/kdtree/kdtree_flann.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -33,10 +24,6 @@ namespace smseg::features {
 
 namespace {
 
-bool has_field(const pcl::PCLPointCloud2& c, const std::string& name) {
-  return std::any_of(c.fields.begin(), c.fields.end(), [&](const pcl::PCLPointField& f) { return f.name == name; });
-}
-
 std::array<std::uint8_t, 3> label_colour(int label) {
   if (label < 0) return {170, 170, 170};
   static const std::array<std::array<std::uint8_t, 3>, 10> palette = {{{128, 128, 128},
@@ -52,198 +39,11 @@ std::array<std::uint8_t, 3> label_colour(int label) {
   return palette[std::size_t(label) % palette.size()];
 }
 
-/// PCL 1.13's readers crash on some malformed files: check the header ourselves first. PCD: FIELDS,
-/// SIZE, TYPE, WIDTH, HEIGHT, POINTS (> 0) and DATA lines; PLY: the "ply" magic and an end_header.
-/// The header must lie in the first 64 KiB (ours are a few hundred bytes), so that a file with no line
-/// breaks is not read whole by the check.
-/// `text` with every byte that is not printable ASCII shown as '?', for an error line.
-std::string printable(std::string text) {
-  for (char& c : text)
-    if (c < 0x20 || c > 0x7e) c = '?';
-  return text;
-}
-
-void check_header(const fs::path& path, bool pcd) {
-  constexpr std::size_t kMaxHeaderBytes = 64 * 1024;
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw Error(path.string(), "", "cannot be opened");
-  std::string head(kMaxHeaderBytes, '\0');
-  file.read(head.data(), static_cast<std::streamsize>(head.size()));
-  head.resize(static_cast<std::size_t>(file.gcount()));
-  std::istringstream in(head);
-  std::string line;
-  // A count the file cannot hold (every element takes at least a byte) is refused before PCL
-  // allocates for it: "element vertex 4000000000" in a small file made it ask for 80 GB.
-  std::error_code ec;
-  const auto file_size = static_cast<long long>(fs::file_size(path, ec));
-  const auto check_count = [&](long long count, const std::string& what) {
-    if (count > file_size)
-      throw Error(path.string(), what, "is " + std::to_string(count) + ", more than the file's " +
-                                           std::to_string(file_size) + " bytes can hold");
-  };
-  if (!pcd) {
-    if (!std::getline(in, line) || line.rfind("ply", 0) != 0) throw Error(path.string(), "", "not a PLY file (no \"ply\" line)");
-    // PCL 1.13's PLYReader aborts (assertions) or misreads on headers it half-understands: a vertex
-    // property it does not know ("uchar rfd"), a damaged property line ("property uchar property uchar
-    // red"), colours without red (all found by fuzz_cloud). Only the header grammar PCL reads passes:
-    // "format F 1.0", "element NAME COUNT", "property TYPE NAME" with a known vertex property of the
-    // type PCL expects for it, comments; the colours come as the three of red, green, blue or not at all.
-    static const std::set<std::string> formats = {"ascii", "binary_little_endian", "binary_big_endian"};
-    static const std::set<std::string> float_types = {"float", "float32", "double", "float64"};
-    static const std::set<std::string> byte_types = {"uchar", "uint8"};
-    static const std::set<std::string> label_types = {"uint", "uint32", "int", "int32"};
-    static const std::map<std::string, const std::set<std::string>*> vertex_properties = {
-        {"x", &float_types},        {"y", &float_types},         {"z", &float_types},
-        {"nx", &float_types},       {"ny", &float_types},        {"nz", &float_types},
-        {"normal_x", &float_types}, {"normal_y", &float_types},  {"normal_z", &float_types},
-        {"curvature", &float_types}, {"intensity", &float_types}, {"red", &byte_types},
-        {"green", &byte_types},     {"blue", &byte_types},       {"alpha", &byte_types},
-        {"rgb", &label_types},      {"rgba", &label_types},      {"label", &label_types}};
-    const auto bad_line = [&](int n, const std::string& why) {
-      throw Error(path.string(), "header", "line " + std::to_string(n + 2) + " (\"" + printable(line.substr(0, 40)) +
-                                               "\"): " + why);
-    };
-    std::string element;
-    std::set<std::string> properties;
-    for (int n = 0; n < 200 && std::getline(in, line); ++n) {
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-      std::istringstream ls(line);
-      std::vector<std::string> words;
-      for (std::string w; ls >> w;) words.push_back(w);
-      if (words.empty()) bad_line(n, "is empty");
-      const std::string& word = words[0];
-      if (word == "comment" || word == "obj_info") continue;
-      if (word == "end_header" && words.size() == 1) {
-        const int colours = int(properties.count("red") + properties.count("green") + properties.count("blue"));
-        if (colours != 0 && colours != 3)
-          throw Error(path.string(), "element vertex", "has some of the colour properties red, green, blue but not all three");
-        return;
-      }
-      if (word == "format") {
-        if (words.size() != 3 || !formats.count(words[1]) || words[2] != "1.0") bad_line(n, "expected format ascii|binary_little_endian|binary_big_endian 1.0");
-      } else if (word == "element") {
-        long long count = -1;
-        if (words.size() != 3 || !(std::istringstream(words[2]) >> count) || count < 0) bad_line(n, "expected element NAME COUNT");
-        element = words[1];
-        check_count(count, "element " + element);
-        // An empty vertex list made PCL's conversion index an empty vector (UBSan, found by fuzz_cloud).
-        if (element == "vertex" && count <= 0) throw Error(path.string(), "points", "the cloud is empty");
-      } else if (word == "property") {
-        if (element.empty()) bad_line(n, "a property before any element");
-        if (element != "vertex") continue;  // other elements' properties are skipped by PCL
-        if (words.size() != 3) bad_line(n, "expected property TYPE NAME (no lists in a vertex)");
-        const auto known = vertex_properties.find(words[2]);
-        if (known == vertex_properties.end())
-          throw Error(path.string(), "element vertex", "property \"" + printable(words[2].substr(0, 40)) + "\" is not one this reader knows");
-        if (!known->second->count(words[1])) bad_line(n, "property " + words[2] + " of a type this reader does not read");
-        if (!properties.insert(words[2]).second) bad_line(n, "property " + words[2] + " given twice");
-      } else {
-        bad_line(n, "is not a PLY header line");
-      }
-    }
-    throw Error(path.string(), "", "not a PLY file (no end_header)");
-  }
-  // PCL 1.13's PCDReader crashes or misreads on headers it half-understands: an unknown keyword (null
-  // pointer), an overflowing SIZE (gigabytes allocated), header lines repeated after a damaged DATA
-  // line (use after free); all found by fuzz_cloud. Only the header PCL writes passes: each keyword
-  // once, in the format's order, FIELDS/SIZE/TYPE/COUNT of the same length with the format's values,
-  // WIDTH x HEIGHT = POINTS, and DATA ascii, binary or binary_compressed.
-  static const std::vector<std::string> order = {"VERSION", "FIELDS", "SIZE",      "TYPE",   "COUNT",
-                                                 "WIDTH",   "HEIGHT", "VIEWPOINT", "POINTS", "DATA"};
-  static const std::set<std::string> sizes = {"1", "2", "4", "8"}, types = {"I", "U", "F"},
-                                     data_kinds = {"ascii", "binary", "binary_compressed"};
-  const auto bad = [&](const std::string& key, const std::string& why) {
-    throw Error(path.string(), key, why);
-  };
-  const auto whole_number = [](const std::string& v, std::size_t digits) {
-    return !v.empty() && v.size() <= digits && v.find_first_not_of("0123456789") == std::string::npos &&
-           !(v.size() > 1 && v.front() == '0');
-  };
-  std::size_t next = 0, fields = 0;
-  long long width = -1, height = -1, points = -1;
-  for (int n = 0; n < 100 && next < order.size() && std::getline(in, line); ++n) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty() || line[0] == '#') continue;
-    std::istringstream ls(line);
-    std::string key;
-    ls >> key;
-    std::vector<std::string> values;
-    for (std::string v; ls >> v;) values.push_back(v);
-    if (key != order[next]) {
-      // VERSION, COUNT and VIEWPOINT may be left out; the others come in the format's order.
-      while (next < order.size() && key != order[next] &&
-             (order[next] == "VERSION" || order[next] == "COUNT" || order[next] == "VIEWPOINT"))
-        ++next;
-      if (next == order.size() || key != order[next])
-        bad("", "not a PCD file (header line \"" + printable(line.substr(0, 40)) + "\" out of place or unknown)");
-    }
-    ++next;
-    if (key == "FIELDS") fields = values.size();
-    if (key == "FIELDS" && (fields == 0 || fields > 64)) bad(key, "expected 1 to 64 fields");
-    if (key == "SIZE" || key == "TYPE" || key == "COUNT") {
-      if (values.size() != fields) bad(key, "has " + std::to_string(values.size()) + " values for " + std::to_string(fields) + " fields");
-      for (const std::string& v : values) {
-        const bool ok = key == "SIZE" ? sizes.count(v) > 0 : key == "TYPE" ? types.count(v) > 0 : whole_number(v, 4) && v != "0";
-        if (!ok) bad(key, "\"" + printable(v.substr(0, 20)) + "\" is not a value of the PCD format");
-      }
-    }
-    if (key == "WIDTH" || key == "HEIGHT" || key == "POINTS") {
-      if (values.size() != 1 || !whole_number(values[0], 12)) bad(key, "expected one whole number");
-      const long long v = std::stoll(values[0]);
-      check_count(v, key);
-      (key == "WIDTH" ? width : key == "HEIGHT" ? height : points) = v;
-    }
-    if (key == "DATA" && (values.size() != 1 || !data_kinds.count(values[0])))
-      bad(key, "expected ascii, binary or binary_compressed");
-  }
-  if (next < order.size()) bad("", "not a PCD file (its header ends before DATA)");
-  if (width < 0 || height < 0 || points < 0) bad("", "not a PCD file (no WIDTH, HEIGHT or POINTS)");
-  if (width * height != points) bad("POINTS", "is " + std::to_string(points) + ", not WIDTH x HEIGHT");
-  if (points <= 0) throw Error(path.string(), "points", "the cloud is empty");
-}
-
 double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
 }  // namespace
-
-ColouredCloud read_coloured_cloud(const fs::path& path) {
-  const std::string ext = path.extension().string();
-  if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
-  // PCL reads the whole file into memory: one larger than any cloud we write is refused first.
-  if (fs::file_size(path, ec) > kMaxLargeFileBytes)
-    throw Error(path.string(), "", "is larger than the " + std::to_string(kMaxLargeFileBytes / kMiB) + " MiB this reader accepts");
-  check_header(path, ext == ".pcd");
-  pcl::PCLPointCloud2 raw;
-  const auto level = pcl::console::getVerbosityLevel();
-  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);
-  const int rc = ext == ".pcd" ? pcl::io::loadPCDFile(path.string(), raw) : pcl::io::loadPLYFile(path.string(), raw);
-  pcl::console::setVerbosityLevel(level);
-  if (rc < 0) throw Error(path.string(), "", "PCL cannot read this " + ext.substr(1) + " file");
-  if (!has_field(raw, "x") || !has_field(raw, "y") || !has_field(raw, "z"))
-    throw Error(path.string(), "fields", "the cloud has no x, y, z fields");
-  ColouredCloud c;
-  pcl::PointCloud<pcl::PointXYZ> xyz;
-  pcl::fromPCLPointCloud2(raw, xyz);
-  if (xyz.empty()) throw Error(path.string(), "points", "the cloud is empty");
-  c.points.reserve(xyz.size());
-  for (const auto& p : xyz) c.points.emplace_back(p.x, p.y, p.z);
-  if (has_field(raw, "rgb") || has_field(raw, "rgba")) {
-    pcl::PointCloud<pcl::PointXYZRGB> rgb;
-    pcl::fromPCLPointCloud2(raw, rgb);
-    for (const auto& p : rgb) c.colours.push_back({p.r, p.g, p.b});
-  }
-  if (has_field(raw, "label")) {
-    pcl::PointCloud<pcl::Label> lab;
-    pcl::fromPCLPointCloud2(raw, lab);
-    for (const auto& p : lab) c.labels.push_back(p.label >= 255u ? -1 : static_cast<int>(p.label));
-  }
-  c.validate(path.string());
-  return c;
-}
 
 void write_labelled_cloud(const fs::path& path, const ColouredCloud& cloud, std::span<const int> labels) {
   pcl_write::check_extension(path);

@@ -5,8 +5,8 @@
 //   multi-class MRF (000, "Attention-based active 3D point cloud segmentation"): one label per seeded
 //     object plus the supporting plane, a colour GMM per label, contrast-sensitive Potts over the
 //     4-nearest-neighbour graph, alpha-expansion, GMMs re-estimated until the energy settles.
-// Clouds are read and written through PCL (PCD or PLY; defined in the smseg_cloud library, which links
-// PCL); the synthetic tabletop clouds of the tests and benchmarks need no PCL.
+// Clouds (PCD or PLY) are read by our own reader and written through PCL (both defined in the smseg_cloud
+// library, which links PCL); the synthetic tabletop clouds of the tests and benchmarks need no PCL.
 
 #include <array>
 #include <cstdint>
@@ -34,7 +34,11 @@ struct ColouredCloud {
 };
 
 /// Reads a PCD or PLY cloud (fields x y z; rgb/rgba and label when present; label 255 or negative
-/// reads as -1). Error naming the file when it cannot be read, has no points or a non-finite point.
+/// reads as -1, as does any label above 255). PCD: DATA ascii, binary or binary_compressed; PLY 1.0:
+/// ascii or binary of either byte order, colours from red/green/blue or a packed rgb. Our own reader,
+/// not PCL's (which damaged the heap on malformed files): every count is checked against the file's
+/// size before anything is allocated. Error naming the file, in one line, when it cannot be read, is
+/// malformed, has no points or a non-finite point.
 ColouredCloud read_coloured_cloud(const fs::path& path);
 
 /// Writes the cloud with `labels` (one per point, -1: none -> 255) as pcl::PointXYZRGBL, binary PCD for
