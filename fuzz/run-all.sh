@@ -5,7 +5,8 @@
 # (executions, seconds, final corpus size, coverage edges, crashes) and exits 1 if any fuzzer reported a
 # crash, a leak, a timeout or an out-of-memory, or did not run; the findings stay in the work folder.
 #   fuzz/run-all.sh [SECONDS] [BUILD_DIR]      (BUILD_DIR default: build-fuzz)
-#   JOBS=N to run N at a time; FUZZERS="fuzz_npy fuzz_forest" to run only those.
+#   JOBS=N to run N at a time; FUZZERS="fuzz_npy fuzz_forest" to run only those; RUNS=N to stop each
+#   fuzzer after N executions (SECONDS is then only a cap: the campaign is RUNS=1000000).
 set -euo pipefail
 
 seconds=${1:-30}
@@ -29,10 +30,11 @@ run_one() {
   local f=$1 dir=$work/$1
   mkdir -p "$dir/corpus"
   [[ -d $here/corpus/$f ]] && cp -r "$here/corpus/$f/." "$dir/corpus/"
-  local dict=()
+  local dict=() runs=()
   [[ -f $here/dict/$f.dict ]] && dict=(-dict="$here/dict/$f.dict")
+  [[ -n ${RUNS:-} ]] && runs=(-runs="$RUNS")
   local start=$SECONDS status=0
-  (cd "$dir" && TMPDIR=$fuzz_tmp "$bin/$f" "${dict[@]}" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
+  (cd "$dir" && TMPDIR=$fuzz_tmp "$bin/$f" "${dict[@]}" "${runs[@]}" -max_total_time="$seconds" -timeout=10 -rss_limit_mb=2048 \
      -print_final_stats=1 -artifact_prefix="$dir/" corpus > log 2>&1) || status=$?
   echo "$status $((SECONDS - start))" > "$dir/status"
 }

@@ -567,7 +567,7 @@ const std::map<std::string_view, Accepts>& vertex_properties() {
 /// Reads one "property TYPE NAME" or "property list COUNT_TYPE TYPE NAME" line into the last element.
 /// `bad_line(why)` throws an Error naming the line.
 template <class Bad>
-void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, const std::string& file, Bad bad_line) {
+void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, Bad bad_line) {
   if (h.elements.empty()) bad_line("a property before any element");
   PlyElement& e = h.elements.back();
   const bool vertex = e.name == "vertex";
@@ -589,12 +589,11 @@ void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, 
                     : "expected property TYPE NAME or property list COUNT_TYPE TYPE NAME");
   }
   if (vertex) {
+    // Other tools' properties (quality, confidence, scalar_*) are read past, as PCD's other fields are.
     const auto known = vertex_properties().find(p.name);
-    if (known == vertex_properties().end())
-      throw Error(file, "element vertex", "property \"" + printable(p.name) + "\" is not one this reader knows");
-    if (known->second == Accepts::Integer && !p.type.integer())
+    if (known != vertex_properties().end() && known->second == Accepts::Integer && !p.type.integer())
       bad_line("property " + p.name + " must be of an integer type (char, uchar, short, ushort, int or uint)");
-    if (known->second == Accepts::Packed && p.type.size != 4)
+    if (known != vertex_properties().end() && known->second == Accepts::Packed && p.type.size != 4)
       bad_line("property " + p.name + " must be a packed colour of 4 bytes (int, uint or float)");
     for (const auto& q : e.properties)
       if (q.name == p.name) bad_line("property " + p.name + " given twice");
@@ -653,7 +652,7 @@ PlyHeader parse_ply_header(std::string_view bytes, const std::string& file) {
         if (e.name == name && name == "vertex") bad_line("a second vertex element");
       h.elements.push_back({name, count, {}});
     } else if (word == "property") {
-      add_ply_property(h, words, file, bad_line);
+      add_ply_property(h, words, bad_line);
     } else {
       bad_line("is not a PLY header line");
     }

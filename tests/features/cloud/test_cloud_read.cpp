@@ -396,9 +396,6 @@ TEST(CloudRead, FuzzFindingsAreOneLineErrors) {
        "VERSION 0.7\nFIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nCOUNT 1 1 1\nWIDTH 1000000000\nHEIGHT 1\n"
        "VIEWPOINT 0 0 0 1 0 0 0\nPOINTS 1000000000\nDATA ascii\n1 2 3\n"},
       {"zero.pcd", "FIELDS x y z\nSIZE 4 4 4\nTYPE F F F\nWIDTH 0\nHEIGHT 1\nPOINTS 0\nDATA binary\n"},
-      {"rfd.ply", "ply\nformat ascii 1.0\nelement vertex 1\n" + kPlyXyz +
-                      "property uchar rfd\nproperty uint label\n"
-                      "end_header\n1 2 3 4 5\n"},
       {"no-vertex.ply", "ply\nformat ascii 1.0\nelement vertex 0\n" + kPlyXyz + "end_header\n"},
       {"damaged.ply",
        "ply\nformat binary_little_endian 1.0\nelement vertex 9\nproperty float x\n"

@@ -282,18 +282,19 @@ TEST(CloudSegment, CountsBeyondTheFileSizeAreRefused) {
   fs::remove(pcd);
 }
 
-// Found by fuzz_cloud: PCL 1.13's PLYReader fails an assertion (the process aborts) on a vertex
-// property it does not know ("uchar rfd" before "uint label"); the header check refuses it first.
-TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsRefused) {
+// Found by fuzz_cloud: PCL 1.13's PLYReader failed an assertion (the process aborted) on a vertex
+// property it did not know ("uchar rfd" before "uint label"). Our reader reads past such properties
+// (other tools write quality, confidence, ...) and keeps the ones after them.
+TEST(CloudSegment, PlyVertexPropertyOfUnknownNameIsSkipped) {
   const fs::path p = temp("unknown-property.ply");
   std::ofstream(p) << "ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n"
                       "property float z\nproperty uchar rfd\nproperty uint label\nend_header\n1 2 3 4 5\n";
-  try {
-    read_coloured_cloud(p);
-    ADD_FAILURE() << "accepted";
-  } catch (const Error& e) {
-    EXPECT_EQ(std::string(e.what()), p.string() + ": element vertex: property \"rfd\" is not one this reader knows");
-  }
+  const ColouredCloud c = read_coloured_cloud(p);
+  ASSERT_EQ(c.size(), 1u);
+  EXPECT_EQ(c.points[0], Eigen::Vector3f(1, 2, 3));
+  ASSERT_TRUE(c.has_labels());
+  EXPECT_EQ(c.labels[0], 5);
+  EXPECT_FALSE(c.has_colours());
   fs::remove(p);
 }
 
