@@ -549,9 +549,9 @@ bool ply_type(std::string_view name, Scalar& s) {
   return true;
 }
 
-/// The vertex properties this reader knows: the cloud's, and those PCL writes beside them (skipped).
-/// Which types each may have: any number (coordinates and the skipped ones), an integer (colour
-/// channels, label), or 4 bytes (a packed rgb/rgba).
+/// The vertex properties whose types this reader checks: the cloud's, and those PCL writes beside them
+/// (skipped, like any other name). Which types each may have: any number (coordinates and the skipped
+/// ones), an integer (colour channels, label), or 4 bytes (a packed rgb/rgba).
 enum class Accepts { Number, Integer, Packed };
 const std::map<std::string_view, Accepts>& vertex_properties() {
   static const std::map<std::string_view, Accepts> known = {
@@ -602,8 +602,8 @@ void add_ply_property(PlyHeader& h, const std::vector<std::string_view>& words, 
 }
 
 /// The PLY 1.0 header: "ply", one "format ascii|binary_little_endian|binary_big_endian 1.0", elements
-/// with counts the file can hold (a vertex count > 0), their properties (the vertex's scalar and known,
-/// red/green/blue all or none), comments; at most 200 lines, within the first 64 KiB.
+/// with counts the file can hold (a vertex count > 0), their properties (the vertex's scalar, the known
+/// ones of their types, red/green/blue all or none), comments; at most 200 lines, within the first 64 KiB.
 PlyHeader parse_ply_header(std::string_view bytes, const std::string& file) {
   static const std::map<std::string_view, PlyHeader::Format> formats = {
       {"ascii", PlyHeader::Ascii},
