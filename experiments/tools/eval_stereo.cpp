@@ -10,6 +10,7 @@
 
 #include "smseg/common/cli.hpp"
 #include "smseg/frontend/stereo.hpp"
+#include "smseg/sequence/image_file.hpp"
 #include "smseg/common/progress.hpp"
 
 namespace {
@@ -27,9 +28,7 @@ struct Row {
 cv::Mat read_gray(const fs::path& p) {
   std::error_code ec;
   if (!fs::is_regular_file(p, ec)) throw Error(p.string(), "", "no such image");
-  cv::Mat m = cv::imread(p.string(), cv::IMREAD_GRAYSCALE);
-  if (m.empty()) throw Error(p.string(), "", "cannot be decoded as an image");
-  return m;
+  return read_image_file(p, cv::IMREAD_GRAYSCALE);
 }
 
 std::string pct(double v) {

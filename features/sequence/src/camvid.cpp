@@ -9,6 +9,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "smseg/sequence/image_file.hpp"
+
 namespace smseg::features {
 
 namespace {
@@ -250,9 +252,7 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
       seq.frames.push_back(e);
       seq.labelled_frames.push_back(static_cast<int>(k));
     }
-    const cv::Mat first_image = cv::imread(seq.frames.front().left.string(), cv::IMREAD_UNCHANGED);
-    if (first_image.empty()) throw Error(seq.frames.front().left.string(), "", "cannot be decoded as an image");
-    seq.size = first_image.size();
+    seq.size = read_image_file(seq.frames.front().left, cv::IMREAD_UNCHANGED).size();
     seq.calibration.cx = (seq.size.width - 1) / 2.0;
     seq.calibration.cy = (seq.size.height - 1) / 2.0;
     if (opt.focal) seq.calibration.fx = seq.calibration.fy = *opt.focal;

@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "smseg/sequence/camvid.hpp"
+#include "smseg/sequence/image_file.hpp"
 
 namespace smseg::features {
 
@@ -74,9 +75,7 @@ std::vector<std::string> png_names(const fs::path& folder) {
 }
 
 cv::Size image_size(const fs::path& file) {
-  const cv::Mat m = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-  if (m.empty()) throw Error(file.string(), "", "not a readable image");
-  return m.size();
+  return read_image_file(file, cv::IMREAD_UNCHANGED).size();
 }
 
 /// Seconds of each frame since the first: from times.txt when there is one, else frame / fps.

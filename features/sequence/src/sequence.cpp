@@ -1,5 +1,7 @@
 #include "smseg/sequence/sequence.hpp"
 
+#include "smseg/sequence/image_file.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -50,43 +52,6 @@ void require_file(const Sequence& seq, const fs::path& p, const std::string& wha
   const fs::path full = seq.resolve(p);
   if (const std::string why = why_not_a_file(full); !why.empty())
     throw Error(seq.manifest.string(), what, "names " + full.string() + ", which " + why);
-}
-
-/// What is wrong with the chunk structure of a PNG file (empty: nothing, or not a PNG): the chunks
-/// must follow each other inside the file up to IEND. A truncated or overwritten PNG is refused here,
-/// by our one line, before libpng sees it and prints its own "libpng error" line on stderr.
-std::string png_structure_problem(std::string_view bytes) {
-  static constexpr std::string_view kSignature("\x89PNG\r\n\x1a\n", 8);
-  if (bytes.substr(0, 8) != kSignature) return {};
-  std::size_t at = 8;
-  while (at + 12 <= bytes.size()) {
-    const auto byte = [&](std::size_t i) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[at + i])); };
-    const std::uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
-    const std::string_view type = bytes.substr(at + 4, 4);
-    if (length > bytes.size() - at - 12) return "PNG chunk " + std::string(type) + " runs past the end of the file (truncated?)";
-    if (type == "IEND") return {};
-    at += 12 + length;
-  }
-  return "PNG ends before its IEND chunk (truncated?)";
-}
-
-/// The largest image file read (2047 MiB: a cv::Mat of the bytes is indexed with int).
-constexpr std::uintmax_t kMaxImageBytes = 2047 * kMiB;
-
-cv::Mat read_image(const fs::path& full, int flags) {
-  // Decoded from memory, so that the file is read once, bounded (an image beyond what cv::Mat and the
-  // decoders index with int is refused), and checked before libpng sees it.
-  const std::string bytes = read_file(full, kMaxImageBytes);
-  if (const std::string problem = png_structure_problem(bytes); !problem.empty())
-    throw Error(full.string(), "", "cannot be decoded: " + problem);
-  cv::Mat m;
-  try {
-    m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
-  } catch (const cv::Exception& e) {
-    throw Error(full.string(), "", std::string("cannot be decoded: ") + e.what());
-  }
-  if (m.empty()) throw Error(full.string(), "", "cannot be decoded as an image (corrupt or not an image)");
-  return m;
 }
 
 void check_size(const Sequence& seq, const fs::path& full, const cv::Mat& m) {
@@ -321,7 +286,7 @@ void save_sequence(const Sequence& seq) {
 cv::Mat Sequence::load_left(int frame) const {
   check_frame(*this, frame);
   const fs::path full = resolve(frames[frame].left);
-  cv::Mat m = read_image(full, cv::IMREAD_COLOR);
+  cv::Mat m = read_image_file(full, cv::IMREAD_COLOR);
   check_size(*this, full, m);
   return m;
 }
@@ -329,7 +294,7 @@ cv::Mat Sequence::load_left(int frame) const {
 cv::Mat Sequence::load_left_gray(int frame) const {
   check_frame(*this, frame);
   const fs::path full = resolve(frames[frame].left);
-  cv::Mat m = read_image(full, cv::IMREAD_GRAYSCALE);
+  cv::Mat m = read_image_file(full, cv::IMREAD_GRAYSCALE);
   check_size(*this, full, m);
   return m;
 }
@@ -339,7 +304,7 @@ cv::Mat Sequence::load_right_gray(int frame) const {
   if (frames[frame].right.empty())
     throw Error(manifest.string(), "frames[" + std::to_string(frame) + "].right", "no right image");
   const fs::path full = resolve(frames[frame].right);
-  cv::Mat m = read_image(full, cv::IMREAD_GRAYSCALE);
+  cv::Mat m = read_image_file(full, cv::IMREAD_GRAYSCALE);
   check_size(*this, full, m);
   return m;
 }
@@ -354,7 +319,7 @@ cv::Mat Sequence::load_disparity(int frame) const {
   if (ext == ".npy") {
     d = read_npy_f32(full);
   } else {
-    cv::Mat raw = read_image(full, cv::IMREAD_UNCHANGED);
+    cv::Mat raw = read_image_file(full, cv::IMREAD_UNCHANGED);
     if (raw.channels() != 1) throw Error(full.string(), "", "a disparity map must have one channel");
     if (raw.depth() == CV_16U) {
       raw.convertTo(d, CV_32F, 1.0 / 256.0);  // KITTI convention: value / 256, 0 = unknown
@@ -388,7 +353,7 @@ cv::Mat Sequence::load_instances(int frame) const {
   if (frames[frame].instances.empty())
     throw Error(manifest.string(), "frames[" + std::to_string(frame) + "].instances", "frame has no instance image");
   const fs::path full = resolve(frames[frame].instances);
-  cv::Mat m = read_image(full, cv::IMREAD_UNCHANGED);
+  cv::Mat m = read_image_file(full, cv::IMREAD_UNCHANGED);
   check_size(*this, full, m);
   if (m.type() != CV_8UC1) throw Error(full.string(), "", "an instance image must be 8-bit with one channel");
   return m;
@@ -401,7 +366,7 @@ cv::Mat Sequence::load_labels(int frame) const {
   const fs::path full = resolve(frames[frame].label);
   cv::Mat out(size, CV_8UC1);
   if (label_encoding == LabelEncoding::Index) {
-    cv::Mat raw = read_image(full, cv::IMREAD_UNCHANGED);
+    cv::Mat raw = read_image_file(full, cv::IMREAD_UNCHANGED);
     check_size(*this, full, raw);
     if (raw.type() != CV_8UC1)
       throw Error(full.string(), "", "an index-encoded label image must be 8-bit with one channel");
@@ -422,7 +387,7 @@ cv::Mat Sequence::load_labels(int frame) const {
       }
     }
   } else {
-    cv::Mat raw = read_image(full, cv::IMREAD_COLOR);
+    cv::Mat raw = read_image_file(full, cv::IMREAD_COLOR);
     check_size(*this, full, raw);
     std::unordered_map<std::uint32_t, std::uint8_t> lut;
     auto key = [](std::uint8_t r, std::uint8_t g, std::uint8_t b) {

@@ -1,5 +1,7 @@
 // The sequence format: a valid manifest loads; every kind of bad input gives one Error naming the file
 // and the problem.
+#include <unistd.h>
+
 #include <gtest/gtest.h>
 
 #include <fstream>
@@ -7,6 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "smseg/sequence/image_file.hpp"
 #include "smseg/sequence/sequence.hpp"
 
 namespace fs = std::filesystem;
@@ -180,6 +183,47 @@ TEST_F(SequenceFormat, ATruncatedPngGetsOurLineOnly) {
     EXPECT_NE(e.find("truncated"), std::string::npos) << keep << ": " << e;
     EXPECT_EQ(printed, "") << keep << ": libpng or OpenCV printed their own lines";
   }
+}
+
+// Found by fuzz_label_image: OpenCV hands a file to any of its codecs whose signature matches, and a
+// damaged file with DICOM's "DICM" at byte 128 went to GDCM, which aborted the process (an assertion).
+// Only the formats a sequence holds reach OpenCV now; this is the fuzzer's file.
+TEST_F(SequenceFormat, AnImageOfAnotherFormatNeverReachesOpenCV) {
+  const std::string dicom_magic_at_128(
+      "\x89\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x00\xde\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\xba\xff\xff\xff\x00\x00\x00\x00\x00\x00\x00\x00\x42\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x49\x49\x2a\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x79\x00\x00\x00\x00\x00\x00"
+      "\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x00\x10\xf2\x00\x00\x00\x4e\x8c\x62\x5d\x00"
+      "\x00\x11\x49\x44\x41\x54\x45\x45\x44\x49\x43\x4d\x60\x82",
+      134);
+  ASSERT_EQ(dicom_magic_at_128.substr(128, 4), "DICM");
+  std::ofstream(dir / "left/1.png", std::ios::binary) << dicom_magic_at_128;
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("left/1.png: cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM, PFM or WebP)"),
+            std::string::npos) << e;
+}
+
+TEST(ImageFile, EachFormatASequenceHoldsIsToldByItsFirstBytesAndDecoded) {
+  const fs::path dir = fs::temp_directory_path() / ("smseg_image_file_" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  cv::Mat image(6, 8, CV_8UC1);
+  cv::randu(image, 0, 256);
+  for (const auto& [ext, name] : std::vector<std::pair<std::string, std::string>>{
+           {".png", "PNG"}, {".jpg", "JPEG"}, {".bmp", "BMP"}, {".tiff", "TIFF"}, {".pgm", "PNM"}, {".webp", "WebP"}}) {
+    std::vector<std::uint8_t> bytes;
+    ASSERT_TRUE(cv::imencode(ext, image, bytes)) << ext;
+    EXPECT_EQ(image_format(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())), name) << ext;
+    const fs::path file = dir / ("image" + ext);
+    std::ofstream(file, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
+    const cv::Mat back = read_image_file(file, cv::IMREAD_GRAYSCALE);
+    EXPECT_EQ(back.size(), image.size()) << ext;
+  }
+  EXPECT_EQ(image_format("Pf\n8 6\n-1\n"), "PFM");
+  for (const std::string& other : {std::string(128, '\0') + "DICM", std::string("#?RADIANCE\n"),
+                                  std::string("\x76\x2f\x31\x01", 4), std::string("\x59\xa6\x6a\x95"), std::string()})
+    EXPECT_EQ(image_format(other), "") << other;
+  fs::remove_all(dir);
 }
 
 TEST_F(SequenceFormat, WrongImageSize) {

@@ -7,6 +7,7 @@
 
 #include "runs.hpp"
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/sequence/image_file.hpp"
 
 namespace segment_cloud {
 
@@ -156,8 +157,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                   "frame " + std::to_string(o.frame) + " shows no pixel of object " + o.truth_instance);
     truth_source = "instances " + o.truth_instance + (id ? " (object " + std::to_string(id) + ")" : "");
   } else if (!o.truth_mask.empty()) {
-    const cv::Mat m = cv::imread(o.truth_mask, cv::IMREAD_UNCHANGED);
-    if (m.empty()) throw Error(o.truth_mask, "--truth-mask", "cannot be read as an image");
+    const cv::Mat m = sf::read_image_file(o.truth_mask, cv::IMREAD_UNCHANGED);
     if (m.type() != CV_8UC1 || m.size() != image.size())
       throw Error(o.truth_mask, "--truth-mask",
                   "must be an 8-bit single-channel image of the frame's size (" + std::to_string(image.cols) + " x " +
