@@ -1,7 +1,9 @@
 #include "smseg/sequence/image_file.hpp"
 
 #include <cstdint>
+#include <optional>
 #include <string>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 
@@ -29,6 +31,25 @@ std::string png_structure_problem(std::string_view bytes) {
   return "PNG ends before its IEND chunk (truncated?)";
 }
 
+/// The width and height the IHDR chunk of a PNG declares (it comes first, right after the signature);
+/// nothing for another format or a PNG without it (png_structure_problem and libpng judge those).
+std::optional<std::pair<std::uint32_t, std::uint32_t>> png_declared_size(std::string_view bytes) {
+  if (bytes.size() < 24 || image_format(bytes) != "PNG" || bytes.substr(12, 4) != "IHDR") return std::nullopt;
+  const auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  return std::make_pair(be32(16), be32(20));
+}
+
+void check_image_size(const fs::path& path, std::uint64_t width, std::uint64_t height, const ExpectedImageSize& e) {
+  if (width == std::uint64_t(e.size.width) && height == std::uint64_t(e.size.height)) return;
+  throw Error(path.string(), "",
+              "image is " + std::to_string(width) + "x" + std::to_string(height) + ", " + e.said_by + " says " +
+                  std::to_string(e.size.width) + "x" + std::to_string(e.size.height));
+}
+
 }  // namespace
 
 // OpenCV's imdecode hands a file to the first of all its built-in codecs whose signature matches,
@@ -47,7 +68,7 @@ std::string_view image_format(std::string_view b) {
   return {};
 }
 
-cv::Mat read_image_file(const fs::path& path, int flags) {
+cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize* expected) {
   // Decoded from memory, so that the file is read once, bounded (an image beyond what cv::Mat and the
   // decoders index with int is refused), and checked before a decoder sees it.
   const std::string bytes = read_file(path, kMaxImageBytes);
@@ -55,6 +76,8 @@ cv::Mat read_image_file(const fs::path& path, int flags) {
     throw Error(path.string(), "", "cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM, PFM or WebP)");
   if (const std::string problem = png_structure_problem(bytes); !problem.empty())
     throw Error(path.string(), "", "cannot be decoded: " + problem);
+  if (const auto declared = png_declared_size(bytes); declared && expected)
+    check_image_size(path, declared->first, declared->second, *expected);
   cv::Mat m;
   try {
     m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
@@ -62,6 +85,7 @@ cv::Mat read_image_file(const fs::path& path, int flags) {
     throw Error(path.string(), "", std::string("cannot be decoded: ") + e.what());
   }
   if (m.empty()) throw Error(path.string(), "", "cannot be decoded as an image (corrupt or not an image)");
+  if (expected) check_image_size(path, std::uint64_t(m.cols), std::uint64_t(m.rows), *expected);
   return m;
 }
 

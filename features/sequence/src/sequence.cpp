@@ -62,6 +62,12 @@ void check_size(const Sequence& seq, const fs::path& full, const cv::Mat& m) {
                     std::to_string(seq.size.height));
 }
 
+/// An image of the sequence, refused unless of the sequence's size (a PNG before it is decoded).
+cv::Mat read_sequence_image(const Sequence& seq, const fs::path& full, int flags) {
+  const ExpectedImageSize expected{seq.size, "the sequence " + seq.manifest.string()};
+  return read_image_file(full, flags, &expected);
+}
+
 void check_frame(const Sequence& seq, int frame) {
   if (frame < 0 || frame >= seq.frame_count())
     throw Error(seq.manifest.string(), "frames",
@@ -286,16 +292,14 @@ void save_sequence(const Sequence& seq) {
 cv::Mat Sequence::load_left(int frame) const {
   check_frame(*this, frame);
   const fs::path full = resolve(frames[frame].left);
-  cv::Mat m = read_image_file(full, cv::IMREAD_COLOR);
-  check_size(*this, full, m);
+  cv::Mat m = read_sequence_image(*this, full, cv::IMREAD_COLOR);
   return m;
 }
 
 cv::Mat Sequence::load_left_gray(int frame) const {
   check_frame(*this, frame);
   const fs::path full = resolve(frames[frame].left);
-  cv::Mat m = read_image_file(full, cv::IMREAD_GRAYSCALE);
-  check_size(*this, full, m);
+  cv::Mat m = read_sequence_image(*this, full, cv::IMREAD_GRAYSCALE);
   return m;
 }
 
@@ -304,8 +308,7 @@ cv::Mat Sequence::load_right_gray(int frame) const {
   if (frames[frame].right.empty())
     throw Error(manifest.string(), "frames[" + std::to_string(frame) + "].right", "no right image");
   const fs::path full = resolve(frames[frame].right);
-  cv::Mat m = read_image_file(full, cv::IMREAD_GRAYSCALE);
-  check_size(*this, full, m);
+  cv::Mat m = read_sequence_image(*this, full, cv::IMREAD_GRAYSCALE);
   return m;
 }
 
@@ -319,7 +322,7 @@ cv::Mat Sequence::load_disparity(int frame) const {
   if (ext == ".npy") {
     d = read_npy_f32(full);
   } else {
-    cv::Mat raw = read_image_file(full, cv::IMREAD_UNCHANGED);
+    cv::Mat raw = read_sequence_image(*this, full, cv::IMREAD_UNCHANGED);
     if (raw.channels() != 1) throw Error(full.string(), "", "a disparity map must have one channel");
     if (raw.depth() == CV_16U) {
       raw.convertTo(d, CV_32F, 1.0 / 256.0);  // KITTI convention: value / 256, 0 = unknown
@@ -353,8 +356,7 @@ cv::Mat Sequence::load_instances(int frame) const {
   if (frames[frame].instances.empty())
     throw Error(manifest.string(), "frames[" + std::to_string(frame) + "].instances", "frame has no instance image");
   const fs::path full = resolve(frames[frame].instances);
-  cv::Mat m = read_image_file(full, cv::IMREAD_UNCHANGED);
-  check_size(*this, full, m);
+  cv::Mat m = read_sequence_image(*this, full, cv::IMREAD_UNCHANGED);
   if (m.type() != CV_8UC1) throw Error(full.string(), "", "an instance image must be 8-bit with one channel");
   return m;
 }
@@ -366,8 +368,7 @@ cv::Mat Sequence::load_labels(int frame) const {
   const fs::path full = resolve(frames[frame].label);
   cv::Mat out(size, CV_8UC1);
   if (label_encoding == LabelEncoding::Index) {
-    cv::Mat raw = read_image_file(full, cv::IMREAD_UNCHANGED);
-    check_size(*this, full, raw);
+    cv::Mat raw = read_sequence_image(*this, full, cv::IMREAD_UNCHANGED);
     if (raw.type() != CV_8UC1)
       throw Error(full.string(), "", "an index-encoded label image must be 8-bit with one channel");
     std::array<int, 256> lut;
@@ -387,8 +388,7 @@ cv::Mat Sequence::load_labels(int frame) const {
       }
     }
   } else {
-    cv::Mat raw = read_image_file(full, cv::IMREAD_COLOR);
-    check_size(*this, full, raw);
+    cv::Mat raw = read_sequence_image(*this, full, cv::IMREAD_COLOR);
     std::unordered_map<std::uint32_t, std::uint8_t> lut;
     auto key = [](std::uint8_t r, std::uint8_t g, std::uint8_t b) {
       return (std::uint32_t(r) << 16) | (std::uint32_t(g) << 8) | b;

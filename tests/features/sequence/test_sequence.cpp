@@ -226,6 +226,19 @@ TEST(ImageFile, EachFormatASequenceHoldsIsToldByItsFirstBytesAndDecoded) {
   fs::remove_all(dir);
 }
 
+// A PNG declaring another size than the sequence's is refused by its header, before anything is
+// decoded: a small PNG can declare 30000 x 30000 pixels (2.7 GB decoded). This one has nothing but the
+// header (a decoder would fail on it): the line must be about the size.
+TEST_F(SequenceFormat, APngOfAnotherSizeIsRefusedBeforeItIsDecoded) {
+  std::string png("\x89PNG\r\n\x1a\n", 8);
+  png += std::string("\0\0\0\x0dIHDR\0\0\x75\x30\0\0\x75\x30\x08\x02\0\0\0", 21) + "CRC!";
+  png += std::string("\0\0\0\0IEND", 8) + "CRC!";
+  std::ofstream(dir / "left/2.png", std::ios::binary) << png;
+  const std::string e = error_with(manifest);
+  EXPECT_NE(e.find("left/2.png: image is 30000x30000, the sequence"), std::string::npos) << e;
+  EXPECT_NE(e.find("says 16x12"), std::string::npos) << e;
+}
+
 TEST_F(SequenceFormat, WrongImageSize) {
   cv::imwrite((dir / "left/2.png").string(), cv::Mat(10, 16, CV_8UC3, cv::Scalar::all(0)));
   const std::string e = error_with(manifest);
