@@ -1,5 +1,6 @@
 #include "smseg/sequence/image_file.hpp"
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -13,18 +14,41 @@ namespace smseg::features {
 
 namespace {
 
+/// The CRC-32 (ISO 3309, as PNG uses it) of `bytes`.
+std::uint32_t crc32(std::string_view bytes) {
+  static const auto table = [] {
+    std::array<std::uint32_t, 256> t{};
+    for (std::uint32_t n = 0; n < 256; ++n) {
+      std::uint32_t c = n;
+      for (int k = 0; k < 8; ++k) c = c & 1 ? 0xedb88320u ^ (c >> 1) : c >> 1;
+      t[n] = c;
+    }
+    return t;
+  }();
+  std::uint32_t c = 0xffffffffu;
+  for (const char b : bytes) c = table[(c ^ static_cast<unsigned char>(b)) & 0xff] ^ (c >> 8);
+  return c ^ 0xffffffffu;
+}
+
 /// What is wrong with the chunk structure of a PNG file (empty: nothing, or not a PNG): the chunks
-/// must follow each other inside the file up to IEND. A truncated or overwritten PNG is refused here,
-/// by our one line, before libpng sees it and prints its own "libpng error" line on stderr.
+/// must follow each other inside the file up to IEND, each with its CRC. A truncated, overwritten or
+/// damaged PNG is refused here, by our one line, before libpng sees it and prints its own "libpng
+/// error" line on stderr (a damaged byte anywhere in a chunk breaks that chunk's CRC).
 std::string png_structure_problem(std::string_view bytes) {
   static constexpr std::string_view kSignature("\x89PNG\r\n\x1a\n", 8);
   if (bytes.substr(0, 8) != kSignature) return {};
-  std::size_t at = 8;
-  while (at + 12 <= bytes.size()) {
-    const auto byte = [&](std::size_t i) { return static_cast<std::uint32_t>(static_cast<unsigned char>(bytes[at + i])); };
-    const std::uint32_t length = byte(0) << 24 | byte(1) << 16 | byte(2) << 8 | byte(3);
-    const std::string_view type = bytes.substr(at + 4, 4);
-    if (length > bytes.size() - at - 12) return "PNG chunk " + std::string(type) + " runs past the end of the file (truncated?)";
+  const auto be32 = [&](std::size_t at) {
+    std::uint32_t v = 0;
+    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+    return v;
+  };
+  // Each chunk: length (4 bytes), type (4), data (length), CRC of type and data (4).
+  for (std::size_t at = 8; at + 12 <= bytes.size();) {
+    const std::uint32_t length = be32(at);
+    const std::string type(bytes.substr(at + 4, 4));
+    if (length > bytes.size() - at - 12) return "PNG chunk " + type + " runs past the end of the file (truncated?)";
+    if (be32(at + 8 + length) != crc32(bytes.substr(at + 4, 4 + length)))
+      return "PNG chunk " + type + " is damaged (its CRC does not match)";
     if (type == "IEND") return {};
     at += 12 + length;
   }
@@ -74,10 +98,10 @@ cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize
   const std::string bytes = read_file(path, kMaxImageBytes);
   if (image_format(bytes).empty())
     throw Error(path.string(), "", "cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM, PFM or WebP)");
-  if (const std::string problem = png_structure_problem(bytes); !problem.empty())
-    throw Error(path.string(), "", "cannot be decoded: " + problem);
   if (const auto declared = png_declared_size(bytes); declared && expected)
     check_image_size(path, declared->first, declared->second, *expected);
+  if (const std::string problem = png_structure_problem(bytes); !problem.empty())
+    throw Error(path.string(), "", "cannot be decoded: " + problem);
   cv::Mat m;
   try {
     m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);

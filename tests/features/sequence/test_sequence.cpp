@@ -239,6 +239,19 @@ TEST_F(SequenceFormat, APngOfAnotherSizeIsRefusedBeforeItIsDecoded) {
   EXPECT_NE(e.find("says 16x12"), std::string::npos) << e;
 }
 
+// A damaged byte anywhere in a PNG breaks its chunk's CRC: our line, and nothing from libpng.
+TEST_F(SequenceFormat, ADamagedPngGetsOurLineOnly) {
+  std::string png = smseg::read_file(dir / "left/1.png");
+  png[png.size() / 2] = static_cast<char>(png[png.size() / 2] ^ 0x10);
+  std::ofstream(dir / "left/1.png", std::ios::binary) << png;
+  testing::internal::CaptureStderr();
+  const std::string e = error_with(manifest);
+  const std::string printed = testing::internal::GetCapturedStderr();
+  EXPECT_NE(e.find("left/1.png: cannot be decoded: PNG chunk"), std::string::npos) << e;
+  EXPECT_NE(e.find("is damaged (its CRC does not match)"), std::string::npos) << e;
+  EXPECT_EQ(printed, "") << "libpng or OpenCV printed their own lines";
+}
+
 TEST_F(SequenceFormat, WrongImageSize) {
   cv::imwrite((dir / "left/2.png").string(), cv::Mat(10, 16, CV_8UC3, cv::Scalar::all(0)));
   const std::string e = error_with(manifest);
