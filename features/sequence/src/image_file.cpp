@@ -1,6 +1,7 @@
 #include "smseg/sequence/image_file.hpp"
 
 #include <array>
+#include <cctype>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -78,17 +79,20 @@ void check_image_size(const fs::path& path, std::uint64_t width, std::uint64_t h
 
 // OpenCV's imdecode hands a file to the first of all its built-in codecs whose signature matches,
 // wherever that signature lies: a damaged file with DICOM's "DICM" at byte 128 went to GDCM, which
-// aborts the process on a failed assertion (found by fuzz_label_image). Images of a sequence come in
-// the formats below, each told by its first bytes, so that no other decoder ever sees a user's file.
+// aborts the process on a failed assertion (found twice by fuzz_label_image). Images of a sequence
+// come in the formats below, each told by its first bytes exactly as OpenCV's own decoder of that
+// format tells it (or more strictly), and those decoders come before GDCM's in OpenCV's list, so no
+// other decoder ever sees a user's file. (WebP is not among them: OpenCV asks libwebp whether the
+// first 32 bytes are WebP, and a file it turns down went on to GDCM.)
 std::string_view image_format(std::string_view b) {
   const auto starts = [&](std::string_view s) { return b.substr(0, s.size()) == s; };
+  const bool third_is_space = b.size() >= 3 && std::isspace(static_cast<unsigned char>(b[2]));
   if (starts(std::string_view("\x89PNG\r\n\x1a\n", 8))) return "PNG";
   if (starts("\xff\xd8\xff")) return "JPEG";
   if (starts("BM")) return "BMP";
   if (starts(std::string_view("II*\0", 4)) || starts(std::string_view("MM\0*", 4))) return "TIFF";
-  if (b.size() >= 2 && b[0] == 'P' && b[1] >= '1' && b[1] <= '6') return "PNM";
-  if (starts("Pf") || starts("PF")) return "PFM";
-  if (b.size() >= 12 && starts("RIFF") && b.substr(8, 4) == "WEBP") return "WebP";
+  if (b.size() >= 2 && b[0] == 'P' && b[1] >= '1' && b[1] <= '6' && third_is_space) return "PNM";
+  if ((starts("Pf") || starts("PF")) && third_is_space) return "PFM";
   return {};
 }
 
@@ -97,7 +101,7 @@ cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize
   // decoders index with int is refused), and checked before a decoder sees it.
   const std::string bytes = read_file(path, kMaxImageBytes);
   if (image_format(bytes).empty())
-    throw Error(path.string(), "", "cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM, PFM or WebP)");
+    throw Error(path.string(), "", "cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM or PFM)");
   if (const auto declared = png_declared_size(bytes); declared && expected)
     check_image_size(path, declared->first, declared->second, *expected);
   if (const std::string problem = png_structure_problem(bytes); !problem.empty())

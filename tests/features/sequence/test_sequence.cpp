@@ -200,7 +200,7 @@ TEST_F(SequenceFormat, AnImageOfAnotherFormatNeverReachesOpenCV) {
   ASSERT_EQ(dicom_magic_at_128.substr(128, 4), "DICM");
   std::ofstream(dir / "left/1.png", std::ios::binary) << dicom_magic_at_128;
   const std::string e = error_with(manifest);
-  EXPECT_NE(e.find("left/1.png: cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM, PFM or WebP)"),
+  EXPECT_NE(e.find("left/1.png: cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM or PFM)"),
             std::string::npos) << e;
 }
 
@@ -210,7 +210,7 @@ TEST(ImageFile, EachFormatASequenceHoldsIsToldByItsFirstBytesAndDecoded) {
   cv::Mat image(6, 8, CV_8UC1);
   cv::randu(image, 0, 256);
   for (const auto& [ext, name] : std::vector<std::pair<std::string, std::string>>{
-           {".png", "PNG"}, {".jpg", "JPEG"}, {".bmp", "BMP"}, {".tiff", "TIFF"}, {".pgm", "PNM"}, {".webp", "WebP"}}) {
+           {".png", "PNG"}, {".jpg", "JPEG"}, {".bmp", "BMP"}, {".tiff", "TIFF"}, {".pgm", "PNM"}}) {
     std::vector<std::uint8_t> bytes;
     ASSERT_TRUE(cv::imencode(ext, image, bytes)) << ext;
     EXPECT_EQ(image_format(std::string_view(reinterpret_cast<const char*>(bytes.data()), bytes.size())), name) << ext;
@@ -220,7 +220,11 @@ TEST(ImageFile, EachFormatASequenceHoldsIsToldByItsFirstBytesAndDecoded) {
     EXPECT_EQ(back.size(), image.size()) << ext;
   }
   EXPECT_EQ(image_format("Pf\n8 6\n-1\n"), "PFM");
-  for (const std::string& other : {std::string(128, '\0') + "DICM", std::string("#?RADIANCE\n"),
+  // Found by fuzz_label_image: a RIFF/WEBP header that libwebp turns down, DICOM's magic at byte 128.
+  const std::string webp_then_dicom =
+      std::string("RIFF\x01\0\0@WEBPGG\xff\xff\xff", 17) + std::string(111, '[') + std::string("DICM\x01\0\0", 7);
+  EXPECT_EQ(webp_then_dicom.substr(128, 4), "DICM");
+  for (const std::string& other : {webp_then_dicom, std::string("P5#x"), std::string("Pfx"), std::string(128, '\0') + "DICM", std::string("#?RADIANCE\n"),
                                   std::string("\x76\x2f\x31\x01", 4), std::string("\x59\xa6\x6a\x95"), std::string()})
     EXPECT_EQ(image_format(other), "") << other;
   fs::remove_all(dir);

@@ -13,7 +13,7 @@ namespace smseg::features {
 constexpr std::uintmax_t kMaxImageBytes = 2047 * kMiB;
 
 /// The image format of a file by its first bytes, as a name for messages ("PNG", "JPEG", "BMP",
-/// "TIFF", "PNM", "PFM", "WebP"), or empty for any other: only these formats go to OpenCV's decoders.
+/// "TIFF", "PNM", "PFM"), or empty for any other: only these formats go to OpenCV's decoders.
 std::string_view image_format(std::string_view bytes);
 
 /// The size an image must have, and who says so, for the message ("the sequence S/sequence.json").
