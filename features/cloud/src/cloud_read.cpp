@@ -784,9 +784,8 @@ ColouredCloud parse_ply(std::string_view bytes, const std::string& file) {
 ColouredCloud read_coloured_cloud(const fs::path& path) {
   const std::string ext = path.extension().string();
   if (ext != ".pcd" && ext != ".ply") throw Error(path.string(), "", "a point cloud file must end in .pcd or .ply");
-  std::error_code ec;
-  if (!fs::is_regular_file(path, ec)) throw Error(path.string(), "", "no such file");
-  // Read whole: the largest cloud file we accept is refused above kMaxLargeFileBytes before a byte is read.
+  // Read whole: read_file names a missing file or a folder, and refuses one above kMaxLargeFileBytes
+  // before a byte is read.
   const std::string bytes = read_file(path, kMaxLargeFileBytes);
   ColouredCloud c =
       ext == ".pcd" ? cloud_read::parse_pcd(bytes, path.string()) : cloud_read::parse_ply(bytes, path.string());
