@@ -31,24 +31,26 @@ std::uint32_t crc32(std::string_view bytes) {
   return c ^ 0xffffffffu;
 }
 
-/// What is wrong with the chunk structure of a PNG file (empty: nothing, or not a PNG): the chunks
-/// must follow each other inside the file up to IEND, each with its CRC. A truncated, overwritten or
-/// damaged PNG is refused here, by our one line, before libpng sees it and prints its own "libpng
-/// error" line on stderr (a damaged byte anywhere in a chunk breaks that chunk's CRC).
-std::string png_structure_problem(std::string_view bytes) {
-  static constexpr std::string_view kSignature("\x89PNG\r\n\x1a\n", 8);
-  if (bytes.substr(0, 8) != kSignature) return {};
-  const auto be32 = [&](std::size_t at) {
-    std::uint32_t v = 0;
-    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
-    return v;
-  };
+constexpr std::string_view kPngSignature("\x89PNG\r\n\x1a\n", 8);
+
+/// The big-endian 32-bit number at bytes[at..at+4) (PNG's byte order); the caller checked the bounds.
+std::uint32_t be32(std::string_view bytes, std::size_t at) {
+  std::uint32_t v = 0;
+  for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
+  return v;
+}
+
+/// What is wrong with the chunk structure of a PNG file (empty: nothing): the chunks must follow each
+/// other inside the file up to IEND, each with its CRC. A truncated, overwritten or damaged PNG is
+/// refused here, by our one line, before libpng sees it and prints its own "libpng error" line on
+/// stderr (a damaged byte anywhere in a chunk breaks that chunk's CRC).
+std::string png_structure_problem(std::string_view png) {
   // Each chunk: length (4 bytes), type (4), data (length), CRC of type and data (4).
-  for (std::size_t at = 8; at + 12 <= bytes.size();) {
-    const std::uint32_t length = be32(at);
-    const std::string type(bytes.substr(at + 4, 4));
-    if (length > bytes.size() - at - 12) return "PNG chunk " + type + " runs past the end of the file (truncated?)";
-    if (be32(at + 8 + length) != crc32(bytes.substr(at + 4, 4 + length)))
+  for (std::size_t at = kPngSignature.size(); at + 12 <= png.size();) {
+    const std::uint32_t length = be32(png, at);
+    const std::string type(png.substr(at + 4, 4));
+    if (length > png.size() - at - 12) return "PNG chunk " + type + " runs past the end of the file (truncated?)";
+    if (be32(png, at + 8 + length) != crc32(png.substr(at + 4, 4 + length)))
       return "PNG chunk " + type + " is damaged (its CRC does not match)";
     if (type == "IEND") return {};
     at += 12 + length;
@@ -57,15 +59,10 @@ std::string png_structure_problem(std::string_view bytes) {
 }
 
 /// The width and height the IHDR chunk of a PNG declares (it comes first, right after the signature);
-/// nothing for another format or a PNG without it (png_structure_problem and libpng judge those).
-std::optional<std::pair<std::uint32_t, std::uint32_t>> png_declared_size(std::string_view bytes) {
-  if (bytes.size() < 24 || image_format(bytes) != "PNG" || bytes.substr(12, 4) != "IHDR") return std::nullopt;
-  const auto be32 = [&](std::size_t at) {
-    std::uint32_t v = 0;
-    for (std::size_t i = 0; i < 4; ++i) v = v << 8 | static_cast<unsigned char>(bytes[at + i]);
-    return v;
-  };
-  return std::make_pair(be32(16), be32(20));
+/// nothing when it is not there (png_structure_problem and libpng judge such a file).
+std::optional<std::pair<std::uint32_t, std::uint32_t>> png_declared_size(std::string_view png) {
+  if (png.size() < 24 || png.substr(12, 4) != "IHDR") return std::nullopt;
+  return std::make_pair(be32(png, 16), be32(png, 20));
 }
 
 void check_image_size(const fs::path& path, std::uint64_t width, std::uint64_t height, const ExpectedImageSize& e) {
@@ -87,7 +84,7 @@ void check_image_size(const fs::path& path, std::uint64_t width, std::uint64_t h
 std::string_view image_format(std::string_view b) {
   const auto starts = [&](std::string_view s) { return b.substr(0, s.size()) == s; };
   const bool third_is_space = b.size() >= 3 && std::isspace(static_cast<unsigned char>(b[2]));
-  if (starts(std::string_view("\x89PNG\r\n\x1a\n", 8))) return "PNG";
+  if (starts(kPngSignature)) return "PNG";
   if (starts("\xff\xd8\xff")) return "JPEG";
   if (starts("BM")) return "BMP";
   if (starts(std::string_view("II*\0", 4)) || starts(std::string_view("MM\0*", 4))) return "TIFF";
@@ -100,12 +97,15 @@ cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize
   // Decoded from memory, so that the file is read once, bounded (an image beyond what cv::Mat and the
   // decoders index with int is refused), and checked before a decoder sees it.
   const std::string bytes = read_file(path, kMaxImageBytes);
-  if (image_format(bytes).empty())
+  const std::string_view format = image_format(bytes);
+  if (format.empty())
     throw Error(path.string(), "", "cannot be decoded as an image (not PNG, JPEG, BMP, TIFF, PNM or PFM)");
-  if (const auto declared = png_declared_size(bytes); declared && expected)
-    check_image_size(path, declared->first, declared->second, *expected);
-  if (const std::string problem = png_structure_problem(bytes); !problem.empty())
-    throw Error(path.string(), "", "cannot be decoded: " + problem);
+  if (format == "PNG") {
+    if (const auto declared = png_declared_size(bytes); declared && expected)
+      check_image_size(path, declared->first, declared->second, *expected);
+    if (const std::string problem = png_structure_problem(bytes); !problem.empty())
+      throw Error(path.string(), "", "cannot be decoded: " + problem);
+  }
   cv::Mat m;
   try {
     m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
