@@ -1,10 +1,16 @@
 // export-notebooks: run-experiment results -> one Jupyter notebook per experiment that loads its JSON
 // Lines and draws its figures, the figures also as PNG, and an index page linking them.
 #include <algorithm>
+#include <cerrno>
 #include <cstdio>
 #include <cstdlib>
 #include <iostream>
 #include <sstream>
+
+#include <fcntl.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include "smseg/common/cli.hpp"
@@ -146,10 +152,31 @@ Json notebook(const ExperimentResults& r, const fs::path& rel_jsonl, const std::
           {"nbformat_minor", 4}};
 }
 
-std::string shell_quote(const std::string& s) {
-  std::string out = "'";
-  for (char c : s) out += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return out + "'";
+/// Runs `python script` in `dir` with the Agg backend and its output in `log`; its exit status (-1
+/// when it could not start or was killed). No shell: the child is the interpreter itself, and it is
+/// killed when this process dies (PR_SET_PDEATHSIG), so a killed export never leaves a Python still
+/// drawing into its staging folder while the next run cleans it away.
+int run_python(const std::string& python, const fs::path& dir, const fs::path& script, const fs::path& log) {
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid < 0) return -1;
+  if (pid == 0) {
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);  // the parent died before the line above
+    const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (fd < 0 || ::chdir(dir.c_str()) != 0) ::_exit(127);
+    ::dup2(fd, 1);
+    ::dup2(fd, 2);
+    ::setenv("MPLBACKEND", "Agg", 1);
+    const std::string name = script.filename().string();
+    char* argv[] = {const_cast<char*>(python.c_str()), const_cast<char*>(name.c_str()), nullptr};
+    ::execvp(argv[0], argv);
+    ::_exit(127);
+  }
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
 /// Runs the notebook's code (helper, loading, every figure) as a plain script in `dir` to write the PNGs.
@@ -159,9 +186,7 @@ void render_pngs(const ExperimentResults& r, const fs::path& rel_jsonl, const fs
   const fs::path tmp = out / (".render-" + r.name + "-" + std::to_string(::getpid()) + ".py");
   const fs::path log = out / (".render-" + r.name + "-" + std::to_string(::getpid()) + ".log");
   smseg::write_file_atomic(tmp, script);
-  const std::string cmd = "cd " + shell_quote(out.string()) + " && MPLBACKEND=Agg " + shell_quote(python) + " " +
-                          shell_quote(tmp.filename().string()) + " > " + shell_quote(log.filename().string()) + " 2>&1";
-  const int status = std::system(cmd.c_str());
+  const int status = run_python(python, out, tmp, log);
   std::string err;
   if (status != 0) {
     std::error_code ec;

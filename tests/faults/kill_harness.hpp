@@ -178,6 +178,32 @@ inline Files without_temporaries(Files files) {
   return files;
 }
 
+/// The pids of the processes whose working folder is `dir` or below it: what a killed tool's children
+/// would be if they outlived it (export-notebooks runs Python in its staging folder).
+inline std::vector<long> processes_working_in(const fs::path& dir) {
+  const std::string root = fs::weakly_canonical(dir).string() + "/";
+  std::vector<long> out;
+  std::error_code ec;
+  for (fs::directory_iterator it("/proc", ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::error_code link_ec;
+    const std::string cwd = fs::read_symlink(it->path() / "cwd", link_ec).string() + "/";
+    if (!link_ec && cwd.rfind(root, 0) == 0) out.push_back(std::stol(name));
+  }
+  return out;
+}
+
+/// Whether no process works in `dir` within 0.2 s (a dead parent's children get their SIGKILL as it
+/// exits and end a moment later; a child that outlived it, drawing its figures, lasts far longer).
+inline bool no_process_outlives_in(const fs::path& dir) {
+  for (int i = 0; i < 20; ++i) {
+    if (processes_working_in(dir).empty()) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  return false;
+}
+
 /// What differs between two file sets, for a failure message: the names only in one or with other bytes.
 inline std::string difference(const Files& a, const Files& b) {
   std::string out;

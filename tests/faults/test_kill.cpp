@@ -71,6 +71,7 @@ void kill_and_rerun(const Scenario& s, const Files& previous, std::uint32_t seed
   for (const KillPoint& p : points) {
     restore(s.base, s.outputs, previous);
     landed += run_and_kill(s.command, p, s.base);
+    EXPECT_TRUE(no_process_outlives_in(s.base)) << "a child of " << s.command[0] << " still runs, killed " << p.str();
     expect_previous_or_fresh(comparable(snapshot(s.base, s.outputs)), comparable(previous), fresh, s, p.str());
     expect_clean_rerun(s, fresh, p.str());
   }

@@ -6,9 +6,11 @@
 #include <unistd.h>
 
 #include <atomic>
+#include <chrono>
 #include <cerrno>
 #include <cstring>
 #include <optional>
+#include <thread>
 #include <vector>
 
 #include "smseg/common/error.hpp"
@@ -108,6 +110,10 @@ int remove_stale_temporaries(const fs::path& folder) {
       fs::rename(p, original, ec);  // a swap killed half-way: the previous content goes back
     } else {
       fs::remove_all(p, ec);
+      if (ec) {  // a child of the dead writer may still be ending its last write: once more, a moment later
+        std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        fs::remove_all(p, ec);
+      }
     }
     if (!ec) ++cleaned;
   }
