@@ -150,7 +150,7 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
         s.xs[i] = pixels[b + i].x;
         s.ys[i] = pixels[b + i].y;
       }
-      classify_set(frame, s, m, order_inside_first(s, m), !dists.empty());
+      classify_set(frame, {frame.sats.data(), width_ + 1}, s, m, order_inside_first(s, m), !dists.empty());
       for (std::size_t i = 0; i < m; ++i) {  // back to the caller's order
         const std::size_t to = b + s.index[i];
         labels[to] = s.labels[i];
@@ -168,6 +168,11 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
   if (!dists.empty() && dists.size() != n * C) throw Error("", "dists", "needs width x height x classes entries (or none)");
   // Tiles of pixels, each labelled as one set; the output does not depend on the tiling.
   const int tiles_x = (width_ + kTileWidth - 1) / kTileWidth, tiles_y = (height_ + kTileHeight - 1) / kTileHeight;
+  // Every pixel reads the padded copy without clipping. The copy costs a pass over the tables; a
+  // few pixels (classify_pixels) read the frame's own tables instead.
+  thread_local PaddedTables this_threads_copy;
+  const Tables tables =
+      this_threads_copy.fill(frame, std::max(inner_x0_, width_ - inner_x1_), std::max(inner_y0_, height_ - inner_y1_));
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const tbb::blocked_range<int>& r) {
     Scratch s;
     for (int tile = r.begin(); tile != r.end(); ++tile) {
@@ -180,7 +185,7 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
         s.xs[i] = x0 + static_cast<std::int32_t>(i % tw);
         s.ys[i] = y0 + static_cast<std::int32_t>(i / tw);
       }
-      classify_set(frame, s, m, order_inside_first(s, m), !dists.empty());
+      classify_set(frame, tables, s, m, m, !dists.empty());
       for (std::size_t i = 0; i < m; ++i) {  // to the pixel's place in the frame
         const std::size_t to = static_cast<std::size_t>(s.ys[i]) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(s.xs[i]);
         labels[to] = s.labels[i];

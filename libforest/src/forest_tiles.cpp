@@ -1,9 +1,15 @@
 // The classifier's fast path (see classify.hpp): compact breadth-first trees, pixel sets routed tree
-// by tree with several pixels in flight. The arithmetic is posterior()'s: the same double window
+// by tree and node by node. The arithmetic is posterior()'s: the same double window
 // sums in the same order (window_sum), the same float thresholds, the same float sums of the leaf
 // distributions, so the labels and distributions are bit for bit the reference path's.
 #include <algorithm>
 #include <deque>
+#include <new>
+
+#include <sys/mman.h>
+
+#include <oneapi/tbb/blocked_range.h>
+#include <oneapi/tbb/parallel_for.h>
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
@@ -13,9 +19,6 @@ namespace smseg::forest {
 namespace {
 constexpr int kMaxClasses = 256;
 constexpr std::uint32_t kMaxCompactIndex = (1u << 23) - 1;  // 23 bits of CompactNode::next
-// Pixels in flight per tree walk: enough independent table reads to hide the cache latency, few
-// enough that the lanes stay in registers and L1.
-constexpr std::size_t kLanes = 16;
 }  // namespace
 
 void Classifier::build_compact(const Forest& forest) {
@@ -54,59 +57,70 @@ void Classifier::build_compact(const Forest& forest) {
   }
 }
 
-// Walks pixels [b, e) of the set through one tree, kLanes at a time, each lane taking the next pixel
-// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap. The step
-// has no data-dependent branch (a mispredicted branch would empty the pipeline of the other lanes'
-// reads): every lane reads a window (leaves read an empty one), and selects its next node, pixel and
-// leaf slot. Lanes past the last pixel walk it again and write nowhere that counts.
-// kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
-// and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
-template <bool kClamp, bool kTextons>
-void Classifier::route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
-                            std::int32_t* leaf) const {
+// Routes pixels [b, e) of the set through one tree, node by node: at a split, the node's pixels are
+// partitioned (stably) into its children's runs, which are split in turn, depth first. A node's
+// constants are read once for all its pixels, the pixels' table reads are independent of each other
+// (the processor overlaps them) and go through the tables in increasing order, and the step has no
+// branch on the test's outcome (each pixel is written to both sides and counted on one).
+// kInside: every window of these pixels lies inside `tables` (reads at fixed offsets from the
+// pixel's cell); otherwise corners are clipped to the image as window_sum clips them.
+template <bool kInside>
+void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t b, std::size_t e,
+                                std::uint32_t root, std::int32_t* leaf) const {
   if (b >= e) return;
-  const CompactNode* nodes = compact_.data();
-  const double* const* sats = frame.sats.data();
-  const std::int32_t W = width_, H = height_, S = width_ + 1;
+  const std::int32_t W = width_, H = height_;
+  const std::ptrdiff_t S = tables.stride;
   const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
+  const std::size_t n = e - b;
+  s.routed.resize(n);
+  s.right.resize(n);
+  for (std::size_t i = b; i < e; ++i)
+    s.routed[i - b] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
   const std::int32_t* xs = s.xs.data();
   const std::int32_t* ys = s.ys.data();
-  std::int32_t sink = 0;  // where lanes past the last pixel write their leaves
-  std::uint32_t node[kLanes];
-  std::size_t pixel[kLanes];
-  std::size_t next = b + kLanes, done = 0;
-  for (std::size_t g = 0; g < kLanes; ++g) {
-    node[g] = root;
-    pixel[g] = b + g;
-  }
-  const std::size_t n = e - b, last = e - 1;
-  while (done < n) {
-    for (std::size_t g = 0; g < kLanes; ++g) {
-      const CompactNode c = nodes[node[g]];
-      const std::uint32_t attr = c.next & 0xffu;
-      const bool is_leaf = (c.next & kLeafBit) != 0;
-      const std::size_t p = pixel[g], q = p < e ? p : last;
-      const std::int32_t x = xs[q], y = ys[q];
-      float v;
-      if (kTextons && attr >= F) {
-        v = texton_value(frame.gray, W, H, x, y, c.x0, c.y0, static_cast<int>(attr - F));
-      } else if (kClamp) {
-        v = static_cast<float>(window_sum(sats[attr], W, H, x, y, RelRect{c.x0, c.x1, c.y0, c.y1}));
-      } else {
-        const double* cell = sats[attr] + (static_cast<std::ptrdiff_t>(y) * S + x);
-        const double* top = cell + static_cast<std::ptrdiff_t>(c.y0) * S;
-        const double* bot = cell + static_cast<std::ptrdiff_t>(c.y1) * S;
-        v = static_cast<float>((bot[c.x1] - top[c.x1]) - (bot[c.x0] - top[c.x0]));
-      }
-      const std::uint32_t child = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
-      const bool counts = is_leaf && p < e;
-      std::int32_t* slot = counts ? leaf + p : &sink;
-      *slot = static_cast<std::int32_t>(c.next >> 9);
-      done += counts ? 1u : 0u;
-      node[g] = is_leaf ? root : child;
-      pixel[g] = is_leaf ? next : p;
-      next += is_leaf ? 1u : 0u;
+  Scratch::Routed* a = s.routed.data();
+  Scratch::Routed* right = s.right.data();
+  s.runs.clear();
+  s.runs.push_back({root, 0, static_cast<std::uint32_t>(n)});
+  while (!s.runs.empty()) {
+    const Scratch::Run r = s.runs.back();
+    s.runs.pop_back();
+    const CompactNode c = compact_[r.node];
+    if (c.next & kLeafBit) {
+      const auto row = static_cast<std::int32_t>(c.next >> 9);
+      for (std::uint32_t i = r.b; i < r.e; ++i) leaf[a[i].at] = row;
+      continue;
     }
+    const std::uint32_t attr = c.next & 0xffu;
+    std::uint32_t l = r.b, k = 0;
+    const auto split = [&](const Scratch::Routed& p, float v) {
+      const bool left = v < c.threshold;
+      a[l] = p;
+      right[k] = p;
+      l += left ? 1u : 0u;
+      k += left ? 0u : 1u;
+    };
+    if (textons_ && attr >= F) {
+      for (std::uint32_t i = r.b; i < r.e; ++i)
+        split(a[i], texton_value(frame.gray, W, H, xs[a[i].at], ys[a[i].at], c.x0, c.y0, static_cast<int>(attr - F)));
+    } else if (kInside) {
+      const double* table = tables.at[attr];
+      const std::ptrdiff_t top_a = c.y0 * S + c.x0, top_b = c.y0 * S + c.x1;
+      const std::ptrdiff_t bot_a = c.y1 * S + c.x0, bot_b = c.y1 * S + c.x1;
+      for (std::uint32_t i = r.b; i < r.e; ++i) {
+        const double* cell = table + a[i].cell;
+        split(a[i], static_cast<float>((cell[bot_b] - cell[top_b]) - (cell[bot_a] - cell[top_a])));
+      }
+    } else {
+      const double* table = frame.sats[attr];
+      const RelRect rect{c.x0, c.x1, c.y0, c.y1};
+      for (std::uint32_t i = r.b; i < r.e; ++i)
+        split(a[i], static_cast<float>(window_sum(table, W, H, xs[a[i].at], ys[a[i].at], rect)));
+    }
+    std::copy(right, right + k, a + l);
+    const std::uint32_t left_child = c.next >> 9;
+    s.runs.push_back({left_child + 1, l, r.e});
+    s.runs.push_back({left_child, r.b, l});
   }
 }
 
@@ -126,8 +140,8 @@ std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
   return in;
 }
 
-void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside,
-                              bool with_dists) const {
+void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n,
+                              std::size_t inside, bool with_dists) const {
   const std::size_t C = static_cast<std::size_t>(num_classes_), Cp = static_cast<std::size_t>(padded_classes_);
   const std::size_t M = compact_roots_.size();
   s.leaf.resize(n * M);
@@ -136,13 +150,8 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
   for (std::size_t t = 0; t < M; ++t) {
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
-    if (textons_) {
-      route_tree<false, true>(frame, s, 0, inside, root, leaf);
-      route_tree<true, true>(frame, s, inside, n, root, leaf);
-    } else {
-      route_tree<false, false>(frame, s, 0, inside, root, leaf);
-      route_tree<true, false>(frame, s, inside, n, root, leaf);
-    }
+    partition_tree<true>(frame, tables, s, 0, inside, root, leaf);
+    partition_tree<false>(frame, tables, s, inside, n, root, leaf);
   }
   std::uint8_t* labels = s.labels.data();
   float* dists = with_dists ? s.dists.data() : nullptr;
@@ -162,6 +171,46 @@ void Classifier::classify_set(const FrameData& frame, Scratch& s, std::size_t n,
     labels[i] = static_cast<std::uint8_t>(best);
     if (dists) std::copy(acc, acc + C, dists + i * C);
   }
+}
+
+Classifier::PaddedTables::~PaddedTables() {
+  if (data_) ::munmap(data_, bytes_);
+}
+
+void Classifier::PaddedTables::reserve(std::size_t values) {
+  constexpr std::size_t kHugePage = std::size_t(2) << 20;
+  const std::size_t need = (values * sizeof(double) + kHugePage - 1) / kHugePage * kHugePage;
+  if (need <= bytes_) return;
+  if (data_) ::munmap(data_, bytes_);
+  data_ = nullptr;
+  bytes_ = 0;
+  void* p = ::mmap(nullptr, need, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+  if (p == MAP_FAILED) throw std::bad_alloc();
+  ::madvise(p, need, MADV_HUGEPAGE);  // a hint: without it (or without THP) the copy works the same
+  data_ = static_cast<double*>(p);
+  bytes_ = need;
+}
+
+Classifier::Tables Classifier::PaddedTables::fill(const FrameData& frame, int pad_x, int pad_y) {
+  const int W = frame.width, H = frame.height;
+  const std::ptrdiff_t stride = W + 1 + 2 * pad_x, rows = H + 1 + 2 * pad_y, size = rows * stride;
+  const std::size_t F = frame.sats.size();
+  reserve(F * static_cast<std::size_t>(size));
+  at_.resize(F);
+  for (std::size_t f = 0; f < F; ++f) at_[f] = data_ + f * static_cast<std::size_t>(size) + pad_y * stride + pad_x;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, F * static_cast<std::size_t>(rows)),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      const std::size_t f = i / static_cast<std::size_t>(rows);
+      const std::ptrdiff_t row = static_cast<std::ptrdiff_t>(i % static_cast<std::size_t>(rows));
+      const double* src = frame.sats[f] + std::clamp<std::ptrdiff_t>(row - pad_y, 0, H) * (W + 1);
+      double* dst = data_ + f * static_cast<std::size_t>(size) + row * stride;
+      std::fill(dst, dst + pad_x, src[0]);
+      std::copy(src, src + W + 1, dst + pad_x);
+      std::fill(dst + pad_x + W + 1, dst + stride, src[W]);
+    }
+  });
+  return {at_.data(), stride};
 }
 
 }  // namespace smseg::forest

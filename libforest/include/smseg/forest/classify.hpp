@@ -4,8 +4,9 @@
 // (ties: the lowest class index). The classifier flattens the trees into packed POD nodes with
 // float thresholds rounded up to the next float, which decides exactly as float(value) < t.
 // Whole frames and pixel lists take a fast path (forest_tiles.cpp): the trees laid out breadth first
-// in 16-byte nodes, tiles of pixels walked tree by tree with 16 pixels in flight, the same double
-// window sums: bit for bit posterior()'s labels and distributions.
+// in 16-byte nodes, bands of pixels routed tree by tree and node by node (each split partitions its
+// pixels between its children), the same double window sums: bit for bit posterior()'s labels and
+// distributions.
 
 #include <cstdint>
 #include <span>
@@ -68,23 +69,63 @@ class Classifier {
     std::vector<std::int32_t> xs, ys;  // the set's pixels
     std::vector<std::uint32_t> index;  // after order_inside_first: each pixel's place in the caller's order
     std::vector<std::int32_t> leaf;    // leaf row per tree and pixel: leaf[t * n + i]
+    struct Routed {
+      std::int32_t cell;   // y * stride + x: the pixel's cell in the tables
+      std::int32_t at;     // its place in the set (s.xs[at], s.ys[at])
+    };
+    std::vector<Routed> routed, right;  // partition_tree's runs, and the right-hand side of a split
+    struct Run {
+      std::uint32_t node;
+      std::uint32_t b, e;
+    };
+    std::vector<Run> runs;              // partition_tree's stack of nodes still to split
     std::vector<std::uint8_t> labels;  // the set's labels and distributions, in set order
     std::vector<float> dists;
   };
   /// Reorders the set's n pixels (stably) so that those whose windows all stay inside the image come
   /// first; s.index keeps where each came from. Returns how many are inside.
   std::size_t order_inside_first(Scratch& s, std::size_t n) const;
-  static constexpr int kTileWidth = 64, kTileHeight = 16;  // whole frames: tiles of pixels per task
+  // Whole frames: tiles of pixels per task, whole rows wide (a set of many pixels spreads each node's
+  // fixed cost over more of them; 24 rows give 15 tasks on a 360-row frame).
+  static constexpr int kTileWidth = 512, kTileHeight = 24;
+  /// The tables an "inside" pixel reads without clipping: one pointer per attribute to the cell of
+  /// pixel (0, 0), and the row stride (the frame's own tables, or PaddedTables).
+  struct Tables {
+    const double* const* at;
+    std::ptrdiff_t stride;
+  };
+  /// A frame's summed-area tables copied with margins as wide as the forest's windows reach, which
+  /// repeat the border cells: a corner outside the image reads the cell window_sum's clamping reads,
+  /// so every pixel of the frame is "inside" (no clipping, the same sums bit for bit). The copy is
+  /// in memory the kernel may back with 2 MB pages (a window's corners lie up to a hundred rows
+  /// apart: fewer pages to look up). Kept per thread, frame to frame.
+  class PaddedTables {
+   public:
+    PaddedTables() = default;
+    PaddedTables(const PaddedTables&) = delete;
+    PaddedTables& operator=(const PaddedTables&) = delete;
+    ~PaddedTables();
+    /// Fills the copy of `frame`'s tables for a classifier whose windows reach pad_x columns and
+    /// pad_y rows beyond the pixel.
+    Tables fill(const FrameData& frame, int pad_x, int pad_y);
+
+   private:
+    void reserve(std::size_t values);
+    double* data_ = nullptr;
+    std::size_t bytes_ = 0;
+    std::vector<const double*> at_;
+  };
   /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
-  /// window of the forest inside the image; see forest_tiles.cpp): each tree routes the set through
-  /// its compact nodes, several pixels interleaved so that their table reads overlap, the inside ones
-  /// without clipping. The leaf distributions are then summed tree by tree (the same float sums as
+  /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
+  /// its compact nodes (partition_tree), the inside ones without clipping. The leaf distributions are then summed tree by tree (the same float sums as
   /// posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if with_dists).
-  void classify_set(const FrameData& frame, Scratch& s, std::size_t n, std::size_t inside, bool with_dists) const;
-  /// Routes pixels [b, e) of the set through the tree at `root`: leaf[i] for each.
-  template <bool kClamp, bool kTextons>
-  void route_tree(const FrameData& frame, const Scratch& s, std::size_t b, std::size_t e, std::uint32_t root,
-                  std::int32_t* leaf) const;
+  void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
+                    bool with_dists) const;
+  /// Routes pixels [b, e) of the set through the tree at `root`, node by node: leaf[i] for each.
+  /// kInside: their windows stay inside `tables` (no clipping).
+  template <bool kInside>
+  void partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t b, std::size_t e,
+                      std::uint32_t root, std::int32_t* leaf) const;
   /// Whether pixel (x, y) keeps every window of the forest inside the image.
   bool inside(int x, int y) const { return x >= inner_x0_ && x <= inner_x1_ && y >= inner_y0_ && y <= inner_y1_; }
   void build_compact(const Forest& forest);
