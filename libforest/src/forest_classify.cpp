@@ -5,6 +5,7 @@
 
 #include <oneapi/tbb/blocked_range.h>
 #include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
@@ -166,13 +167,22 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
   const std::size_t C = static_cast<std::size_t>(num_classes_);
   if (labels.size() != n) throw Error("", "labels", "needs width x height entries");
   if (!dists.empty() && dists.size() != n * C) throw Error("", "dists", "needs width x height x classes entries (or none)");
+  // The copy is this thread's: isolated, so that while this thread waits for the tiles TBB cannot
+  // hand it another frame's classify_frame (from a caller's parallel loop), which would refill it.
+  // Every pixel reads the copy without clipping. The copy costs a pass over the tables; a few pixels
+  // (classify_pixels) read the frame's own tables instead.
+  thread_local PaddedTables this_threads_copy;
+  tbb::this_task_arena::isolate([&] {
+    const int pad_x = std::max(inner_x0_, width_ - inner_x1_), pad_y = std::max(inner_y0_, height_ - inner_y1_);
+    classify_tiles(frame, this_threads_copy.fill(frame, pad_x, pad_y), labels, dists);
+  });
+}
+
+void Classifier::classify_tiles(const FrameData& frame, const Tables& tables, std::span<std::uint8_t> labels,
+                                std::span<float> dists) const {
+  const std::size_t C = static_cast<std::size_t>(num_classes_);
   // Tiles of pixels, each labelled as one set; the output does not depend on the tiling.
   const int tiles_x = (width_ + kTileWidth - 1) / kTileWidth, tiles_y = (height_ + kTileHeight - 1) / kTileHeight;
-  // Every pixel reads the padded copy without clipping. The copy costs a pass over the tables; a
-  // few pixels (classify_pixels) read the frame's own tables instead.
-  thread_local PaddedTables this_threads_copy;
-  const Tables tables =
-      this_threads_copy.fill(frame, std::max(inner_x0_, width_ - inner_x1_), std::max(inner_y0_, height_ - inner_y1_));
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const tbb::blocked_range<int>& r) {
     Scratch s;
     for (int tile = r.begin(); tile != r.end(); ++tile) {

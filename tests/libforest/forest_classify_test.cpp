@@ -5,6 +5,8 @@
 #include <cstring>
 
 #include <oneapi/tbb/global_control.h>
+#include <oneapi/tbb/parallel_for.h>
+#include <oneapi/tbb/task_arena.h>
 
 #include "forest_test_util.hpp"
 #include "smseg/common/error.hpp"
@@ -173,6 +175,25 @@ TEST(Classifier, SameLabelsWhateverTheThreadCount) {
   }
   EXPECT_EQ(a, b);
   EXPECT_EQ(da, db);
+}
+
+// classify_frame keeps a padded copy of the frame's tables per thread: frames classified from a
+// parallel loop (each call's own parallel loop nested in it) must each get their own labels.
+TEST(Classifier, FramesClassifiedInParallelEachGetTheirOwnLabels) {
+  const SyntheticData s = frames(8, 9, false, 240, 180);
+  TrainParams p;
+  p.K = 100;
+  const Classifier clf(train_forest(s.data, p));
+  const std::size_t n = 240 * 180, F = s.data.frames.size();
+  std::vector<std::vector<std::uint8_t>> alone(F, std::vector<std::uint8_t>(n)), together = alone;
+  for (std::size_t f = 0; f < F; ++f) clf.classify_frame(s.data.frames[f], alone[f]);
+  tbb::task_arena eight_threads(8);  // more threads than cores: more ways for the calls to interleave
+  for (int round = 0; round < 20; ++round) {
+    eight_threads.execute([&] {
+      tbb::parallel_for(std::size_t(0), F, [&](std::size_t f) { clf.classify_frame(s.data.frames[f], together[f]); });
+    });
+    for (std::size_t f = 0; f < F; ++f) ASSERT_EQ(together[f], alone[f]) << "frame " << f << ", round " << round;
+  }
 }
 
 TEST(Classifier, FramesThatDoNotFitAreRefused) {

@@ -115,6 +115,10 @@ class Classifier {
     std::size_t bytes_ = 0;
     std::vector<const double*> at_;
   };
+  /// classify_frame's work: the frame cut into tiles (TBB over tiles), each a set whose pixels all
+  /// read `tables` without clipping.
+  void classify_tiles(const FrameData& frame, const Tables& tables, std::span<std::uint8_t> labels,
+                      std::span<float> dists) const;
   /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
   /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
   /// its compact nodes (partition_tree), the inside ones without clipping. The leaf distributions are then summed tree by tree (the same float sums as
