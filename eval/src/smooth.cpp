@@ -137,6 +137,7 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
   rep.energy_after = r.energy;
   rep.cycles = r.cycles;
   rep.moves = r.moves;
+  rep.graph_nodes = r.graph_nodes;
   if (report) *report = rep;
   cv::Mat out(H, W, CV_8UC1);
   for (std::size_t i = 0; i < n; ++i) out.data[i] = static_cast<std::uint8_t>(labelling[i]);
