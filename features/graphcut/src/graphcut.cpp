@@ -151,6 +151,7 @@ struct MoveWorkspace {
   std::vector<std::size_t> candidate_start;  // label alpha's candidates: candidate[start[alpha] .. start[alpha + 1])
   std::vector<Candidate> candidate;          // nodes at their least-cost label that may take alpha
   std::vector<double> least;                 // least unary cost of each node
+  std::vector<std::size_t> candidate_fill;   // where list_candidates places each label's next candidate
   // Per labelling.
   std::vector<int> raised;                 // nodes that may be at a label costlier than their least
   std::vector<std::uint8_t> is_raised;     // per node: listed in `raised`
@@ -204,13 +205,22 @@ void list_candidates(const PottsEnergy& e, MoveWorkspace& w) {
     const double* u = e.unary.data() + std::size_t(i) * L;
     w.least[std::size_t(i)] = *std::min_element(u, u + L);
   }
-  for (int alpha = 0; alpha < e.labels; ++alpha) {
+  // One pass over the unary table (node-major): count each label's candidates, then place them.
+  auto for_each_candidate = [&](auto&& f) {
     for (int i = 0; i < e.nodes; ++i) {
-      const double rise = e.unary_at(i, alpha) - w.least[std::size_t(i)];
-      if (rise <= w.incident[std::size_t(i)]) w.candidate.push_back({i, rise});
+      const double* u = e.unary.data() + std::size_t(i) * L;
+      for (std::size_t alpha = 0; alpha < L; ++alpha) {
+        const double rise = u[alpha] - w.least[std::size_t(i)];
+        if (rise <= w.incident[std::size_t(i)]) f(alpha, i, rise);
+      }
     }
-    w.candidate_start[std::size_t(alpha) + 1] = w.candidate.size();
-  }
+  };
+  for_each_candidate([&](std::size_t alpha, int, double) { ++w.candidate_start[alpha + 1]; });
+  for (std::size_t a = 0; a < L; ++a) w.candidate_start[a + 1] += w.candidate_start[a];
+  w.candidate.resize(w.candidate_start[L]);
+  std::vector<std::size_t>& fill = w.candidate_fill;
+  fill.assign(w.candidate_start.begin(), w.candidate_start.end() - 1);
+  for_each_candidate([&](std::size_t alpha, int i, double rise) { w.candidate[fill[alpha]++] = {i, rise}; });
 }
 
 }  // namespace
@@ -257,15 +267,20 @@ int select_free_nodes(const PottsEnergy& energy, const std::vector<int>& labelli
 /// li) loses by taking alpha rather than keeping li: its unary rise, minus w for each edge to an undecided
 /// node or to a node at alpha (taking alpha can save that edge), plus w for each edge to a node that keeps
 /// li (taking alpha cuts it); an edge to a node that keeps another label costs w either way.
-double keep_slack(const std::vector<int>& labelling, int alpha, int i, const MoveWorkspace& w) {
+/// `undecided_neighbour` tells whether a neighbour is kUndecided (whose slack a fix of i would raise).
+double keep_slack(const std::vector<int>& labelling, int alpha, int i, const MoveWorkspace& w,
+                  bool& undecided_neighbour) {
   const int li = labelling[std::size_t(i)];
   double slack = w.slack[std::size_t(i)];  // the unary rise (select_free_nodes)
+  bool undecided = false;
   for (const auto& [j, wt] : w.neighbours(i)) {
     const int lj = labelling[std::size_t(j)];
     const int state = w.id[std::size_t(j)];
-    if (state == kUnseen || state == kUndecided || lj == alpha) slack -= wt;
-    else if (lj == li) slack += wt;
+    undecided |= state == kUndecided;
+    const bool may_take_alpha = state == kUnseen || state == kUndecided || lj == alpha;
+    slack += may_take_alpha ? -wt : (lj == li ? wt : 0.0);
   }
+  undecided_neighbour = undecided;
   return slack;
 }
 
@@ -297,9 +312,11 @@ void keep(const std::vector<int>& labelling, int i, MoveWorkspace& w) {
 /// over the remaining nodes reaches the same energy.
 void fix_kept_nodes(const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
   for (const int i : w.free_nodes) {
-    const double slack = keep_slack(labelling, alpha, i, w);
+    bool undecided_neighbour = false;
+    const double slack = keep_slack(labelling, alpha, i, w, undecided_neighbour);
     if (slack > 0) {
-      keep(labelling, i, w);
+      if (undecided_neighbour) keep(labelling, i, w);
+      else w.id[std::size_t(i)] = kFixed;  // no neighbour to update
     } else {
       w.slack[std::size_t(i)] = slack;
       w.id[std::size_t(i)] = kUndecided;
