@@ -1,6 +1,7 @@
 #include "smseg/eval/smooth.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 
@@ -40,6 +41,10 @@ void check_image(const cv::Mat& image) {
   if (image.empty() || (image.type() != CV_8UC1 && image.type() != CV_8UC3))
     throw Error("", "image", "the contrast term needs an 8-bit greyscale or colour image");
 }
+
+// -log max(p, p_min), capped at cap = -log p_min: the logarithm only where it is below the cap (most
+// classes of a pixel are not), same value as std::min(cap, -std::log(std::max(p_min, p))).
+double capped_cost(double p, double p_min, double cap) { return p <= p_min ? cap : std::min(cap, -std::log(p)); }
 
 }  // namespace
 
@@ -81,6 +86,37 @@ double contrast_beta(const cv::Mat& image, int connectivity) {
   return mean > 0 ? 1.0 / (2.0 * mean) : 0.0;
 }
 
+namespace {
+
+// exp(-beta d^2) for every grey-level difference d: a greyscale frame's edges take their contrast term
+// from this table instead of one exp per edge (same values: same argument).
+std::array<double, 256> grey_contrast_table(double beta) {
+  std::array<double, 256> t{};
+  for (int d = 0; d < 256; ++d) t[std::size_t(d)] = std::exp(-beta * (double(d) * double(d)));
+  return t;
+}
+
+/// The contrast-sensitive Potts edges of the image grid, each unordered neighbour pair once.
+void add_contrast_edges(const cv::Mat& image, const SmoothOptions& opt, double beta, features::PottsEnergy& e) {
+  const int W = image.cols, H = image.rows;
+  const auto offs = offsets(opt.connectivity);
+  const bool grey = image.type() == CV_8UC1;
+  const std::array<double, 256> table = grey_contrast_table(beta);
+  e.edges.reserve(std::size_t(W) * std::size_t(H) * offs.size());
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x)
+      for (const Offset& o : offs) {
+        const int y1 = y + o.dy, x1 = x + o.dx;
+        if (y1 >= H || x1 < 0 || x1 >= W) continue;
+        const double contrast =
+            grey ? table[std::size_t(std::abs(int(image.at<std::uint8_t>(y, x)) - int(image.at<std::uint8_t>(y1, x1))))]
+                 : std::exp(-beta * squared_difference(image, y, x, y1, x1));
+        e.edges.push_back({y * W + x, y1 * W + x1, opt.lambda * o.inv_dist * contrast});
+      }
+}
+
+}  // namespace
+
 cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& image, const SmoothOptions& opt,
                       SmoothReport* report) {
   opt.validate();
@@ -114,22 +150,11 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
       s += d[c];
     }
     for (std::size_t c = 0; c < C; ++c)
-      e.unary[i * C + c] = s > 0 ? std::min(cap, -std::log(std::max(opt.p_min, double(d[c]) / s))) : -std::log(1.0 / double(C));
+      e.unary[i * C + c] = s > 0 ? capped_cost(double(d[c]) / s, opt.p_min, cap) : -std::log(1.0 / double(C));
   }
   SmoothReport rep;
   rep.beta = contrast_beta(image, opt.connectivity);
-  if (opt.lambda > 0) {
-    const auto offs = offsets(opt.connectivity);
-    e.edges.reserve(n * offs.size());
-    for (int y = 0; y < H; ++y)
-      for (int x = 0; x < W; ++x)
-        for (const Offset& o : offs) {
-          const int y1 = y + o.dy, x1 = x + o.dx;
-          if (y1 >= H || x1 < 0 || x1 >= W) continue;
-          const double w = opt.lambda * o.inv_dist * std::exp(-rep.beta * squared_difference(image, y, x, y1, x1));
-          e.edges.push_back({y * W + x, y1 * W + x1, w});
-        }
-  }
+  if (opt.lambda > 0) add_contrast_edges(image, opt, rep.beta, e);
   std::vector<int>& labelling = cache.labelling;
   labelling.clear();
   const features::ExpansionReport r = cache.solver.solve(e, labelling, {.max_cycles = opt.cycles});
@@ -137,6 +162,7 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
   rep.energy_after = r.energy;
   rep.cycles = r.cycles;
   rep.moves = r.moves;
+  rep.graph_nodes = r.graph_nodes;
   if (report) *report = rep;
   cv::Mat out(H, W, CV_8UC1);
   for (std::size_t i = 0; i < n; ++i) out.data[i] = static_cast<std::uint8_t>(labelling[i]);

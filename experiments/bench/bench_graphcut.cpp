@@ -5,12 +5,15 @@
 // By default the distributions come from a forest (M = 7, K = 400) trained in the benchmark on
 // libforest's synthetic frames (4 classes, as bench_eval). To time a real forest and stack:
 //   SMSEG_BENCH_FOREST=work/forest.json SMSEG_BENCH_WORK=work SMSEG_BENCH_FRAME=110 bench_graphcut
+// BM_SmoothFrameCamVid times the default smoothing on CamVid val frame 60 with the CamVid-size forest
+// (camvid_setup.hpp; skipped without CamVid).
 // Run: bench_graphcut --benchmark_out=graphcut.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
 #include <cstdlib>
 #include <optional>
 
+#include "camvid_setup.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/smooth.hpp"
 #include "smseg/graphcut/graphcut.hpp"
@@ -31,44 +34,83 @@ struct Setup {
   std::string source;
 };
 
+// The forest's per-pixel class distributions of the frame, and its greyscale image.
+void classify(Setup& x) {
+  const forest::Classifier c(x.forest);
+  const std::size_t n = std::size_t(x.frame.width) * std::size_t(x.frame.height);
+  std::vector<std::uint8_t> labels(n);
+  x.dists.resize(n * std::size_t(c.num_classes()));
+  c.classify_frame(x.frame, labels, x.dists);
+  x.gray = cv::Mat(x.frame.height, x.frame.width, CV_8UC1, const_cast<std::uint8_t*>(x.frame.gray)).clone();
+}
+
+// Frame f of a work folder's stacks, classified by the forest.
+Setup* stack_setup(forest::Forest forest, const std::string& work, int f) {
+  auto* x = new Setup;
+  x->forest = std::move(forest);
+  x->stacks = features::open_stacks({work}, features::FrameRange{f, f + 1}, false, true, x->forest.features);
+  eval::check_forest_fits(x->forest, *x->stacks);
+  x->frame = x->stacks->dataset.frames.front();
+  x->source = work;
+  classify(*x);
+  return x;
+}
+
 const Setup& setup() {
   static const Setup* s = [] {
-    auto* x = new Setup;
     const char* forest_file = std::getenv("SMSEG_BENCH_FOREST");
     const char* work = std::getenv("SMSEG_BENCH_WORK");
     if (forest_file && work) {
-      x->forest = forest::load_forest(forest_file);
       const char* frame = std::getenv("SMSEG_BENCH_FRAME");
-      const int f = frame ? std::atoi(frame) : 0;
-      x->stacks = features::open_stacks({work}, features::FrameRange{f, f + 1}, false, true, x->forest.features);
-      eval::check_forest_fits(x->forest, *x->stacks);
-      x->frame = x->stacks->dataset.frames.front();
-      x->source = std::string(work);
-    } else {
-      forest::SyntheticOptions o;
-      o.frames = 11;
-      o.seed = 7;
-      o.signal = 0.25;
-      const forest::SyntheticData train = forest::make_synthetic(o);
-      forest::TrainParams p;
-      p.K = 400;
-      p.M = 7;
-      x->forest = forest::train_forest(train.data, p);
-      o.frames = 1;
-      o.seed = 99;
-      x->synthetic = forest::make_synthetic(o);
-      x->frame = x->synthetic.data.frames.front();
-      x->source = "synthetic";
+      return stack_setup(forest::load_forest(forest_file), work, frame ? std::atoi(frame) : 0);
     }
-    const forest::Classifier c(x->forest);
-    const std::size_t n = std::size_t(x->frame.width) * std::size_t(x->frame.height);
-    std::vector<std::uint8_t> labels(n);
-    x->dists.resize(n * std::size_t(c.num_classes()));
-    c.classify_frame(x->frame, labels, x->dists);
-    x->gray = cv::Mat(x->frame.height, x->frame.width, CV_8UC1, const_cast<std::uint8_t*>(x->frame.gray)).clone();
+    auto* x = new Setup;
+    forest::SyntheticOptions o;
+    o.frames = 11;
+    o.seed = 7;
+    o.signal = 0.25;
+    const forest::SyntheticData train = forest::make_synthetic(o);
+    forest::TrainParams p;
+    p.K = 400;
+    p.M = 7;
+    x->forest = forest::train_forest(train.data, p);
+    o.frames = 1;
+    o.seed = 99;
+    x->synthetic = forest::make_synthetic(o);
+    x->frame = x->synthetic.data.frames.front();
+    x->source = "synthetic";
+    classify(*x);
     return x;
   }();
   return *s;
+}
+
+// The CamVid-size forest and val frame 60 of its run (camvid_setup.hpp); null when CamVid is absent.
+const Setup* setup_camvid() {
+  static const Setup* s = []() -> const Setup* {
+    if (camvid_bench::unavailable()) return nullptr;
+    Setup* x = stack_setup(camvid_bench::val_forest(), camvid_bench::val_work().string(), 60);
+    x->source = "CamVid val frame 60, forest Kt = 20000";
+    return x;
+  }();
+  return s;
+}
+
+void smooth_case(benchmark::State& state, const Setup& s, const eval::SmoothOptions& opt) {
+  eval::SmoothReport rep;
+  for (auto _ : state) {
+    cv::Mat out = eval::smooth_labels(s.dists, static_cast<int>(s.forest.classes.size()), s.gray, opt, &rep);
+    benchmark::DoNotOptimize(out.data);
+  }
+  state.counters["cycles"] = rep.cycles;
+  state.counters["moves"] = rep.moves;
+  state.counters["graph_nodes"] = double(rep.graph_nodes);
+  state.counters["energy_after"] = rep.energy_after;
+  state.counters["energy_drop"] = rep.energy_before - rep.energy_after;
+  state.counters["classes"] = double(s.forest.classes.size());
+  state.counters["width"] = s.frame.width;
+  state.counters["height"] = s.frame.height;
+  state.SetLabel(s.source);
 }
 
 // Args: connectivity, lambda x 10
@@ -78,18 +120,7 @@ void BM_SmoothFrame(benchmark::State& state) {
   opt.method = eval::SmoothMethod::GraphCut;
   opt.connectivity = static_cast<int>(state.range(0));
   opt.lambda = double(state.range(1)) / 10.0;
-  eval::SmoothReport rep;
-  for (auto _ : state) {
-    cv::Mat out = eval::smooth_labels(s.dists, static_cast<int>(s.forest.classes.size()), s.gray, opt, &rep);
-    benchmark::DoNotOptimize(out.data);
-  }
-  state.counters["cycles"] = rep.cycles;
-  state.counters["moves"] = rep.moves;
-  state.counters["energy_drop"] = rep.energy_before - rep.energy_after;
-  state.counters["classes"] = double(s.forest.classes.size());
-  state.counters["width"] = s.frame.width;
-  state.counters["height"] = s.frame.height;
-  state.SetLabel(s.source);
+  smooth_case(state, s, opt);
 }
 BENCHMARK(BM_SmoothFrame)
     ->ArgNames({"conn", "lambda10"})
@@ -101,6 +132,21 @@ BENCHMARK(BM_SmoothFrame)
     ->Args({8, 20})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
+
+// eval-forest's default smoothing (--smooth graphcut, every other option at its default) on a CamVid
+// frame (480x360, 11 classes). Target (real-scale issue): <= 60 ms.
+void BM_SmoothFrameCamVid(benchmark::State& state) {
+  const Setup* s = setup_camvid();
+  if (!s) {
+    static const std::string why = *camvid_bench::unavailable();
+    state.SkipWithError(why.c_str());
+    return;
+  }
+  eval::SmoothOptions opt;
+  opt.method = eval::SmoothMethod::GraphCut;
+  smooth_case(state, *s, opt);
+}
+BENCHMARK(BM_SmoothFrameCamVid)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One binary max-flow on a 320x240 4-connected grid with random terminal capacities (the size of one
 // expansion move).

@@ -108,93 +108,352 @@ void ExpansionOptions::validate() const {
     throw Error("", "relative_tolerance", "must be a finite number >= 0");
 }
 
+namespace {
+
+constexpr int kFixed = -1;      // MoveWorkspace::id of a node that keeps its label in the move
+constexpr int kUnseen = -2;     // ... of a node that may take alpha, not looked at closer yet
+constexpr int kUndecided = -3;  // ... of a node that may take alpha, not (yet) in the move's graph
+constexpr std::size_t kNever = std::numeric_limits<std::size_t>::max();  // label not expanded yet
+
+}  // namespace
+
 /// What expansion moves need, kept across moves and energies: libmaxflow's reset() keeps its memory
 /// (and grows it when a larger energy comes), so a solver reused frame after frame allocates nothing.
+/// A move's work is proportional to the nodes that may take alpha, not to the whole energy: per label,
+/// the candidate nodes are listed once per energy, and each move reads only their edges (adjacency
+/// lists) to build its graph and to price its result.
 struct MoveWorkspace {
+  struct Neighbour {
+    int node;
+    double weight;
+  };
   MaxFlowGraph g{1, 1, maxflow_error};
-  void prepare(const PottsEnergy& e) {
-    id.resize(static_cast<std::size_t>(e.nodes));
-    incident.assign(static_cast<std::size_t>(e.nodes), 0.0);
-    for (const auto& ed : e.edges) {
-      incident[std::size_t(ed.i)] += ed.weight;
-      incident[std::size_t(ed.j)] += ed.weight;
-    }
+
+  void prepare(const PottsEnergy& e, const std::vector<int>& labelling);
+  void note_label(const PottsEnergy& e, int i, int label);  ///< node i takes `label`: keeps `raised` up to date
+  std::span<const Neighbour> neighbours(int i) const {
+    return {adjacency.data() + adjacency_start[std::size_t(i)],
+            adjacency.data() + adjacency_start[std::size_t(i) + 1]};
   }
-  std::vector<int> id;           // graph node, or kAlpha (already alpha) or kKept (provably keeps its label)
-  std::vector<double> incident;  // sum of the weights of each node's edges
-  std::vector<double> e0, e1;  // cost of keeping the current label (source side) / taking alpha (sink side)
-  std::vector<int> proposal;
+  struct Candidate {
+    int node;
+    double rise;  // D(alpha) - least unary cost, kept here so that a move reads its candidates in a row
+  };
+  std::span<const Candidate> candidates(int alpha) const {
+    return {candidate.data() + candidate_start[std::size_t(alpha)],
+            candidate.data() + candidate_start[std::size_t(alpha) + 1]};
+  }
+
+  // Per energy (prepare).
+  std::vector<std::size_t> adjacency_start;  // node i's neighbours: adjacency[start[i] .. start[i + 1])
+  std::vector<Neighbour> adjacency;          // every edge twice, once from each end
+  std::vector<double> incident;              // sum of the weights of each node's edges
+  std::vector<std::size_t> candidate_start;  // label alpha's candidates: candidate[start[alpha] .. start[alpha + 1])
+  std::vector<Candidate> candidate;          // nodes at their least-cost label that may take alpha
+  std::vector<double> least;                 // least unary cost of each node
+  std::vector<std::size_t> candidate_fill;   // where list_candidates places each label's next candidate
+  // Per labelling.
+  std::vector<int> raised;                 // nodes that may be at a label costlier than their least
+  std::vector<std::uint8_t> is_raised;     // per node: listed in `raised`
+  std::vector<int> changes;                // nodes whose label the moves changed, in order (repeats allowed)
+  std::vector<std::size_t> seen_changes;   // per label: changes.size() after its last move, or kNever
+  // Per move.
+  std::vector<int> id;           // graph node of each energy node, kUndecided or kFixed (kFixed between moves)
+  std::vector<int> free_nodes;   // nodes that may take alpha
+  std::vector<int> graph_node;   // energy node of each graph node
+  std::vector<double> slack;     // per free node: by how much keeping its label provably wins (> 0: kept)
+  std::vector<int> newly_kept;   // free nodes found to keep their label, whose neighbours are to update
+  std::vector<double> e0, e1;    // cost of keeping the current label (source side) / taking alpha (sink side)
+  std::vector<std::uint8_t> takes_alpha;  // per graph node, from the cut
+  std::int64_t graph_nodes = 0;           // summed over the moves since prepare
 };
 
 namespace {
 
-constexpr int kAlpha = -1, kKept = -2;
+void build_adjacency(const PottsEnergy& e, MoveWorkspace& w) {
+  const auto n = std::size_t(e.nodes);
+  w.adjacency_start.assign(n + 1, 0);
+  w.incident.assign(n, 0.0);
+  for (const auto& ed : e.edges) {
+    ++w.adjacency_start[std::size_t(ed.i) + 1];
+    ++w.adjacency_start[std::size_t(ed.j) + 1];
+    w.incident[std::size_t(ed.i)] += ed.weight;
+    w.incident[std::size_t(ed.j)] += ed.weight;
+  }
+  for (std::size_t i = 0; i < n; ++i) w.adjacency_start[i + 1] += w.adjacency_start[i];
+  w.adjacency.resize(w.adjacency_start[n]);
+  std::vector<std::size_t>& fill = w.adjacency_start;  // advanced while filling, then shifted back
+  for (const auto& ed : e.edges) {
+    w.adjacency[fill[std::size_t(ed.i)]++] = {ed.j, ed.weight};
+    w.adjacency[fill[std::size_t(ed.j)]++] = {ed.i, ed.weight};
+  }
+  for (std::size_t i = n; i > 0; --i) fill[i] = fill[i - 1];
+  fill[0] = 0;
+}
 
-/// The optimal alpha-expansion move from `labelling` (one min cut), applied when it lowers `current`
-/// (the energy of `labelling`, recomputed for the proposal). Returns true when applied.
-bool expand(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, double& current, MoveWorkspace& w) {
-  const int n = energy.nodes;
-  int free_nodes = 0;
-  for (int i = 0; i < n; ++i) {
-    const int li = labelling[std::size_t(i)];
-    // A node whose unary cost rises by more than all its edges weigh keeps its label in every optimal
-    // move (flipping it back would lower the move's energy): it needs no graph node.
-    if (li == alpha) w.id[std::size_t(i)] = kAlpha;
-    else if (energy.unary_at(i, alpha) - energy.unary_at(i, li) > w.incident[std::size_t(i)]) w.id[std::size_t(i)] = kKept;
-    else w.id[std::size_t(i)] = free_nodes++;
+// A node whose unary cost rises by more than all its edges weigh when it takes alpha keeps its label in
+// every optimal move (flipping it back would lower the move's energy). For a node at its least-cost
+// label that is D(alpha) - min_l D(l) > incident, which does not depend on the labelling: the others,
+// the candidates of alpha, are listed once per energy. Nodes at a costlier label are few (those the
+// moves have moved, and those of a given starting labelling) and are tested in every move (`raised`).
+void list_candidates(const PottsEnergy& e, MoveWorkspace& w) {
+  const auto L = std::size_t(e.labels);
+  w.candidate_start.assign(L + 1, 0);
+  w.candidate.clear();
+  w.least.resize(std::size_t(e.nodes));
+  for (int i = 0; i < e.nodes; ++i) {
+    const double* u = e.unary.data() + std::size_t(i) * L;
+    w.least[std::size_t(i)] = *std::min_element(u, u + L);
   }
-  if (free_nodes == 0) return false;
-  w.e0.assign(std::size_t(free_nodes), 0.0);
-  w.e1.assign(std::size_t(free_nodes), 0.0);
-  w.g.reset();
-  w.g.add_node(free_nodes);
-  for (int i = 0; i < n; ++i) {
-    const int v = w.id[std::size_t(i)];
-    if (v < 0) continue;
-    w.e0[std::size_t(v)] = energy.unary_at(i, labelling[std::size_t(i)]);
-    w.e1[std::size_t(v)] = energy.unary_at(i, alpha);
-  }
-  for (const auto& ed : energy.edges) {
-    const int vi = w.id[std::size_t(ed.i)], vj = w.id[std::size_t(ed.j)];
-    const double wt = ed.weight;
-    if (wt == 0 || (vi < 0 && vj < 0)) continue;
-    if (vi < 0 || vj < 0) {
-      const int fixed = vi < 0 ? ed.i : ed.j, v = vi < 0 ? vj : vi, node = vi < 0 ? ed.j : ed.i;
-      if (w.id[std::size_t(fixed)] == kAlpha) {  // the free end pays wt unless it joins alpha
-        w.e0[std::size_t(v)] += wt;
-      } else {  // the fixed end keeps a label other than alpha
-        if (labelling[std::size_t(fixed)] != labelling[std::size_t(node)]) w.e0[std::size_t(v)] += wt;
-        w.e1[std::size_t(v)] += wt;
+  // One pass over the unary table (node-major): count each label's candidates, then place them.
+  auto for_each_candidate = [&](auto&& f) {
+    for (int i = 0; i < e.nodes; ++i) {
+      const double* u = e.unary.data() + std::size_t(i) * L;
+      for (std::size_t alpha = 0; alpha < L; ++alpha) {
+        const double rise = u[alpha] - w.least[std::size_t(i)];
+        if (rise <= w.incident[std::size_t(i)]) f(alpha, i, rise);
       }
-      continue;
     }
-    if (labelling[std::size_t(ed.i)] == labelling[std::size_t(ed.j)]) {
-      w.g.add_edge(vi, vj, float(wt), float(wt));  // E = wt [x_i != x_j]
+  };
+  for_each_candidate([&](std::size_t alpha, int, double) { ++w.candidate_start[alpha + 1]; });
+  for (std::size_t a = 0; a < L; ++a) w.candidate_start[a + 1] += w.candidate_start[a];
+  w.candidate.resize(w.candidate_start[L]);
+  std::vector<std::size_t>& fill = w.candidate_fill;
+  fill.assign(w.candidate_start.begin(), w.candidate_start.end() - 1);
+  for_each_candidate([&](std::size_t alpha, int i, double rise) { w.candidate[fill[alpha]++] = {i, rise}; });
+}
+
+}  // namespace
+
+void MoveWorkspace::prepare(const PottsEnergy& e, const std::vector<int>& labelling) {
+  build_adjacency(e, *this);
+  list_candidates(e, *this);
+  id.assign(std::size_t(e.nodes), kFixed);
+  slack.resize(std::size_t(e.nodes));
+  is_raised.assign(std::size_t(e.nodes), 0);
+  raised.clear();
+  for (int i = 0; i < e.nodes; ++i) note_label(e, i, labelling[std::size_t(i)]);
+  changes.clear();
+  seen_changes.assign(std::size_t(e.labels), kNever);
+  graph_nodes = 0;
+}
+
+void MoveWorkspace::note_label(const PottsEnergy& e, int i, int label) {
+  if (is_raised[std::size_t(i)] || e.unary_at(i, label) <= least[std::size_t(i)]) return;
+  is_raised[std::size_t(i)] = 1;
+  raised.push_back(i);
+}
+
+namespace {
+
+/// The move's graph nodes: the nodes not at alpha whose unary rise is within their edges' weight (the
+/// others provably keep their label), looked for among the candidates of alpha and the raised nodes.
+/// Returns their count.
+int select_free_nodes(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
+  w.free_nodes.clear();
+  auto consider = [&](int i, double rise) {  // rise: D(alpha) - D(current label)
+    if (labelling[std::size_t(i)] == alpha || rise > w.incident[std::size_t(i)]) return;
+    w.id[std::size_t(i)] = kUnseen;
+    w.slack[std::size_t(i)] = rise;
+    w.free_nodes.push_back(i);
+  };
+  for (const auto& [i, rise] : w.candidates(alpha))
+    if (!w.is_raised[std::size_t(i)]) consider(i, rise);  // at its least-cost label
+  for (const int i : w.raised) consider(i, energy.unary_at(i, alpha) - energy.unary_at(i, labelling[std::size_t(i)]));
+  return static_cast<int>(w.free_nodes.size());
+}
+
+/// Lower bound, over every labelling of the undecided nodes, of what node i (undecided, current label
+/// li) loses by taking alpha rather than keeping li: its unary rise, minus w for each edge to an undecided
+/// node or to a node at alpha (taking alpha can save that edge), plus w for each edge to a node that keeps
+/// li (taking alpha cuts it); an edge to a node that keeps another label costs w either way.
+/// `undecided_neighbour` tells whether a neighbour is kUndecided (whose slack a fix of i would raise).
+double keep_slack(const std::vector<int>& labelling, int alpha, int i, const MoveWorkspace& w,
+                  bool& undecided_neighbour) {
+  const int li = labelling[std::size_t(i)];
+  double slack = w.slack[std::size_t(i)];  // the unary rise (select_free_nodes)
+  bool undecided = false;
+  for (const auto& [j, wt] : w.neighbours(i)) {
+    const int lj = labelling[std::size_t(j)];
+    const int state = w.id[std::size_t(j)];
+    undecided |= state == kUndecided;
+    const bool may_take_alpha = state == kUnseen || state == kUndecided || lj == alpha;
+    slack += may_take_alpha ? -wt : (lj == li ? wt : 0.0);
+  }
+  undecided_neighbour = undecided;
+  return slack;
+}
+
+/// Node i keeps its label: the undecided neighbours' slack rises (an edge to i no longer helps alpha,
+/// and costs w when their labels agree), which may fix them in turn.
+void keep(const std::vector<int>& labelling, int i, MoveWorkspace& w) {
+  w.id[std::size_t(i)] = kFixed;
+  w.newly_kept.clear();
+  w.newly_kept.push_back(i);
+  while (!w.newly_kept.empty()) {
+    const int k = w.newly_kept.back(), lk = labelling[std::size_t(k)];
+    w.newly_kept.pop_back();
+    for (const auto& [j, wt] : w.neighbours(k)) {
+      if (w.id[std::size_t(j)] != kUndecided) continue;  // kUnseen ones will see k fixed
+      double& slack = w.slack[std::size_t(j)];
+      slack += labelling[std::size_t(j)] == lk ? 2 * wt : wt;
+      if (slack > 0) {
+        w.id[std::size_t(j)] = kFixed;
+        w.newly_kept.push_back(j);
+      }
+    }
+  }
+}
+
+/// Fixes the free nodes that keep their label in every optimal move: those whose slack is positive
+/// (taking alpha loses whatever the others do). Fixing one raises its neighbours' slack, so fixing
+/// spreads through regions where alpha is unlikely. One pass in node order: a node's slack is computed
+/// from its neighbours' states so far, and later fixes update it. Every optimal move survives: the cut
+/// over the remaining nodes reaches the same energy.
+void fix_kept_nodes(const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
+  for (const int i : w.free_nodes) {
+    bool undecided_neighbour = false;
+    const double slack = keep_slack(labelling, alpha, i, w, undecided_neighbour);
+    if (slack > 0) {
+      if (undecided_neighbour) keep(labelling, i, w);
+      else w.id[std::size_t(i)] = kFixed;  // no neighbour to update
     } else {
-      // E(0,0) = wt, E(0,1) = wt, E(1,0) = wt, E(1,1) = 0, which is wt (1 - x_j) + wt (1 - x_i) x_j
-      w.e0[std::size_t(vj)] += wt;
-      w.g.add_edge(vi, vj, float(wt), 0.0f);
+      w.slack[std::size_t(i)] = slack;
+      w.id[std::size_t(i)] = kUndecided;
     }
   }
-  for (int v = 0; v < free_nodes; ++v) {
-    const double m = std::min(w.e0[std::size_t(v)], w.e1[std::size_t(v)]);
-    w.g.add_tweights(v, float(w.e1[std::size_t(v)] - m), float(w.e0[std::size_t(v)] - m));
+}
+
+void add_graph_node(int i, MoveWorkspace& w) {
+  w.id[std::size_t(i)] = static_cast<int>(w.graph_node.size());
+  w.graph_node.push_back(i);
+}
+
+/// The free nodes whose move needs a cut. The free nodes fall into connected parts, each an independent
+/// problem given the fixed nodes around it. A part in which, and around which, no label has changed
+/// since alpha's last move is the problem that move solved, restricted to that part with the rest of
+/// the graph at that move's optimum; keeping every label (what that move did there) is optimal again.
+/// So after alpha's first move, only the parts that touch a node changed since are cut. Returns the
+/// graph's node count.
+int select_graph_nodes(int alpha, MoveWorkspace& w) {
+  w.graph_node.clear();
+  if (w.seen_changes[std::size_t(alpha)] == kNever) {
+    for (const int i : w.free_nodes)
+      if (w.id[std::size_t(i)] == kUndecided) add_graph_node(i, w);
+    return static_cast<int>(w.graph_node.size());
   }
+  for (std::size_t k = w.seen_changes[std::size_t(alpha)]; k < w.changes.size(); ++k) {
+    const int c = w.changes[k];
+    if (w.id[std::size_t(c)] == kUndecided) add_graph_node(c, w);
+    for (const auto& nb : w.neighbours(c))
+      if (w.id[std::size_t(nb.node)] == kUndecided) add_graph_node(nb.node, w);
+  }
+  for (std::size_t v = 0; v < w.graph_node.size(); ++v)  // grows the parts from those seeds
+    for (const auto& nb : w.neighbours(w.graph_node[v]))
+      if (w.id[std::size_t(nb.node)] == kUndecided) add_graph_node(nb.node, w);
+  return static_cast<int>(w.graph_node.size());
+}
+
+/// The move's s-t graph over the free nodes: their unary costs and their edges to fixed nodes go to the
+/// terminals, their edges between each other (added once, from the lower node) are arcs.
+void build_move_graph(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
+  const auto nf = w.graph_node.size();
+  w.e0.resize(nf);
+  w.e1.resize(nf);
+  w.g.reset();
+  w.g.add_node(static_cast<int>(nf));
+  for (std::size_t v = 0; v < nf; ++v) {
+    const int i = w.graph_node[v];
+    w.e0[v] = energy.unary_at(i, labelling[std::size_t(i)]);
+    w.e1[v] = energy.unary_at(i, alpha);
+  }
+  for (std::size_t v = 0; v < nf; ++v) {
+    const int i = w.graph_node[v], li = labelling[std::size_t(i)];
+    for (const auto& [j, wt] : w.neighbours(i)) {
+      if (wt == 0) continue;
+      const int vj = w.id[std::size_t(j)], lj = labelling[std::size_t(j)];
+      if (vj < 0) {  // kFixed, or kUndecided in a part that keeps its labels
+        if (lj == alpha) {  // the free end pays wt unless it joins alpha
+          w.e0[v] += wt;
+        } else {  // the fixed end keeps a label other than alpha
+          if (lj != li) w.e0[v] += wt;
+          w.e1[v] += wt;
+        }
+      } else if (j > i) {
+        if (lj == li) {
+          w.g.add_edge(static_cast<int>(v), vj, float(wt), float(wt));  // E = wt [x_i != x_j]
+        } else {
+          // E(0,0) = wt, E(0,1) = wt, E(1,0) = wt, E(1,1) = 0, which is wt (1 - x_j) + wt (1 - x_i) x_j
+          w.e0[std::size_t(vj)] += wt;
+          w.g.add_edge(static_cast<int>(v), vj, float(wt), 0.0f);
+        }
+      }
+    }
+  }
+  for (std::size_t v = 0; v < nf; ++v) {
+    const double m = std::min(w.e0[v], w.e1[v]);
+    w.g.add_tweights(static_cast<int>(v), float(w.e1[v] - m), float(w.e0[v] - m));
+  }
+}
+
+/// Energy change of switching the graph nodes on the sink side to alpha, computed afresh in double
+/// from the unary costs and weights of the nodes that change and of their edges (the rest of the
+/// energy does not change). The float max-flow may round; this exact price decides.
+double move_energy_change(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha,
+                          const MoveWorkspace& w) {
+  double change = 0;
+  for (std::size_t v = 0; v < w.graph_node.size(); ++v) {
+    if (!w.takes_alpha[v]) continue;
+    const int i = w.graph_node[v], li = labelling[std::size_t(i)];
+    change += energy.unary_at(i, alpha) - energy.unary_at(i, li);
+    for (const auto& [j, wt] : w.neighbours(i)) {
+      const int vj = w.id[std::size_t(j)], lj = labelling[std::size_t(j)];
+      const bool j_changes = vj >= 0 && w.takes_alpha[std::size_t(vj)];
+      if (j_changes && j < i) continue;  // an edge between two changing nodes is priced once
+      const int new_lj = j_changes ? alpha : lj;
+      change += (new_lj != alpha ? wt : 0.0) - (lj != li ? wt : 0.0);
+    }
+  }
+  return change;
+}
+
+/// Cuts the move's graph and applies the cut when it lowers the energy (`current` is then lowered by
+/// the exact change). Returns true when applied.
+bool cut_and_apply(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, double& current,
+                   MoveWorkspace& w) {
+  build_move_graph(energy, labelling, alpha, w);
   w.g.maxflow();
-  w.proposal.resize(std::size_t(n));
+  const auto nodes = w.graph_node.size();
+  w.takes_alpha.resize(nodes);
   bool any = false;
-  for (int i = 0; i < n; ++i) {
-    const int v = w.id[std::size_t(i)];
-    const bool take = v >= 0 && w.g.what_segment(v) == MaxFlowGraph::SINK;
-    w.proposal[std::size_t(i)] = take ? alpha : labelling[std::size_t(i)];
-    any = any || take;
+  for (std::size_t v = 0; v < nodes; ++v) {
+    w.takes_alpha[v] = w.g.what_segment(static_cast<int>(v)) == MaxFlowGraph::SINK ? 1 : 0;
+    any = any || w.takes_alpha[v];
   }
-  if (!any) return false;
-  const double e = energy.energy(w.proposal);
-  if (!(e < current)) return false;
-  current = e;
-  labelling.swap(w.proposal);
+  const double change = any ? move_energy_change(energy, labelling, alpha, w) : 0.0;
+  if (!(change < 0)) return false;
+  for (std::size_t v = 0; v < nodes; ++v) {
+    if (!w.takes_alpha[v]) continue;
+    const int i = w.graph_node[v];
+    labelling[std::size_t(i)] = alpha;
+    w.note_label(energy, i, alpha);
+    w.changes.push_back(i);
+  }
+  current += change;
   return true;
+}
+
+/// The optimal alpha-expansion move from `labelling` (one min cut over the nodes that may change),
+/// applied when it lowers the energy. Returns true when applied.
+bool expand(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, double& current, MoveWorkspace& w) {
+  select_free_nodes(energy, labelling, alpha, w);
+  fix_kept_nodes(labelling, alpha, w);
+  const int nodes = select_graph_nodes(alpha, w);
+  w.graph_nodes += nodes;
+  const bool applied = nodes > 0 && cut_and_apply(energy, labelling, alpha, current, w);
+  for (const int i : w.free_nodes) w.id[std::size_t(i)] = kFixed;
+  w.seen_changes[std::size_t(alpha)] = w.changes.size();
+  return applied;
 }
 
 void initial_labelling(const PottsEnergy& energy, std::vector<int>& labelling) {
@@ -216,7 +475,7 @@ bool expansion_move(const PottsEnergy& energy, std::vector<int>& labelling, int 
   double current = energy.energy(labelling);
   if (energy.nodes == 0) return false;
   MoveWorkspace w;
-  w.prepare(energy);
+  w.prepare(energy, labelling);
   return expand(energy, labelling, alpha, current, w);
 }
 
@@ -237,7 +496,7 @@ ExpansionReport ExpansionSolver::solve(const PottsEnergy& energy, std::vector<in
   rep.initial_energy = rep.energy = energy.energy(labelling);
   if (energy.nodes == 0 || energy.labels == 1) return rep;
   MoveWorkspace& w = *w_;
-  w.prepare(energy);
+  w.prepare(energy, labelling);
   // A move from a labelling already tried with the same alpha gives nothing: after L moves in a row
   // that changed nothing, the labelling is a local minimum under expansion moves.
   int unchanged_in_a_row = 0;
@@ -258,6 +517,8 @@ ExpansionReport ExpansionSolver::solve(const PottsEnergy& energy, std::vector<in
     if (!changed) break;
     if (cycle_start - rep.energy <= opt.relative_tolerance * std::abs(rep.energy)) break;
   }
+  rep.graph_nodes = w.graph_nodes;
+  rep.energy = energy.energy(labelling);  // afresh, rather than the sum of the moves' changes
   return rep;
 }
 

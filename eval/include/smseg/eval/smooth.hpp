@@ -10,6 +10,7 @@
 // Minimised by alpha-expansion (smseg/graphcut/graphcut.hpp) from the per-pixel MAP labelling, so the
 // energy is never above that of the unsmoothed output; lambda = 0 gives the MAP labels.
 
+#include <cstdint>
 #include <span>
 #include <string>
 
@@ -42,6 +43,7 @@ struct SmoothReport {
   double energy_after = 0;
   int cycles = 0;
   int moves = 0;
+  std::int64_t graph_nodes = 0;  ///< nodes of the expansion moves' max-flow graphs, summed over the moves
 };
 
 /// beta of the contrast term for an image (CV_8UC1 or CV_8UC3; squared colour distance for colour).

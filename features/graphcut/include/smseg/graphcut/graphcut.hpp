@@ -68,14 +68,19 @@ struct ExpansionReport {
   double energy = 0;              ///< of the returned labelling, never above initial_energy
   int cycles = 0;                 ///< cycles run
   int moves = 0;                  ///< expansion moves that lowered the energy (and were kept)
+  std::int64_t graph_nodes = 0;   ///< nodes of the moves' max-flow graphs, summed over the moves
   std::vector<double> per_cycle;  ///< energy after each cycle
 };
 
 /// Alpha-expansion from the labelling given (empty: the label of least unary cost per node, ties to the
-/// lowest label). Each move is one min cut; a move is kept only when it lowers the energy as computed
-/// afresh, so the energy never rises. Stops when a cycle changes nothing (a local minimum under
-/// expansion moves), after max_cycles, or when a cycle gains less than the tolerance. Deterministic:
-/// labels are expanded in order 0..L-1.
+/// lowest label). Each move is one min cut; a move is kept only when it lowers the energy (its change,
+/// computed afresh in double over the nodes that change and their edges), so the energy never rises.
+/// Stops when a cycle changes nothing (a local minimum under expansion moves), after max_cycles, or when
+/// a cycle gains less than the tolerance. Deterministic: labels are expanded in order 0..L-1.
+/// A move's cut leaves out the nodes that provably keep their label in every optimal move (unary rise
+/// beyond what their edges can save, spread by the edges to nodes so fixed) and the parts of the graph
+/// in and around which no label changed since alpha's last move (that move's optimum still holds
+/// there): the moves are those of cutting the whole graph, at a fraction of the work.
 ExpansionReport alpha_expansion(const PottsEnergy& energy, std::vector<int>& labelling,
                                 const ExpansionOptions& opt = {});
 
