@@ -20,6 +20,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "camvid_setup.hpp"
+#include "synthetic_setup.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/forest/synthetic.hpp"
 #include "smseg/forest/train.hpp"
@@ -37,24 +38,12 @@ struct Setup {
   std::string source;
 };
 
-// Forest trained on 11 synthetic frames of this size, and one more frame to label.
+// Forest trained on 11 synthetic frames of this size, and one more frame to label (synthetic_setup.hpp).
 Setup synthetic_setup(int width, int height) {
   Setup x;
-  // Class signal low enough that trees grow to a realistic size (as in bench_forest).
-  forest::SyntheticOptions o;
-  o.width = width;
-  o.height = height;
-  o.frames = 11;
-  o.seed = 7;
-  o.signal = 0.25;
-  const forest::SyntheticData train = forest::make_synthetic(o);
-  forest::TrainParams p;
-  p.K = 400;
-  p.M = 7;
-  x.forest = forest::train_forest(train.data, p);
-  o.frames = 1;
-  o.seed = 99;
-  x.synthetic = forest::make_synthetic(o);
+  synthetic_bench::ForestAndFrame made = synthetic_bench::forest_and_frame(width, height);
+  x.forest = std::move(made.forest);
+  x.synthetic = std::move(made.frame);
   x.frame = x.synthetic.data.frames.front();
   x.source = "synthetic " + std::to_string(width) + "x" + std::to_string(height);
   return x;

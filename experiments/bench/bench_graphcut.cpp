@@ -14,6 +14,7 @@
 #include <optional>
 
 #include "camvid_setup.hpp"
+#include "synthetic_setup.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/smooth.hpp"
 #include "smseg/graphcut/graphcut.hpp"
@@ -65,18 +66,9 @@ const Setup& setup() {
       return stack_setup(forest::load_forest(forest_file), work, frame ? std::atoi(frame) : 0);
     }
     auto* x = new Setup;
-    forest::SyntheticOptions o;
-    o.frames = 11;
-    o.seed = 7;
-    o.signal = 0.25;
-    const forest::SyntheticData train = forest::make_synthetic(o);
-    forest::TrainParams p;
-    p.K = 400;
-    p.M = 7;
-    x->forest = forest::train_forest(train.data, p);
-    o.frames = 1;
-    o.seed = 99;
-    x->synthetic = forest::make_synthetic(o);
+    synthetic_bench::ForestAndFrame made = synthetic_bench::forest_and_frame(320, 240);
+    x->forest = std::move(made.forest);
+    x->synthetic = std::move(made.frame);
     x->frame = x->synthetic.data.frames.front();
     x->source = "synthetic";
     classify(*x);

@@ -151,7 +151,8 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
         s.xs[i] = pixels[b + i].x;
         s.ys[i] = pixels[b + i].y;
       }
-      classify_set(frame, {frame.sats.data(), width_ + 1}, s, m, order_inside_first(s, m), !dists.empty());
+      classify_set(frame, {frame.sats.data(), width_ + 1}, s, m, order_inside_first(s, m), !dists.empty(),
+                   Routing::ByLanes);
       for (std::size_t i = 0; i < m; ++i) {  // back to the caller's order
         const std::size_t to = b + s.index[i];
         labels[to] = s.labels[i];
@@ -195,7 +196,7 @@ void Classifier::classify_tiles(const FrameData& frame, const Tables& tables, st
         s.xs[i] = x0 + static_cast<std::int32_t>(i % tw);
         s.ys[i] = y0 + static_cast<std::int32_t>(i / tw);
       }
-      classify_set(frame, tables, s, m, m, !dists.empty());
+      classify_set(frame, tables, s, m, m, !dists.empty(), Routing::ByNodes);
       for (std::size_t i = 0; i < m; ++i) {  // to the pixel's place in the frame
         const std::size_t to = static_cast<std::size_t>(s.ys[i]) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(s.xs[i]);
         labels[to] = s.labels[i];

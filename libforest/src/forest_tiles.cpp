@@ -19,6 +19,9 @@ namespace smseg::forest {
 namespace {
 constexpr int kMaxClasses = 256;
 constexpr std::uint32_t kMaxCompactIndex = (1u << 23) - 1;  // 23 bits of CompactNode::next
+// Pixels in flight per tree walk (route_tree): enough independent table reads to hide the cache
+// latency, few enough that the lanes stay in registers and L1.
+constexpr std::size_t kLanes = 16;
 }  // namespace
 
 void Classifier::build_compact(const Forest& forest) {
@@ -54,6 +57,65 @@ void Classifier::build_compact(const Forest& forest) {
       compact_[at++] = c;
     }
     base += tree.nodes.size();
+  }
+}
+
+// Walks pixels [b, e) of the set through one tree, kLanes at a time (classify_pixels' sets: a few
+// pixels scattered over the frame, where partition_tree's runs soon hold one pixel each and each
+// split waits for the last one's table read), each lane taking the next pixel
+// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap. The step
+// has no data-dependent branch (a mispredicted branch would empty the pipeline of the other lanes'
+// reads): every lane reads a window (leaves read an empty one), and selects its next node, pixel and
+// leaf slot. Lanes past the last pixel walk it again and write nowhere that counts.
+// kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
+// and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
+template <bool kClamp, bool kTextons>
+void Classifier::route_tree(const FrameData& frame, const Tables& tables, const Scratch& s, std::size_t b,
+                            std::size_t e, std::uint32_t root, std::int32_t* leaf) const {
+  if (b >= e) return;
+  const CompactNode* nodes = compact_.data();
+  const double* const* sats = frame.sats.data();
+  const std::int32_t W = width_, H = height_;
+  const std::ptrdiff_t S = tables.stride;
+  const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
+  const std::int32_t* xs = s.xs.data();
+  const std::int32_t* ys = s.ys.data();
+  std::int32_t sink = 0;  // where lanes past the last pixel write their leaves
+  std::uint32_t node[kLanes];
+  std::size_t pixel[kLanes];
+  std::size_t next = b + kLanes, done = 0;
+  for (std::size_t g = 0; g < kLanes; ++g) {
+    node[g] = root;
+    pixel[g] = b + g;
+  }
+  const std::size_t n = e - b, last = e - 1;
+  while (done < n) {
+    for (std::size_t g = 0; g < kLanes; ++g) {
+      const CompactNode c = nodes[node[g]];
+      const std::uint32_t attr = c.next & 0xffu;
+      const bool is_leaf = (c.next & kLeafBit) != 0;
+      const std::size_t p = pixel[g], q = p < e ? p : last;
+      const std::int32_t x = xs[q], y = ys[q];
+      float v;
+      if (kTextons && attr >= F) {
+        v = texton_value(frame.gray, W, H, x, y, c.x0, c.y0, static_cast<int>(attr - F));
+      } else if (kClamp) {
+        v = static_cast<float>(window_sum(sats[attr], W, H, x, y, RelRect{c.x0, c.x1, c.y0, c.y1}));
+      } else {
+        const double* cell = tables.at[attr] + (y * S + x);
+        const double* top = cell + c.y0 * S;
+        const double* bot = cell + c.y1 * S;
+        v = static_cast<float>((bot[c.x1] - top[c.x1]) - (bot[c.x0] - top[c.x0]));
+      }
+      const std::uint32_t child = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
+      const bool counts = is_leaf && p < e;
+      std::int32_t* slot = counts ? leaf + p : &sink;
+      *slot = static_cast<std::int32_t>(c.next >> 9);
+      done += counts ? 1u : 0u;
+      node[g] = is_leaf ? root : child;
+      pixel[g] = is_leaf ? next : p;
+      next += is_leaf ? 1u : 0u;
+    }
   }
 }
 
@@ -141,7 +203,7 @@ std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
 }
 
 void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n,
-                              std::size_t inside, bool with_dists) const {
+                              std::size_t inside, bool with_dists, Routing routing) const {
   const std::size_t C = static_cast<std::size_t>(num_classes_), Cp = static_cast<std::size_t>(padded_classes_);
   const std::size_t M = compact_roots_.size();
   s.leaf.resize(n * M);
@@ -150,8 +212,16 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
   for (std::size_t t = 0; t < M; ++t) {
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
-    partition_tree<true>(frame, tables, s, 0, inside, root, leaf);
-    partition_tree<false>(frame, tables, s, inside, n, root, leaf);
+    if (routing == Routing::ByNodes) {
+      partition_tree<true>(frame, tables, s, 0, inside, root, leaf);
+      partition_tree<false>(frame, tables, s, inside, n, root, leaf);
+    } else if (textons_) {
+      route_tree<false, true>(frame, tables, s, 0, inside, root, leaf);
+      route_tree<true, true>(frame, tables, s, inside, n, root, leaf);
+    } else {
+      route_tree<false, false>(frame, tables, s, 0, inside, root, leaf);
+      route_tree<true, false>(frame, tables, s, inside, n, root, leaf);
+    }
   }
   std::uint8_t* labels = s.labels.data();
   float* dists = with_dists ? s.dists.data() : nullptr;
