@@ -147,11 +147,7 @@ BENCHMARK(BM_LabelFrame)
 // The CamVid-size forest on a CamVid frame. Args: mode, size, V, threads (label_frame_case).
 void BM_LabelFrameCamVid(benchmark::State& state) {
   const Setup* s = setup_camvid();
-  if (!s) {
-    static const std::string why = *camvid_bench::unavailable();
-    state.SkipWithError(why.c_str());
-    return;
-  }
+  if (!s) return camvid_bench::skip(state);
   label_frame_case(state, *s);
 }
 BENCHMARK(BM_LabelFrameCamVid)

@@ -129,11 +129,7 @@ BENCHMARK(BM_SmoothFrame)
 // frame (480x360, 11 classes). Target (real-scale issue): <= 60 ms.
 void BM_SmoothFrameCamVid(benchmark::State& state) {
   const Setup* s = setup_camvid();
-  if (!s) {
-    static const std::string why = *camvid_bench::unavailable();
-    state.SkipWithError(why.c_str());
-    return;
-  }
+  if (!s) return camvid_bench::skip(state);
   eval::SmoothOptions opt;
   opt.method = eval::SmoothMethod::GraphCut;
   smooth_case(state, *s, opt);

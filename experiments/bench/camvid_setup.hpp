@@ -9,6 +9,8 @@
 #include <optional>
 #include <string>
 
+#include <benchmark/benchmark.h>
+
 #include "smseg/sequence/camvid.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/stack.hpp"
@@ -54,6 +56,12 @@ inline forest::Forest val_forest() {
 inline std::optional<std::string> unavailable() {
   if (!fs::exists(kCamVid / "frames.csv")) return "CamVid not found at " + kCamVid.string();
   return std::nullopt;
+}
+
+/// Marks a CamVid case skipped, with the reason.
+inline void skip(benchmark::State& state) {
+  static const std::string why = unavailable().value_or("the CamVid setup is missing");
+  state.SkipWithError(why.c_str());
 }
 
 }  // namespace camvid_bench
