@@ -119,27 +119,22 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
   }
 }
 
-// Routes pixels [b, e) of the set through one tree, node by node: at a split, the node's pixels are
+// Routes pixels [0, n) of the set through one tree, node by node: at a split, the node's pixels are
 // partitioned (stably) into its children's runs, which are split in turn, depth first. A node's
 // constants are read once for all its pixels, the pixels' table reads are independent of each other
 // (the processor overlaps them) and go through the tables in increasing order, and the step has no
-// branch on the test's outcome (each pixel is written to both sides and counted on one).
-// kInside: every window of these pixels lies inside `tables` (reads at fixed offsets from the
-// pixel's cell); otherwise corners are clipped to the image as window_sum clips them.
-template <bool kInside>
-void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t b, std::size_t e,
+// branch on the test's outcome (each pixel is written to both sides and counted on one). Every
+// window of every pixel lies inside `tables` (whole frames read the padded copy): the reads are at
+// fixed offsets from the pixel's cell.
+void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n,
                                 std::uint32_t root, std::int32_t* leaf) const {
-  if (b >= e) return;
-  const std::int32_t W = width_, H = height_;
+  if (n == 0) return;
   const std::ptrdiff_t S = tables.stride;
   const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
-  const std::size_t n = e - b;
   s.routed.resize(n);
   s.right.resize(n);
-  for (std::size_t i = b; i < e; ++i)
-    s.routed[i - b] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
-  const std::int32_t* xs = s.xs.data();
-  const std::int32_t* ys = s.ys.data();
+  for (std::size_t i = 0; i < n; ++i)
+    s.routed[i] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
   Scratch::Routed* a = s.routed.data();
   Scratch::Routed* right = s.right.data();
   s.runs.clear();
@@ -164,8 +159,9 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
     };
     if (textons_ && attr >= F) {
       for (std::uint32_t i = r.b; i < r.e; ++i)
-        split(a[i], texton_value(frame.gray, W, H, xs[a[i].at], ys[a[i].at], c.x0, c.y0, static_cast<int>(attr - F)));
-    } else if (kInside) {
+        split(a[i], texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
+                                 static_cast<int>(attr - F)));
+    } else {
       const double* table = tables.at[attr];
       const std::ptrdiff_t top_a = c.y0 * S + c.x0, top_b = c.y0 * S + c.x1;
       const std::ptrdiff_t bot_a = c.y1 * S + c.x0, bot_b = c.y1 * S + c.x1;
@@ -173,11 +169,6 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
         const double* cell = table + a[i].cell;
         split(a[i], static_cast<float>((cell[bot_b] - cell[top_b]) - (cell[bot_a] - cell[top_a])));
       }
-    } else {
-      const double* table = frame.sats[attr];
-      const RelRect rect{c.x0, c.x1, c.y0, c.y1};
-      for (std::uint32_t i = r.b; i < r.e; ++i)
-        split(a[i], static_cast<float>(window_sum(table, W, H, xs[a[i].at], ys[a[i].at], rect)));
     }
     std::copy(right, right + k, a + l);
     const std::uint32_t left_child = c.next >> 9;
@@ -213,8 +204,7 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
     if (routing == Routing::ByNodes) {
-      partition_tree<true>(frame, tables, s, 0, inside, root, leaf);
-      partition_tree<false>(frame, tables, s, inside, n, root, leaf);
+      partition_tree(frame, tables, s, n, root, leaf);  // every pixel inside (inside == n)
     } else if (textons_) {
       route_tree<false, true>(frame, tables, s, 0, inside, root, leaf);
       route_tree<true, true>(frame, tables, s, inside, n, root, leaf);

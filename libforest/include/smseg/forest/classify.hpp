@@ -124,8 +124,8 @@ class Classifier {
   /// its compact nodes (`routing`), the inside ones without clipping. The leaf distributions are then summed tree by tree (the same float sums as
   /// posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if with_dists).
   /// How a set's pixels go through a tree: node by node (partition_tree: whole frames, where each
-  /// node gets many neighbouring pixels) or several pixels in flight, each to its leaf (route_tree:
-  /// classify_pixels' few scattered pixels).
+  /// node gets many neighbouring pixels; every pixel must be inside) or several pixels in flight, each
+  /// to its leaf (route_tree: classify_pixels' few scattered pixels).
   enum class Routing { ByNodes, ByLanes };
   void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
                     bool with_dists, Routing routing) const;
@@ -133,11 +133,10 @@ class Classifier {
   template <bool kClamp, bool kTextons>
   void route_tree(const FrameData& frame, const Tables& tables, const Scratch& s, std::size_t b, std::size_t e,
                   std::uint32_t root, std::int32_t* leaf) const;
-  /// Routes pixels [b, e) of the set through the tree at `root`, node by node: leaf[i] for each.
-  /// kInside: their windows stay inside `tables` (no clipping).
-  template <bool kInside>
-  void partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t b, std::size_t e,
-                      std::uint32_t root, std::int32_t* leaf) const;
+  /// Routes the set's n pixels through the tree at `root`, node by node: leaf[i] for each. Every
+  /// window of every pixel must lie inside `tables` (no clipping).
+  void partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::uint32_t root,
+                      std::int32_t* leaf) const;
   /// Whether pixel (x, y) keeps every window of the forest inside the image.
   bool inside(int x, int y) const { return x >= inner_x0_ && x <= inner_x1_ && y >= inner_y0_ && y <= inner_y1_; }
   void build_compact(const Forest& forest);
