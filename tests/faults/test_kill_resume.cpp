@@ -6,6 +6,8 @@
 // temporaries.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <regex>
 
 #include "kill_harness.hpp"
@@ -120,9 +122,20 @@ TEST(Kill, ExtractFeaturesResumesFromTheCompleteStacks) {
   points.push_back({-1, 0, "tracks.json.tmp."});
   for (const KillPoint& p : points) {
     restore(dir, {work}, fresh_raw);
-    const bool landed = run_and_kill(extract, p, dir);
-    if (!p.appears.empty()) {
-      EXPECT_TRUE(landed) << "the run ended before " << p.str();
+    if (p.appears.empty()) {
+      run_and_kill(extract, p, dir);
+    } else {
+      // The poller walks the whole test folder between two looks (slower still under the sanitizers
+      // and a loaded machine), so the 5 ms pause of a write can pass unseen: these runs pause 200 ms
+      // in every write, and the kill is tried again (up to 5 runs) until it lands.
+      ::setenv("SMSEG_TEST_WRITE_PAUSE_MS", "200", 1);
+      bool landed = false;
+      for (int attempt = 0; attempt < 5 && !landed; ++attempt) {
+        restore(dir, {work}, fresh_raw);
+        landed = run_and_kill(extract, p, dir);
+      }
+      ::unsetenv("SMSEG_TEST_WRITE_PAUSE_MS");
+      EXPECT_TRUE(landed) << "five runs ended before " << p.str();
     }
     // A temporary may be there (a kill between write and rename); the rerun below must remove it.
     const Files now = comparable(without_temporaries(snapshot(dir, {work})));
