@@ -119,14 +119,15 @@ class Classifier {
   /// read `tables` without clipping.
   void classify_tiles(const FrameData& frame, const Tables& tables, std::span<std::uint8_t> labels,
                       std::span<float> dists) const;
-  /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
-  /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
-  /// its compact nodes (`routing`), the inside ones without clipping. The leaf distributions are then summed tree by tree (the same float sums as
-  /// posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if with_dists).
   /// How a set's pixels go through a tree: node by node (partition_tree: whole frames, where each
   /// node gets many neighbouring pixels; every pixel must be inside) or several pixels in flight, each
   /// to its leaf (route_tree: classify_pixels' few scattered pixels).
   enum class Routing { ByNodes, ByLanes };
+  /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
+  /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
+  /// its compact nodes (`routing`), the inside ones without clipping. The leaf distributions are then
+  /// summed tree by tree (the same float sums as posterior()) and give the labels. Out: s.labels[i],
+  /// s.dists[i * C + c] (if with_dists).
   void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
                     bool with_dists, Routing routing) const;
   /// Routes pixels [b, e) of the set through the tree at `root`, kLanes at a time: leaf[i] for each.
