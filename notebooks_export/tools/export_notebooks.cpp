@@ -157,7 +157,11 @@ Json notebook(const ExperimentResults& r, const fs::path& rel_jsonl, const std::
 /// killed when this process dies (PR_SET_PDEATHSIG), so a killed export never leaves a Python still
 /// drawing into its staging folder while the next run cleans it away.
 int run_python(const std::string& python, const fs::path& dir, const fs::path& script, const fs::path& log) {
+  // Everything that allocates is done before fork: only async-signal-safe calls in the child.
   const pid_t parent = ::getpid();
+  const std::string name = script.filename().string();
+  char* argv[] = {const_cast<char*>(python.c_str()), const_cast<char*>(name.c_str()), nullptr};
+  ::setenv("MPLBACKEND", "Agg", 1);  // inherited by the child; the tool itself draws nothing
   const pid_t pid = ::fork();
   if (pid < 0) return -1;
   if (pid == 0) {
@@ -167,9 +171,6 @@ int run_python(const std::string& python, const fs::path& dir, const fs::path& s
     if (fd < 0 || ::chdir(dir.c_str()) != 0) ::_exit(127);
     ::dup2(fd, 1);
     ::dup2(fd, 2);
-    ::setenv("MPLBACKEND", "Agg", 1);
-    const std::string name = script.filename().string();
-    char* argv[] = {const_cast<char*>(python.c_str()), const_cast<char*>(name.c_str()), nullptr};
     ::execvp(argv[0], argv);
     ::_exit(127);
   }
