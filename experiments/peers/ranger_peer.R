@@ -8,6 +8,10 @@
 # Default (classification forest): each leaf votes its majority class, the forest takes the majority
 # vote (ranger breaks ties at random). --probability: a probability forest, which sums the trees'
 # leaf distributions like ours and scikit-learn's (argmax, lowest class on ties).
+# Memory (Linux): the peak RSS of the whole process (peak_rss_mb, reading the CSVs and building the
+# data.frames included) and of the fits alone (fit_peak_rss_mb: before each fit the previous forest is
+# dropped, gc() runs, and the peak is reset to the current RSS, rss_before_fit_mb, by writing 5 to
+# /proc/self/clear_refs; it is read after the fit). MB = 2^20 bytes.
 suppressPackageStartupMessages(library(ranger))
 
 fail <- function(msg) {
@@ -56,11 +60,31 @@ if (tr$header != he$header) fail(paste0(pos[2], ": header differs from ", pos[1]
 train_df <- data.frame(label = factor(tr$y), tr$x, check.names = FALSE)
 held_df <- data.frame(he$x, check.names = FALSE)
 seeds <- as.integer(strsplit(opt$seeds, ",")[[1]])
+# VmHWM and VmRSS of this process in kB (NULL without /proc).
+rss_status <- function() {
+  l <- tryCatch(readLines("/proc/self/status"), error = function(e) NULL, warning = function(w) NULL)
+  if (is.null(l)) return(NULL)
+  get <- function(key) as.numeric(strsplit(trimws(sub(paste0("^", key, ":"), "", grep(paste0("^", key, ":"), l, value = TRUE))), " +")[[1]][1])
+  c(hwm = get("VmHWM"), rss = get("VmRSS"))
+}
+reset_peak <- function() tryCatch({ writeLines("5", "/proc/self/clear_refs"); TRUE },
+                                  error = function(e) FALSE, warning = function(w) FALSE)
+peak_kb <- 0
+fit_peaks <- numeric(0)
+before_fit <- numeric(0)
 runs <- list()
 for (seed in seeds) {
   times <- numeric(0)
   cpu_times <- numeric(0)
   for (r in seq_len(opt$repeat_)) {
+    if (exists("fit")) rm(fit)
+    invisible(gc())
+    st <- rss_status()
+    measured <- !is.null(st) && reset_peak()
+    if (measured) {
+      peak_kb <- max(peak_kb, st[["hwm"]])
+      before_fit <- c(before_fit, rss_status()[["rss"]])
+    }
     t0 <- proc.time()
     fit <- ranger(dependent.variable.name = "label", data = train_df, num.trees = opt$trees, splitrule = "extratrees", num.random.splits = 1,
                   replace = FALSE, sample.fraction = 1, mtry = ncol(tr$x), min.node.size = opt$min_node_size,
@@ -69,6 +93,7 @@ for (seed in seeds) {
     t1 <- proc.time()
     times <- c(times, t1[["elapsed"]] - t0[["elapsed"]])
     cpu_times <- c(cpu_times, (t1[["user.self"]] + t1[["sys.self"]]) - (t0[["user.self"]] + t0[["sys.self"]]))
+    if (measured) fit_peaks <- c(fit_peaks, rss_status()[["hwm"]])
   }
   p <- predict(fit, data = held_df, num.threads = opt$threads)$predictions
   pred <- if (opt$probability) as.integer(colnames(p)[max.col(p, ties.method = "first")]) else as.integer(as.character(p))
@@ -82,11 +107,23 @@ for (seed in seeds) {
                                    seconds_all = times, cpu_seconds = cpu, cpu_seconds_all = cpu_times, nodes = nodes)
   cat(sprintf("seed %d: accuracy %.4f, fit %.4f s wall, %.4f s CPU (medians of %d), %d nodes\n", seed, acc, sec, cpu,
               opt$repeat_, nodes))
+  flush(stdout())
 }
 mean_acc <- mean(sapply(runs, function(r) r$accuracy))
 med_sec <- median(sapply(runs, function(r) r$seconds))
 med_cpu <- median(sapply(runs, function(r) r$cpu_seconds))
-cat(sprintf("mean accuracy %.4f over %d seeds, median fit %.4f s wall, %.4f s CPU\n", mean_acc, length(runs), med_sec, med_cpu))
+st <- rss_status()
+mb <- function(kb) round(kb / 1024, 1)
+if (!is.null(st) && length(fit_peaks)) {
+  rss_json <- sprintf(', "peak_rss_mb": %.1f, "fit_peak_rss_mb": %.1f, "rss_before_fit_mb": %.1f, "rss_method": "%s"',
+                      mb(max(peak_kb, st[["hwm"]])), mb(max(fit_peaks)), mb(max(before_fit)),
+                      "inside: /proc/self/status VmHWM, reset (clear_refs 5) before each fit, after gc()")
+  rss_text <- sprintf("; peak RSS %.1f MB (process), %.1f MB (fit)", mb(max(peak_kb, st[["hwm"]])), mb(max(fit_peaks)))
+} else {
+  rss_json <- ', "peak_rss_mb": null, "fit_peak_rss_mb": null, "rss_before_fit_mb": null'
+  rss_text <- ""
+}
+cat(sprintf("mean accuracy %.4f over %d seeds, median fit %.4f s wall, %.4f s CPU%s\n", mean_acc, length(runs), med_sec, med_cpu, rss_text))
 
 if (nzchar(opt$out)) {
   num <- function(v) paste0("[", paste(sprintf("%.6g", v), collapse = ", "), "]")
@@ -96,9 +133,9 @@ if (nzchar(opt$out)) {
   tool <- paste0("ranger ", as.character(packageVersion("ranger")), if (opt$probability) " (probability forest)" else " (classification forest)")
   json <- sprintf(paste0('{"tool": "%s", "train": "%s", "heldout": "%s", "rows_train": %d, "rows_heldout": %d, ',
                          '"columns": %d, "trees": %d, "min_node_size": %d, "threads": %d, "probability": %s, "repeat": %d, ',
-                         '"runs": [%s], "mean_accuracy": %.6f, "median_seconds": %.6g, "median_cpu_seconds": %.6g}\n'),
+                         '"runs": [%s], "mean_accuracy": %.6f, "median_seconds": %.6g, "median_cpu_seconds": %.6g%s}\n'),
                   tool, pos[1], pos[2], nrow(tr$x), nrow(he$x), ncol(tr$x), opt$trees, opt$min_node_size, opt$threads,
-                  if (opt$probability) "true" else "false", opt$repeat_, paste(run_json, collapse = ", "), mean_acc, med_sec, med_cpu)
+                  if (opt$probability) "true" else "false", opt$repeat_, paste(run_json, collapse = ", "), mean_acc, med_sec, med_cpu, rss_json)
   tmp <- paste0(opt$out, ".tmp")
   writeLines(json, tmp, sep = "")
   invisible(file.rename(tmp, opt$out))

@@ -9,10 +9,13 @@
 # Environment (defaults in brackets):
 #   BUILD [build]            build folder; the targets make-sequence extract-features train-forest
 #                            forest-peers are built there if missing (BUILD_J [2] jobs)
+#   FOREST_PEERS [BUILD/bin/forest-peers]  our trainer's binary (docs/peers.md, "At CamVid scale": today's
+#                            forest-peers refuses CSVs over 256 MiB, and a 20000-row corpus is ~350 MB)
 #   WORK  [OUT/work]         work folder of extract-features; made from a fresh corridor if missing
 #   SEEDS [1,2,3,4,5]        forest seeds (every trainer runs once per seed on the same corpus)
 #   CORPUS_SEEDS [1,2,3]     one corpus pair per seed (train-forest --seed), every trainer runs on each
-#   K [400]  KT_HELDOUT [4000]  TRAIN_FRAMES [0:101]  HELDOUT_FRAMES [110:]
+#   K [400]  KT_TRAIN [K]  KT_HELDOUT [4000]  TRAIN_FRAMES [0:101]  HELDOUT_FRAMES [110:]
+#                            (K windows x 6 features are the columns; KT_TRAIN / KT_HELDOUT the rows)
 #   M [7]  N_MIN [5]  REPEAT [3] (timed fits per seed, median)  THREADS [1] (every trainer; 0 = all cores)
 #   RANGER_MIN_NODE [N_MIN]  ranger's min.node.size (a node of <= that many rows is a leaf in ranger
 #                            0.14, so N_MIN - 1 is the exact equivalent of our n_min)
@@ -22,6 +25,11 @@
 # Needs: Debian python3-sklearn and r-cran-ranger (PYTHON: the interpreter to use [/usr/bin/python3]).
 # Writes per corpus seed S OUT/corpus-S/{ours,sklearn,ranger,ranger_prob}.json, then OUT/machine.json,
 # OUT/peers.json (the table, machine-readable) and OUT/peers.md (the table), and prints the table.
+# Peak RSS per trainer (whole process, and during the fits): measured inside sklearn_peer.py and
+# ranger_peer.R, and from outside for forest-peers (rss_watch.py; its fit figure needs >= 2 SEEDS).
+# CamVid scale (docs/peers.md, "At CamVid scale"), e.g.:
+#   WORK=build/bench-cache/camvid-val/work TRAIN_FRAMES=0:80 HELDOUT_FRAMES=80: KT_TRAIN=20000 \
+#   KT_HELDOUT=20000 CORPUS_SEEDS=1 SEEDS=1,2 REPEAT=1 FOREST_PEERS=... bash experiments/peers/run.sh OUT
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")" && pwd)"
 repo="$(cd "$here/../.." && pwd)"
@@ -34,6 +42,7 @@ KEEP_CSV="${KEEP_CSV:-0}"
 SCORE="${SCORE:-wehenkel-pavella}"
 IFS=',' read -r -a scores <<<"$SCORE"
 K="${K:-400}"
+KT_TRAIN="${KT_TRAIN:-$K}"
 KT_HELDOUT="${KT_HELDOUT:-4000}"
 TRAIN_FRAMES="${TRAIN_FRAMES:-0:101}"
 HELDOUT_FRAMES="${HELDOUT_FRAMES:-110:}"
@@ -56,6 +65,7 @@ Rscript -e 'suppressPackageStartupMessages(library(ranger))' 2>/dev/null || die 
 
 mkdir -p "$OUT"
 bin="$BUILD/bin"
+FOREST_PEERS="${FOREST_PEERS:-$bin/forest-peers}"
 need=()
 for t in make-sequence extract-features train-forest forest-peers; do [[ -x "$bin/$t" ]] || need+=("$t"); done
 if ((${#need[@]})); then
@@ -80,8 +90,8 @@ for cs in "${corpus_seeds[@]}"; do
   dirs+=("$d")
   # 1. The corpora. -M 1 --corpus-tree 0: tree 0's windows depend only on (seed, tree 0), and windows
   #    are drawn before tests, so both exports share their candidate columns; checked on the headers.
-  echo "peers: corpus seed $cs: exporting (K=$K, frames $TRAIN_FRAMES; Kt=$KT_HELDOUT, frames $HELDOUT_FRAMES)" >&2
-  "$bin/train-forest" "$WORK" --train-frames "$TRAIN_FRAMES" -K "$K" -M 1 --seed "$cs" \
+  echo "peers: corpus seed $cs: exporting (K=$K; Kt=$KT_TRAIN, frames $TRAIN_FRAMES; Kt=$KT_HELDOUT, frames $HELDOUT_FRAMES)" >&2
+  "$bin/train-forest" "$WORK" --train-frames "$TRAIN_FRAMES" -K "$K" --Kt "$KT_TRAIN" -M 1 --seed "$cs" \
     --export-corpus "$d/train.csv" --corpus-tree 0 -o "$d/corpus-train-forest.json" -q >/dev/null
   "$bin/train-forest" "$WORK" --train-frames "$HELDOUT_FRAMES" -K "$K" --Kt "$KT_HELDOUT" -M 1 --seed "$cs" \
     --export-corpus "$d/heldout.csv" --corpus-tree 0 -o "$d/corpus-heldout-forest.json" -q >/dev/null
@@ -97,7 +107,9 @@ for cs in "${corpus_seeds[@]}"; do
     # The first score writes ours.json (the row the speed-ups refer to), others ours-SCORE.json.
     o="$d/ours.json"; [[ "$sc" == "${scores[0]}" ]] || o="$d/ours-$sc.json"
     echo "peers: ours (forest-peers --score $sc)" >&2
-    "$bin/forest-peers" "$d/train.csv" "$d/heldout.csv" -M "$M" --n-min "$N_MIN" --seeds "$SEEDS" \
+    # rss_watch.py measures its RSS from outside (line-buffered stdout marks the seeds' fits).
+    "$PYTHON" "$here/rss_watch.py" --merge-into "$o" -- stdbuf -oL \
+      "$FOREST_PEERS" "$d/train.csv" "$d/heldout.csv" -M "$M" --n-min "$N_MIN" --seeds "$SEEDS" \
       --repeat "$REPEAT" --threads "$THREADS" --score "$sc" -o "$o" >&2
   done
   echo "peers: scikit-learn ExtraTreesClassifier" >&2
