@@ -126,7 +126,7 @@ fs::path prepare_work(const std::string& name, const SequenceSource& source, con
                     {"front_end", features::front_end_options_to_json(eo.front_end)},
                     {"motion", fe.motion},
                     {"sfm", fe.motion == "sfm" ? features::sfm_options_to_json(eo.sfm) : json(nullptr)},
-                    {"features", {{"causal", eo.features.causal}, {"future_frames", eo.features.future_frames}}}};
+                    {"features", features::feature_options_json(eo.features)}};
   const fs::path work = cache / "work" / (safe_name(seq.name) + "-" + json_hash(key));
   const fs::path done = work / "complete.json";
   if (fs::exists(done)) {

@@ -1,5 +1,7 @@
 #include "smseg/frontend/motion.hpp"
 
+#include "pair_motion.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -376,35 +378,37 @@ Pose initial_pose(double camera_height) {
   return p;
 }
 
+namespace detail {
+
+PathChain::PathChain(double camera_height)
+    : first_(initial_pose(camera_height)), Rw_(to_eigen(first_)), c_(first_.t[0], first_.t[1], first_.t[2]) {}
+
+Pose PathChain::step(PairMotion& pm) {
+  if (pm.ok && pm.motion.R.allFinite() && pm.motion.t.allFinite()) {
+    pm.bridged = false;
+    last_good_ = pm.motion;
+  } else {
+    pm.ok = false;
+    pm.bridged = true;
+    pm.motion = last_good_;  // constant velocity
+  }
+  Rw_ = nearest_rotation(Rw_ * pm.motion.R.transpose());
+  c_ = c_ - Rw_ * pm.motion.t;
+  return from_eigen(Rw_, c_);
+}
+
+}  // namespace detail
+
 std::vector<Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_height) {
+  detail::PathChain chain(camera_height);
   std::vector<Pose> poses;
   poses.reserve(pairs.size() + 1);
-  poses.push_back(initial_pose(camera_height));
-  Eigen::Matrix3d Rw = to_eigen(poses[0]);
-  Eigen::Vector3d c(poses[0].t[0], poses[0].t[1], poses[0].t[2]);
-  RigidMotion last_good;  // identity until a good pair is seen
-  for (auto& pm : pairs) {
-    if (pm.ok && pm.motion.R.allFinite() && pm.motion.t.allFinite()) {
-      pm.bridged = false;
-      last_good = pm.motion;
-    } else {
-      pm.ok = false;
-      pm.bridged = true;
-      pm.motion = last_good;  // constant velocity
-    }
-    Rw = nearest_rotation(Rw * pm.motion.R.transpose());
-    c = c - Rw * pm.motion.t;
-    poses.push_back(from_eigen(Rw, c));
-  }
+  poses.push_back(chain.first());
+  for (auto& pm : pairs) poses.push_back(chain.step(pm));
   return poses;
 }
 
-namespace {
-
-// Per pair: the 3D points and (u, v, d) measurements of the tracks seen in frames t and t+1.
-struct PairData {
-  std::vector<Eigen::Vector3d> P, Q, ma, mb;
-};
+namespace detail {
 
 std::vector<PairData> gather_pairs(const std::vector<Track>& tracks, int first_frame, int npairs, bool measurements) {
   std::vector<PairData> d(npairs);
@@ -423,12 +427,6 @@ std::vector<PairData> gather_pairs(const std::vector<Track>& tracks, int first_f
   }
   return d;
 }
-
-// One motion hypothesis of a pair: RANSAC (Arun) then, when asked, the reprojection refinement.
-struct Candidate {
-  PairMotion pm;
-  std::vector<std::uint8_t> inliers;  ///< over the pair's correspondences
-};
 
 Candidate solve_pair(const PairData& d, const std::vector<int>& subset, const RansacOptions& o, std::uint64_t stream,
                      const StereoCamera* cam, const RefineOptions* ro) {
@@ -476,92 +474,111 @@ double motion_distance(const RigidMotion& a, const RigidMotion& b) {
   return (a.t - b.t).norm() + std::acos(cosang);
 }
 
+std::vector<Candidate> pair_candidates(const PairData& d, std::uint64_t stream, const RansacOptions& o,
+                                       const StereoCamera* cam, const RefineOptions* ro) {
+  const bool refine = cam && ro && ro->enabled;
+  const bool second = refine && ro->second_hypothesis;
+  const int n = static_cast<int>(d.P.size());
+  std::vector<int> all(n);
+  for (int i = 0; i < n; ++i) all[i] = i;
+  std::vector<Candidate> cands;
+  cands.push_back(solve_pair(d, all, o, stream, refine ? cam : nullptr, ro));
+  const Candidate& a = cands[0];
+  if (!second || !a.pm.ok) return cands;
+  // A second motion among the first one's outliers: with an independently moving object (a person
+  // filling the view) the largest rigid set may be the object, not the scene.
+  std::vector<int> rest;
+  for (int i = 0; i < n; ++i)
+    if (!a.inliers[i]) rest.push_back(i);
+  const double need = std::max<double>(o.min_inliers, ro->second_min_share * n);
+  if (static_cast<double>(rest.size()) < need) return cands;
+  Candidate b = solve_pair(d, rest, o, stream + (1ULL << 40), cam, ro);
+  if (b.pm.ok && b.pm.inliers >= need) cands.push_back(std::move(b));
+  return cands;
+}
+
+namespace {
+
+// With second_hypothesis, one more candidate: the refinement started from the previous chosen motion,
+// on the correspondences it already explains within 3 inlier_px (the scene, when a moving object
+// holds most of the points).
+std::optional<Candidate> candidate_from_previous(const PairData& d, const RigidMotion& previous, const RansacOptions& o,
+                                                 const StereoCamera& cam, const RefineOptions& ro) {
+  const int n = static_cast<int>(d.P.size());
+  std::vector<std::uint8_t> loose(n, 0);
+  const Eigen::Vector3d Dw(1, 1, ro.disparity_weight);
+  int n_loose = 0;
+  for (int i = 0; i < n; ++i) {
+    Eigen::Vector3d rf, rb, Y, Z;
+    if (!(d.ma[i].z() > 0) || !(d.mb[i].z() > 0)) continue;
+    if (!symmetric_residuals(previous, cam.backproject(d.ma[i]), cam.backproject(d.mb[i]), d.ma[i], d.mb[i], cam, rf,
+                             rb, Y, Z))
+      continue;
+    const double thr = 3 * ro.inlier_px;
+    if (rf.cwiseProduct(Dw).norm() <= thr && rb.cwiseProduct(Dw).norm() <= thr) loose[i] = 1, ++n_loose;
+  }
+  const double need = std::max<double>(o.min_inliers, ro.second_min_share * n);
+  if (n_loose < need) return std::nullopt;
+  std::vector<std::uint8_t> in;
+  double rms_px = 0;
+  RigidMotion m = refine_motion(previous, d.ma, d.mb, cam, ro, loose, &in, &rms_px);
+  for (int round = 0; round < 2; ++round) m = refine_motion(m, d.ma, d.mb, cam, ro, in, &in, &rms_px);
+  int k_in = 0;
+  double sse = 0;
+  for (int i = 0; i < n; ++i)
+    if (in[i]) ++k_in, sse += (m.apply(d.P[i]) - d.Q[i]).squaredNorm();
+  if (k_in < need) return std::nullopt;
+  Candidate c;
+  c.pm.motion = m;
+  c.pm.points = n;
+  c.pm.inliers = k_in;
+  c.pm.ok = true;
+  c.pm.rms = std::sqrt(sse / k_in);
+  c.pm.rms_px = rms_px;
+  return c;
+}
+
+}  // namespace
+
+PairMotion choose_pair_motion(std::vector<Candidate>& cs, const PairData& d, std::optional<RigidMotion>& previous,
+                              const RansacOptions& o, const StereoCamera* cam, const RefineOptions* ro) {
+  const bool second = cam && ro && ro->enabled && ro->second_hypothesis;
+  if (second && previous && cs[0].pm.ok)
+    if (auto c = candidate_from_previous(d, *previous, o, *cam, *ro)) cs.push_back(std::move(*c));
+  std::size_t pick = 0;
+  if (previous && cs.size() > 1) {
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t j = 0; j < cs.size(); ++j) {
+      const double dist = motion_distance(cs[j].pm.motion, *previous);
+      if (dist < best) best = dist, pick = j;
+    }
+  }
+  const PairMotion out = cs[pick].pm;
+  if (out.ok) previous = out.motion;
+  return out;
+}
+
+}  // namespace detail
+
+namespace {
+
+// Every pair's hypotheses in parallel (each from its own random stream), then the sequential
+// constant-velocity choice.
 std::vector<PairMotion> pair_motions(const std::vector<Track>& tracks, int first_frame, int frame_count,
                                      const RansacOptions& o, const StereoCamera* cam, const RefineOptions* ro) {
   o.validate();
   if (ro) ro->validate();
   const bool refine = cam && ro && ro->enabled;
-  const bool second = refine && ro->second_hypothesis;
   const int npairs = std::max(0, frame_count - 1);
-  const std::vector<PairData> data = gather_pairs(tracks, first_frame, npairs, refine);
-  std::vector<std::vector<Candidate>> cands(npairs);
+  const std::vector<detail::PairData> data = detail::gather_pairs(tracks, first_frame, npairs, refine);
+  std::vector<std::vector<detail::Candidate>> cands(npairs);
   tbb::parallel_for(tbb::blocked_range<int>(0, npairs, 1), [&](const tbb::blocked_range<int>& r) {
-    for (int k = r.begin(); k < r.end(); ++k) {
-      const PairData& d = data[k];
-      const int n = static_cast<int>(d.P.size());
-      std::vector<int> all(n);
-      for (int i = 0; i < n; ++i) all[i] = i;
-      const auto stream = static_cast<std::uint64_t>(first_frame + k);
-      cands[k].push_back(solve_pair(d, all, o, stream, refine ? cam : nullptr, ro));
-      const Candidate& a = cands[k][0];
-      if (!second || !a.pm.ok) continue;
-      // A second motion among the first one's outliers: with an independently moving object (a
-      // person filling the view) the largest rigid set may be the object, not the scene.
-      std::vector<int> rest;
-      for (int i = 0; i < n; ++i)
-        if (!a.inliers[i]) rest.push_back(i);
-      const double need = std::max<double>(o.min_inliers, ro->second_min_share * n);
-      if (static_cast<double>(rest.size()) < need) continue;
-      Candidate b = solve_pair(d, rest, o, stream + (1ULL << 40), cam, ro);
-      if (b.pm.ok && b.pm.inliers >= need) cands[k].push_back(std::move(b));
-    }
+    for (int k = r.begin(); k < r.end(); ++k)
+      cands[k] = detail::pair_candidates(data[k], static_cast<std::uint64_t>(first_frame + k), o, cam, ro);
   });
-  // Sequential choice: the candidate closest to the previous chosen good motion (constant velocity).
-  // With second_hypothesis, one more candidate: the refinement started from that previous motion, on
-  // the correspondences it already explains within 3 inlier_px (the scene, when a moving object
-  // holds most of the points).
   std::vector<PairMotion> out(npairs);
   std::optional<RigidMotion> previous;
-  for (int k = 0; k < npairs; ++k) {
-    auto& cs = cands[k];
-    if (second && previous && cs[0].pm.ok) {
-      const PairData& d = data[k];
-      const int n = static_cast<int>(d.P.size());
-      std::vector<std::uint8_t> loose(n, 0);
-      const Eigen::Vector3d Dw(1, 1, ro->disparity_weight);
-      int n_loose = 0;
-      for (int i = 0; i < n; ++i) {
-        Eigen::Vector3d rf, rb, Y, Z;
-        if (!(d.ma[i].z() > 0) || !(d.mb[i].z() > 0)) continue;
-        if (!symmetric_residuals(*previous, cam->backproject(d.ma[i]), cam->backproject(d.mb[i]), d.ma[i], d.mb[i],
-                                 *cam, rf, rb, Y, Z))
-          continue;
-        const double thr = 3 * ro->inlier_px;
-        if (rf.cwiseProduct(Dw).norm() <= thr && rb.cwiseProduct(Dw).norm() <= thr) loose[i] = 1, ++n_loose;
-      }
-      const double need = std::max<double>(o.min_inliers, ro->second_min_share * n);
-      if (n_loose >= need) {
-        std::vector<std::uint8_t> in;
-        double rms_px = 0;
-        RigidMotion m = refine_motion(*previous, d.ma, d.mb, *cam, *ro, loose, &in, &rms_px);
-        for (int round = 0; round < 2; ++round) m = refine_motion(m, d.ma, d.mb, *cam, *ro, in, &in, &rms_px);
-        int k_in = 0;
-        double sse = 0;
-        for (int i = 0; i < n; ++i)
-          if (in[i]) ++k_in, sse += (m.apply(d.P[i]) - d.Q[i]).squaredNorm();
-        if (k_in >= need) {
-          Candidate c;
-          c.pm.motion = m;
-          c.pm.points = n;
-          c.pm.inliers = k_in;
-          c.pm.ok = true;
-          c.pm.rms = std::sqrt(sse / k_in);
-          c.pm.rms_px = rms_px;
-          cs.push_back(std::move(c));
-        }
-      }
-    }
-    std::size_t pick = 0;
-    if (previous && cs.size() > 1) {
-      double best = std::numeric_limits<double>::infinity();
-      for (std::size_t j = 0; j < cs.size(); ++j) {
-        const double dist = motion_distance(cs[j].pm.motion, *previous);
-        if (dist < best) best = dist, pick = j;
-      }
-    }
-    out[k] = cs[pick].pm;
-    if (out[k].ok) previous = out[k].motion;
-  }
+  for (int k = 0; k < npairs; ++k) out[k] = detail::choose_pair_motion(cands[k], data[k], previous, o, cam, ro);
   return out;
 }
 

@@ -59,7 +59,7 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
   }
   if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
   return {{"front_end", fe},
-          {"features", {{"causal", o.features.causal}, {"future_frames", o.features.future_frames}}},
+          {"features", feature_options_json(o.features)},
           {"input", {{"sequence_json_fnv1a64", sequence_digest(seq)}}}};
 }
 
@@ -155,7 +155,13 @@ const char* motion_method_name(MotionMethod m) {
   return "?";
 }
 
-PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count) {
+Json feature_options_json(const FeatureOptions& o) {
+  Json j = {{"causal", o.causal}, {"future_frames", o.future_frames}};
+  if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
+  return j;
+}
+
+PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count, int causal_min_frames) {
   PointCloudVideo v;
   v.poses.assign(frame_count, Pose{});
   v.observations.resize(frame_count);
@@ -165,7 +171,7 @@ PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count) {
   }
   for (std::size_t k = 0; k < fe.tracks.size(); ++k) {
     const Track& t = fe.tracks[k];
-    for (std::size_t i = 0; i < t.size(); ++i) {
+    for (std::size_t i = causal_min_frames > 0 ? causal_min_frames - 1 : 0; i < t.size(); ++i) {
       const int f = t.frames[i];
       if (f < 0 || f >= frame_count) continue;
       Observation o;
@@ -265,7 +271,8 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
                     " frames (" + (sfm ? "a camera that does not move? blank frames?" : "blank frames? too few frames?") +
                     "): there is nothing to compute features from");
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
-  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count());
+  const int min_frames = sfm ? effective_sfm(opt).filters.min_frames : opt.front_end.filters.min_frames;
+  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
   const PointAttributes attrs = compute_point_attributes(video, opt.features);
   report.cloud = track_cloud(fe, video, attrs);
   {

@@ -60,6 +60,37 @@ void FeatureOptions::validate() const {
     throw Error("", "--future-frames", "must be in 0..100000 (got " + std::to_string(future_frames) + ")");
 }
 
+void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {
+  const Eigen::Matrix3d R = rotation(pose);
+  const Eigen::Vector3d C = centre(pose);
+  out.world.resize(obs.size());
+  out.fH.resize(obs.size());
+  out.fC.resize(obs.size());
+  out.fR.resize(obs.size());
+  for (std::size_t i = 0; i < obs.size(); ++i) {
+    const Eigen::Vector3d w = R * obs[i].cam + C;
+    out.world[i] = w;
+    out.fH[i] = w.y();
+    TrackState& t = tracks_[obs[i].track];
+    out.fR[i] = t.last_frame >= 0 ? (w - t.last_world).norm() : 0.0;
+    t.running_min = std::min(t.running_min, (w - C).norm());
+    out.fC[i] = t.running_min;  // causal value: camera path up to this frame
+    t.last_frame = frame_;
+    t.last_world = w;
+  }
+  ++frame_;
+}
+
+void CausalPointAttributes::keep_only(const std::vector<int>& live_tracks) {
+  for (auto it = tracks_.begin(); it != tracks_.end();)
+    it = std::binary_search(live_tracks.begin(), live_tracks.end(), it->first) ? std::next(it) : tracks_.erase(it);
+}
+
+const CausalPointAttributes::TrackState* CausalPointAttributes::track(int id) const {
+  const auto it = tracks_.find(id);
+  return it == tracks_.end() ? nullptr : &it->second;
+}
+
 PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt) {
   opt.validate();
   const int n = video.frame_count();
@@ -70,47 +101,27 @@ PointAttributes compute_point_attributes(const PointCloudVideo& video, const Fea
   a.fH.resize(n);
   a.fC.resize(n);
   a.fR.resize(n);
-  std::vector<Eigen::Matrix3d> R(n);
-  std::vector<Eigen::Vector3d> C(n);
+  CausalPointAttributes causal;
+  std::unordered_map<int, std::vector<std::pair<int, int>>> seen;  // per track: (frame, index in that frame)
   for (int f = 0; f < n; ++f) {
-    R[f] = rotation(video.poses[f]);
-    C[f] = centre(video.poses[f]);
-  }
-
-  // Per track: last frame seen, last world position, running minimum of the distance to the camera.
-  struct TrackState {
-    int last_frame = -1;
-    Eigen::Vector3d last_world{0, 0, 0};
-    double running_min = std::numeric_limits<double>::infinity();
-    std::vector<std::pair<int, int>> seen;  // (frame, index in that frame)
-  };
-  std::unordered_map<int, TrackState> tracks;
-  for (int f = 0; f < n; ++f) {
-    const auto& obs = video.observations[f];
-    a.world[f].resize(obs.size());
-    a.fH[f].resize(obs.size());
-    a.fC[f].resize(obs.size());
-    a.fR[f].resize(obs.size());
-    for (std::size_t i = 0; i < obs.size(); ++i) {
-      const Eigen::Vector3d w = R[f] * obs[i].cam + C[f];
-      a.world[f][i] = w;
-      a.fH[f][i] = w.y();
-      TrackState& t = tracks[obs[i].track];
-      a.fR[f][i] = t.last_frame >= 0 ? (w - t.last_world).norm() : 0.0;
-      t.running_min = std::min(t.running_min, (w - C[f]).norm());
-      a.fC[f][i] = t.running_min;  // causal value: camera path up to this frame
-      t.last_frame = f;
-      t.last_world = w;
-      t.seen.emplace_back(f, static_cast<int>(i));
-    }
+    FrameAttributes fa;
+    causal.add_frame(video.poses[f], video.observations[f], fa);
+    a.world[f] = std::move(fa.world);
+    a.fH[f] = std::move(fa.fH);
+    a.fC[f] = std::move(fa.fC);
+    a.fR[f] = std::move(fa.fR);
+    if (!opt.causal)
+      for (std::size_t i = 0; i < video.observations[f].size(); ++i)
+        seen[video.observations[f][i].track].emplace_back(f, static_cast<int>(i));
   }
   if (!opt.causal) {
     // Whole track plus the next future_frames frames of camera motion applied to its last position.
-    for (auto& [id, t] : tracks) {
+    for (const auto& [id, at] : seen) {
+      const CausalPointAttributes::TrackState& t = *causal.track(id);
       double best = t.running_min;
       const int end = std::min(n - 1, t.last_frame + opt.future_frames);
-      for (int f = t.last_frame + 1; f <= end; ++f) best = std::min(best, (t.last_world - C[f]).norm());
-      for (const auto& [f, i] : t.seen) a.fC[f][i] = best;
+      for (int f = t.last_frame + 1; f <= end; ++f) best = std::min(best, (t.last_world - centre(video.poses[f])).norm());
+      for (const auto& [f, i] : at) a.fC[f][i] = best;
     }
   }
   return a;

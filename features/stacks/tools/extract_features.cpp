@@ -93,7 +93,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--seed", opt.sfm.seed, "sfm: RANSAC seed")->capture_default_str()
       ->check(smseg::kDecimalDigits);
-  app.add_flag("--causal", opt.features.causal, "fC from the camera path up to the current frame only (on-line use)");
+  app.add_flag("--causal", opt.features.causal,
+               "only what is known at each frame (on-line use, what label-stream computes): fC from the camera\n"
+               "path up to the frame, and a track's points from the frame it reaches --min-track-frames on");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");

@@ -43,7 +43,13 @@ struct ExtractReport {
 };
 
 /// The point observations of each frame, from the front end's tracks (track id = index in tracks).
-PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_count);
+/// causal_min_frames > 0 is the causal rule (FeatureOptions::causal): a track's observations are used
+/// from its causal_min_frames-th on, the frame at which it is known to pass the track-length filter
+/// (TrackFilterOptions::min_frames), as a live stream sees it (stream.hpp).
+PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_count, int causal_min_frames = 0);
+
+/// The feature options as recorded in stacks.json (and in run-experiment's cache keys).
+Json feature_options_json(const FeatureOptions& options);
 
 /// Runs everything for `seq` into the work folder `work`. A work folder made with other options is an
 /// Error unless force is set (then it is rebuilt). MotionMethod::Stereo on a mono sequence is an Error. Frames whose stacks exist are skipped unless force.

@@ -14,7 +14,9 @@
 //       frame)
 // Point features are added at the point's (rounded) pixel, so two points on one pixel add up.
 
+#include <limits>
 #include <string>
+#include <unordered_map>
 #include <vector>
 
 #include <Eigen/Core>
@@ -55,6 +57,34 @@ struct PointAttributes {
 };
 
 PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt);
+
+/// One frame's share of PointAttributes.
+struct FrameAttributes {
+  std::vector<Eigen::Vector3d> world;
+  std::vector<double> fH, fC, fR;
+};
+
+/// The causal attributes one frame at a time (what compute_point_attributes computes with
+/// FeatureOptions::causal, and the first pass of the default): world position and fH, fR from the
+/// track's previous observation, fC as the closest approach to the camera path so far.
+class CausalPointAttributes {
+ public:
+  /// The next frame's attributes (frames are counted from 0 in the order they are added).
+  void add_frame(const Pose& pose, const std::vector<Observation>& observations, FrameAttributes& out);
+  /// Forgets the tracks not in `live_tracks` (ascending ids): a stream's tracks that have ended.
+  void keep_only(const std::vector<int>& live_tracks);
+
+  struct TrackState {
+    int last_frame = -1;
+    Eigen::Vector3d last_world{0, 0, 0};
+    double running_min = std::numeric_limits<double>::infinity();
+  };
+  const TrackState* track(int id) const;  ///< nullptr when the track was never seen (or forgotten)
+
+ private:
+  std::unordered_map<int, TrackState> tracks_;
+  int frame_ = 0;
+};
 
 /// The six rasters (CV_64FC1, `size`) of one frame, in structure_feature_names() order.
 std::vector<cv::Mat> rasterise_features(const PointCloudVideo& video, const PointAttributes& attrs, int frame,

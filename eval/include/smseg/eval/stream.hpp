@@ -1,0 +1,66 @@
+#pragma once
+// Labelling a live stereo stream (label-stream): each stereo pair goes through the stereo front end
+// one frame at a time (frontend/stream.hpp), its causal feature stack is made in memory
+// (stacks/stream_features.hpp: no stack file is written) and the forest labels it per pixel or by
+// grid or superpixel voting (label_frame). With the same options its labels are those of
+// `extract-features --causal` + `eval-forest` on the same frames (tests/eval/test_label_stream.cpp).
+
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "smseg/eval/evaluate.hpp"
+#include "smseg/frontend/stream.hpp"
+#include "smseg/stacks/stream_features.hpp"
+
+namespace smseg::eval {
+
+struct StreamOptions {
+  features::FrontEndOptions front_end;  ///< the stereo front end (as extract-features takes it)
+  EvalOptions eval;                     ///< per pixel, grid or superpixel voting, smoothing; frames and pictures unused
+};
+
+/// Milliseconds of each stage of one frame.
+struct StreamStageTimes {
+  features::StreamFrontEndTimes front_end;
+  double features = 0;  ///< point attributes, rasters and summed-area tables
+  double classify = 0;  ///< regions, classification, voting and smoothing (label_frame)
+};
+
+class StreamLabeller {
+ public:
+  /// The forest must have been trained on `size` frames and read only the structure-and-motion
+  /// features (and textons, from the left image); Error naming `forest_file` otherwise. Calibration
+  /// and camera height as StereoFrontEndStream needs them (Error naming `source`).
+  StreamLabeller(const forest::Forest& forest, const std::string& forest_file, const features::Calibration& calibration,
+                 std::optional<double> camera_height, cv::Size size, const StreamOptions& options,
+                 const std::string& source);
+
+  /// The first half of a frame's work, which needs no earlier frame (disparity, keypoints): thread-safe,
+  /// so that a pipeline prepares the next pairs while label() runs (8-bit grey images).
+  features::StereoFrontEndStream::Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
+
+  /// Labels the next prepared pair, in order. `frame_index` keys the voting pixels (a sequence's
+  /// frame number, as eval-forest uses it). Returns the class positions (CV_8UC1).
+  cv::Mat label(features::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
+
+  /// prepare() then label().
+  cv::Mat push(const cv::Mat& left_gray, const cv::Mat& right_gray, int frame_index, StreamStageTimes* times = nullptr) {
+    return label(prepare(left_gray, right_gray), frame_index, times);
+  }
+
+  /// The last frame's front-end result (pose, observations).
+  const features::StreamFrame& last_frame() const { return frame_; }
+
+ private:
+  std::vector<int> table_of_feature_;  // per forest feature: its index in structure_feature_names()
+  forest::Classifier classifier_;
+  EvalOptions eval_;
+  cv::Size size_;
+  features::StereoFrontEndStream front_end_;
+  features::FeatureStream features_;
+  features::StreamFrame frame_;
+};
+
+}  // namespace smseg::eval

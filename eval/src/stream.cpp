@@ -1,0 +1,89 @@
+#include "smseg/eval/stream.hpp"
+
+#include <algorithm>
+#include <chrono>
+
+namespace smseg::eval {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+features::FeatureOptions causal_features() {
+  features::FeatureOptions f;
+  f.causal = true;
+  return f;
+}
+
+// Where each of the forest's features is in the stream's stack (structure_feature_names order).
+std::vector<int> feature_tables(const forest::Forest& forest, const std::string& forest_file) {
+  const auto& names = features::structure_feature_names();
+  std::vector<int> tables;
+  for (const std::string& f : forest.features) {
+    const auto it = std::find(names.begin(), names.end(), f);
+    if (it == names.end())
+      throw Error(forest_file, "features", "the forest reads feature '" + f + "', which a stream does not compute");
+    tables.push_back(static_cast<int>(it - names.begin()));
+  }
+  return tables;
+}
+
+// What a stream cannot do, said before anything is built: frames of another size than the forest's,
+// a feature it does not compute, the training filters that read the ground truth.
+std::vector<int> checked_feature_tables(const forest::Forest& forest, const std::string& forest_file, cv::Size size,
+                                        const StreamOptions& options, const std::string& source) {
+  if (forest.width != size.width || forest.height != size.height)
+    throw Error(source, "image_size",
+                "frames are " + std::to_string(size.width) + "x" + std::to_string(size.height) + ", the forest " +
+                    forest_file + " was trained on " + std::to_string(forest.width) + "x" + std::to_string(forest.height));
+  if (options.front_end.filters.require_label)
+    throw Error(source, "filters.require_label", "reads the ground truth: a stream has none");
+  return feature_tables(forest, forest_file);
+}
+
+}  // namespace
+
+StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& forest_file,
+                               const features::Calibration& calibration, std::optional<double> camera_height,
+                               cv::Size size, const StreamOptions& options, const std::string& source)
+    : table_of_feature_(checked_feature_tables(forest, forest_file, size, options, source)),
+      classifier_(options.eval.trees > 0 ? first_trees(forest, options.eval.trees) : forest),
+      eval_(options.eval),
+      size_(size),
+      front_end_(calibration, camera_height, options.front_end, source),
+      features_(size, causal_features(), options.front_end.filters.min_frames) {
+  eval_.validate();
+}
+
+features::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& left, const cv::Mat& right) const {
+  return front_end_.prepare(left, right);
+}
+
+cv::Mat StreamLabeller::label(features::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
+  const cv::Mat left = pair.left;
+  if (left.size() != size_)
+    throw Error("", "frame " + std::to_string(frame_index),
+                "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream is " +
+                    std::to_string(size_.width) + "x" + std::to_string(size_.height));
+  frame_ = front_end_.advance(std::move(pair));
+  auto t0 = Clock::now();
+  const std::vector<cv::Mat>& sats = features_.push(frame_);
+  const double features_ms = ms_since(t0);
+
+  forest::FrameData data;
+  data.width = size_.width;
+  data.height = size_.height;
+  for (int t : table_of_feature_) data.sats.push_back(sats[t].ptr<double>());
+  data.gray = left.ptr<std::uint8_t>();  // prepare() made a continuous copy
+  t0 = Clock::now();
+  cv::Mat labels = label_frame(classifier_, data, eval_, frame_index);
+  if (times) {
+    times->front_end = frame_.ms;
+    times->features = features_ms;
+    times->classify = ms_since(t0);
+  }
+  return labels;
+}
+
+}  // namespace smseg::eval

@@ -1,0 +1,216 @@
+// label-stream's promise (issue "real scale", part 5): a stereo video labelled frame by frame, as it
+// comes, gets exactly the labels of `extract-features --causal` + `eval-forest` on the same frames,
+// per pixel and by grid voting, with either tracker; and the streamed front end follows the same
+// camera path as the whole-sequence one.
+#include <gtest/gtest.h>
+
+#include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+
+#include "smseg/eval/stream.hpp"
+#include "smseg/forest/train.hpp"
+#include "smseg/stacks/extract.hpp"
+#include "smseg/synth/synth.hpp"
+#include "error_text.hpp"
+#include "run_tool.hpp"
+#include "smseg/common/io.hpp"
+#include "temp_dir.hpp"
+
+namespace {
+
+using namespace smseg;
+namespace fs = std::filesystem;
+
+struct StreamCase {
+  std::string name;
+  features::FrameTracker tracker;
+  features::KeypointMethod detector;
+  int grid = 0;
+  bool textons = false;
+  friend void PrintTo(const StreamCase& c, std::ostream* os) { *os << c.name; }
+};
+
+class LabelStream : public ::testing::TestWithParam<StreamCase> {
+ protected:
+  static fs::path dir;
+  static std::optional<features::Sequence> seq;
+  static void SetUpTestSuite() {
+    dir = test::temp_dir("label_stream");
+    features::synth::SynthOptions so;
+    so.frames = 36;
+    so.label_every = 3;
+    seq = features::synth::make_sequence(so, dir / "seq");
+  }
+  static void TearDownTestSuite() { fs::remove_all(dir); }
+
+  static features::FrontEndOptions front_end(const StreamCase& c) {
+    features::FrontEndOptions fe;
+    fe.tracker = c.tracker;
+    fe.tracking.detector = c.detector;
+    fe.progress = false;
+    return fe;
+  }
+};
+fs::path LabelStream::dir;
+std::optional<features::Sequence> LabelStream::seq;
+
+TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
+  const StreamCase& c = GetParam();
+  const fs::path work = dir / ("work-" + c.name);
+  features::ExtractOptions eo;
+  eo.front_end = front_end(c);
+  eo.features.causal = true;
+  eo.progress = false;
+  features::extract_features(*seq, work, eo);
+
+  forest::TrainParams tp;
+  tp.K = 100;
+  tp.Kt = 1500;
+  tp.M = 3;
+  tp.textons = c.textons;
+  const auto training = features::open_stacks({work}, features::FrameRange{}, true, true, {});
+  const forest::Forest forest = forest::train_forest(training.dataset, tp);
+
+  eval::EvalOptions ev;
+  ev.grid = c.grid;
+  ev.votes = 6;
+  const forest::Classifier classifier(forest);
+  const auto all = features::open_stacks({work}, features::FrameRange{}, false, false, forest.features);
+  ASSERT_EQ(static_cast<int>(all.stacks.size()), seq->frame_count());
+
+  eval::StreamOptions so;
+  so.front_end = eo.front_end;
+  so.eval = ev;
+  eval::StreamLabeller stream(forest, "forest.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+  int points = 0;
+  for (int f = 0; f < seq->frame_count(); ++f) {
+    const cv::Mat batch = eval::label_frame(classifier, all.dataset.frames[f], ev, f);
+    const cv::Mat streamed = stream.push(seq->load_left_gray(f), seq->load_right_gray(f), f);
+    ASSERT_EQ(cv::countNonZero(batch != streamed), 0) << c.name << ", frame " << f;
+    points += static_cast<int>(stream.last_frame().observations.size());
+  }
+  EXPECT_GT(points, 20 * seq->frame_count()) << "the stream must have tracked points to compare";
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Trackers, LabelStream,
+    ::testing::Values(StreamCase{"descriptors_pixel_textons", features::FrameTracker::Descriptors,
+                                 features::KeypointMethod::Sift, 0, true},
+                      StreamCase{"descriptors_grid", features::FrameTracker::Descriptors, features::KeypointMethod::Sift,
+                                 20, false},
+                      StreamCase{"klt_gftt_pixel", features::FrameTracker::Klt, features::KeypointMethod::Gftt, 0, false}),
+    [](const ::testing::TestParamInfo<StreamCase>& i) { return i.param.name; });
+
+TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
+  for (const auto tracker : {features::FrameTracker::Descriptors, features::FrameTracker::Klt}) {
+    StreamCase c{"", tracker,
+                 tracker == features::FrameTracker::Klt ? features::KeypointMethod::Gftt : features::KeypointMethod::Sift};
+    const features::FrontEndOptions fe = front_end(c);
+    const features::FrontEndResult whole = features::run_stereo_front_end(*seq, fe);
+    features::StereoFrontEndStream stream(seq->calibration, seq->camera_height, fe, "seq");
+    for (int f = 0; f < seq->frame_count(); ++f) {
+      const features::StreamFrame fr = stream.push(seq->load_left_gray(f), seq->load_right_gray(f));
+      EXPECT_EQ(fr.pose.R, whole.poses[f].R) << features::frame_tracker_name(tracker) << ", frame " << f;
+      EXPECT_EQ(fr.pose.t, whole.poses[f].t) << features::frame_tracker_name(tracker) << ", frame " << f;
+      if (f > 0) {
+        EXPECT_EQ(fr.motion->inliers, whole.pair_motions[f - 1].inliers);
+        EXPECT_EQ(fr.motion->bridged, whole.pair_motions[f - 1].bridged);
+      }
+    }
+  }
+}
+
+// The tool: from the sequence folder, from a side-by-side video and from two cameras (here image
+// sequences, which OpenCV opens as videos, of the same grey frames) it writes the labels eval-forest
+// writes for the causal work folder, and a summary with its speed.
+TEST_F(LabelStream, ToolLabelsFoldersSideBySideVideoAndTwoCamerasAlike) {
+  const StreamCase c{"tool", features::FrameTracker::Descriptors, features::KeypointMethod::Sift};
+  const fs::path work = dir / "work-tool", forest_file = dir / "forest-tool.json";
+  features::ExtractOptions eo;
+  eo.front_end = front_end(c);
+  eo.features.causal = true;
+  eo.progress = false;
+  features::extract_features(*seq, work, eo);
+  forest::TrainParams tp;
+  tp.K = 100;
+  tp.Kt = 1500;
+  tp.M = 3;
+  forest::save_forest(forest::train_forest(features::open_stacks({work}, {}, true, true, {}).dataset, tp), forest_file);
+
+  for (const char* side : {"sbs", "l", "r"}) fs::create_directories(dir / side);
+  for (int f = 0; f < seq->frame_count(); ++f) {
+    const cv::Mat l = seq->load_left_gray(f), r = seq->load_right_gray(f);
+    char name[16];
+    std::snprintf(name, sizeof name, "%06d.png", f);
+    cv::Mat sbs;
+    cv::hconcat(l, r, sbs);
+    ASSERT_TRUE(cv::imwrite((dir / "sbs" / name).string(), sbs));
+    ASSERT_TRUE(cv::imwrite((dir / "l" / name).string(), l));
+    ASSERT_TRUE(cv::imwrite((dir / "r" / name).string(), r));
+  }
+  const std::string common = " " + (dir / "seq").string() + " " + forest_file.string() + " -q --grid 20 --votes 6 -o ";
+  test::Outcome r = test::run(test::tool("eval-forest") + " -q " + forest_file.string() + " " + work.string() +
+                              " --grid 20 --votes 6 -o " + (dir / "eval").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = test::run(test::tool("label-stream") + common + (dir / "folder").string() + " --overlay-video overlay.avi");
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("frames per second"), std::string::npos) << r.out;
+  r = test::run(test::tool("label-stream") + common + (dir / "side").string() + " --side-by-side " +
+                (dir / "sbs" / "%06d.png").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = test::run(test::tool("label-stream") + common + (dir / "cams").string() + " --cameras " +
+                (dir / "l" / "%06d.png").string() + "," + (dir / "r" / "%06d.png").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+
+  int compared = 0;
+  for (int f = 0; f < seq->frame_count(); ++f) {
+    char name[32];
+    std::snprintf(name, sizeof name, "%06d_labels.png", f);
+    const std::string folder = read_file(dir / "folder" / "labels" / name);
+    EXPECT_EQ(read_file(dir / "side" / "labels" / name), folder) << name;
+    EXPECT_EQ(read_file(dir / "cams" / "labels" / name), folder) << name;
+    if (seq->is_labelled(f)) {
+      EXPECT_EQ(read_file(dir / "eval" / "frames" / name), folder) << name;
+      ++compared;
+    }
+  }
+  EXPECT_EQ(compared, 12);
+  const Json summary = read_json(dir / "folder" / "summary.json");
+  EXPECT_EQ(summary["frames"], seq->frame_count());
+  EXPECT_GT(summary["frames_per_second"].get<double>(), 0);
+  EXPECT_GT(summary["latency_ms_median"].get<double>(), 0);
+  for (const char* stage : {"read", "disparity", "keypoints", "tracking", "motion", "features", "classify", "write"})
+    EXPECT_TRUE(summary["stage_ms"].contains(stage)) << stage;
+  cv::VideoCapture video((dir / "folder" / "overlay.avi").string());
+  ASSERT_TRUE(video.isOpened());
+  EXPECT_EQ(static_cast<int>(video.get(cv::CAP_PROP_FRAME_COUNT)), seq->frame_count());
+}
+
+TEST_F(LabelStream, RefusesForestsItCannotFeed) {
+  forest::Forest forest;
+  forest.width = seq->size.width + 1;
+  forest.height = seq->size.height;
+  forest.features = {"fH"};
+  forest.classes = {"a", "b"};
+  eval::StreamOptions so;
+  so.front_end.progress = false;
+  const std::string size_error = test::error_of([&] {
+    eval::StreamLabeller(forest, "f.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+  });
+  EXPECT_NE(size_error.find("f.json was trained on"), std::string::npos) << size_error;
+  forest.width = seq->size.width;
+  forest.features = {"fH", "depth"};
+  const std::string feature_error = test::error_of([&] {
+    eval::StreamLabeller(forest, "f.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+  });
+  EXPECT_NE(feature_error.find("'depth'"), std::string::npos) << feature_error;
+  forest.features = {"fH"};
+  so.front_end.filters.require_label = true;
+  const std::string label_error = test::error_of([&] {
+    eval::StreamLabeller(forest, "f.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+  });
+  EXPECT_NE(label_error.find("require_label"), std::string::npos) << label_error;
+}
+
+}  // namespace
