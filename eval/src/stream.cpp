@@ -2,6 +2,10 @@
 
 #include <algorithm>
 #include <chrono>
+#include <memory>
+
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
 
 namespace smseg::eval {
 
@@ -84,6 +88,48 @@ cv::Mat StreamLabeller::label(features::StereoFrontEndStream::Prepared&& pair, i
     times->classify = ms_since(t0);
   }
   return labels;
+}
+
+int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight) {
+  struct Item {
+    StreamInput input;
+    double read_ms = 0;
+    features::StereoFrontEndStream::Prepared prepared;
+  };
+  using ItemPtr = std::shared_ptr<Item>;
+  int frames = 0;
+  tbb::parallel_pipeline(
+      std::max<std::size_t>(1, in_flight),
+      tbb::make_filter<void, ItemPtr>(tbb::filter_mode::serial_in_order,
+                                      [&](tbb::flow_control& fc) {
+                                        auto item = std::make_shared<Item>();
+                                        item->input.arrived = Clock::now();
+                                        if (!source(item->input)) {
+                                          fc.stop();
+                                          return ItemPtr();
+                                        }
+                                        item->read_ms = ms_since(item->input.arrived);
+                                        return item;
+                                      }) &
+          tbb::make_filter<ItemPtr, ItemPtr>(tbb::filter_mode::parallel,
+                                             [&](ItemPtr item) {
+                                               // Isolated: while its own parallel loops wait, this thread
+                                               // takes no other frame's stage (which would hold them up).
+                                               tbb::this_task_arena::isolate([&] {
+                                                 item->prepared = labeller.prepare(item->input.left, item->input.right);
+                                               });
+                                               return item;
+                                             }) &
+          tbb::make_filter<ItemPtr, void>(tbb::filter_mode::serial_in_order, [&](ItemPtr item) {
+            StreamStageTimes times;
+            cv::Mat labels;
+            tbb::this_task_arena::isolate(
+                [&] { labels = labeller.label(std::move(item->prepared), item->input.index, &times); });
+            times.read = item->read_ms;
+            sink(item->input, labels, times);
+            ++frames;
+          }));
+  return frames;
 }
 
 }  // namespace smseg::eval

@@ -7,12 +7,13 @@
 #include <memory>
 #include <numeric>
 
+#include <opencv2/core/utils/logger.hpp>
 #include <opencv2/highgui.hpp>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
-#include <tbb/parallel_pipeline.h>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/option_names.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/render.hpp"
 #include "smseg/eval/stream.hpp"
@@ -27,17 +28,12 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 volatile std::sig_atomic_t g_stop = 0;  // SIGINT / SIGTERM: finish the frame, write the summary, stop
 extern "C" void on_stop_signal(int) { g_stop = 1; }
 
-// One stereo pair from wherever frames come from.
-struct StereoPair {
-  int index = 0;     // the sequence's frame number (frames counted from 0 for live sources)
-  cv::Mat left_bgr;  // for overlays and the window (may be empty when neither is asked for)
-  cv::Mat left, right;  // 8-bit grey
-};
-
+// Stereo pairs from wherever frames come from: index is the sequence's frame number (counted from 0
+// for live sources); left_bgr is filled only when pictures need it.
 class FrameSource {
  public:
   virtual ~FrameSource() = default;
-  virtual bool next(StereoPair& pair, bool want_colour) = 0;  // false at the end
+  virtual bool next(eval::StreamInput& pair, bool want_colour) = 0;  // false at the end
 };
 
 // The frames of a stereo sequence folder.
@@ -50,7 +46,7 @@ class SequenceFrames : public FrameSource {
       throw Error("", "--frames", range.str() + " selects none of the " + std::to_string(seq.frame_count()) +
                                            " frames of " + seq.manifest.string());
   }
-  bool next(StereoPair& p, bool want_colour) override {
+  bool next(eval::StreamInput& p, bool want_colour) override {
     if (next_ >= end_) return false;
     p.index = next_++;
     p.left = seq_.load_left_gray(p.index);
@@ -68,6 +64,9 @@ class SequenceFrames : public FrameSource {
 cv::VideoCapture open_capture(const std::string& what, const std::string& option) {
   cv::VideoCapture cap;
   const bool index = !what.empty() && std::all_of(what.begin(), what.end(), ::isdigit);
+  const bool file = !index && what.find("://") == std::string::npos && what.find('%') == std::string::npos;
+  std::error_code ec;
+  if (file && !fs::is_regular_file(what, ec)) throw Error(what, option, "no such video file");
   const bool ok = index ? cap.open(std::stoi(what)) : cap.open(what);
   if (!ok || !cap.isOpened()) throw Error(what, option, "cannot be opened as a video source");
   return cap;
@@ -90,7 +89,7 @@ class VideoFrames : public FrameSource {
     if (!right.empty()) right_ = open_capture(right, "--cameras");
     side_by_side_ = right.empty();
   }
-  bool next(StereoPair& p, bool) override {
+  bool next(eval::StreamInput& p, bool) override {
     if (max_frames_ > 0 && count_ >= max_frames_) return false;
     cv::Mat l, r;
     if (!left_.read(l) || l.empty()) return false;
@@ -140,8 +139,8 @@ struct StageLog {
   static double mean(const std::vector<double>& v) {
     return v.empty() ? 0 : std::accumulate(v.begin(), v.end(), 0.0) / static_cast<double>(v.size());
   }
-  void add(double read, const eval::StreamStageTimes& t, double write, double total) {
-    const double v[8] = {read, t.front_end.disparity, t.front_end.keypoints, t.front_end.tracking,
+  void add(const eval::StreamStageTimes& t, double write, double total) {
+    const double v[8] = {t.read, t.front_end.disparity, t.front_end.keypoints, t.front_end.tracking,
                          t.front_end.motion, t.features, t.classify, write};
     for (int k = 0; k < 8; ++k) ms[k].push_back(v[k]);
     latency.push_back(total);
@@ -229,6 +228,8 @@ int main(int argc, char** argv) {
   add_threads_option(app, threads, "the labels do not depend on it");
   app.add_flag("-q,--quiet", quiet, "only the summary line");
   return run_tool(app, argc, argv, threads, [&] {
+    // OpenCV's video back ends log every failed attempt; the tool says what failed in one line.
+    cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
     opt.front_end.stereo.method = features::parse_stereo_method(stereo, "--stereo");
     if (opt.front_end.stereo.method == features::StereoMethod::Given)
       throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm or sgbm");
@@ -246,10 +247,13 @@ int main(int argc, char** argv) {
     if (!(video_fps > 0 && video_fps <= 1000)) throw UsageError("", "--video-fps", "must be in (0, 1000]");
     if (!video.empty() && fs::path(video).filename() != fs::path(video))
       throw UsageError("", "--overlay-video", "is a file name inside OUT, not a path: '" + video + "'");
-    as_usage([&] {
-      opt.eval.validate();
-      opt.front_end.validate();
-    });
+    static const OptionNames kOptionOf = {
+        {"stereo.num_disparities", "--num-disparities"}, {"stereo.block_size", "--block-size"},
+        {"tracking.max_keypoints", "--max-keypoints"},   {"tracking.gftt_quality", "--gftt-quality"},
+        {"tracking.detector", "--keypoints"},            {"filters.min_frames", "--min-track-frames"},
+        {"camera_height", "--camera-height"}};
+    as_usage([&] { opt.eval.validate(); });
+    validate_options(kOptionOf, [&] { opt.front_end.validate(); });
     const features::FrameRange range = as_usage([&] { return features::FrameRange::parse(frames, "--frames"); });
     std::string left_cam, right_cam;
     if (!cameras.empty()) {
@@ -283,7 +287,7 @@ int main(int argc, char** argv) {
         !writer.open((staging / video).string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), video_fps, seq.size))
       throw Error((fs::path(out) / video).string(), "--overlay-video", "cannot be written (MJPG)");
     const bool colour = overlays || show || writer.isOpened();
-    auto write_outputs = [&](const StereoPair& pair, const cv::Mat& labels) {
+    auto write_outputs = [&](const eval::StreamInput& pair, const cv::Mat& labels) {
       const std::string base = stem(pair.index);
       cv::Mat coloured;
       if (!no_labels || colour) coloured = features::colour_labels(labels, seq);
@@ -301,47 +305,18 @@ int main(int argc, char** argv) {
     std::signal(SIGINT, on_stop_signal);
     std::signal(SIGTERM, on_stop_signal);
 
-    // A pipeline of three stages: frames are read in order, their disparity and keypoints computed in
-    // parallel (up to `kInFlight` frames at once), and then labelled and written in order.
-    constexpr std::size_t kInFlight = 3;
-    struct Item {
-      StereoPair pair;
-      Clock::time_point start;
-      double read_ms = 0;
-      features::StereoFrontEndStream::Prepared prepared;
-    };
     StageLog log;
     const auto wall0 = Clock::now();
     int first = -1, last = -1;
-    tbb::parallel_pipeline(
-        kInFlight,
-        tbb::make_filter<void, std::shared_ptr<Item>>(tbb::filter_mode::serial_in_order,
-                                                      [&](tbb::flow_control& fc) {
-                                                        auto item = std::make_shared<Item>();
-                                                        item->start = Clock::now();
-                                                        if (g_stop || !source->next(item->pair, colour)) {
-                                                          fc.stop();
-                                                          return std::shared_ptr<Item>();
-                                                        }
-                                                        item->read_ms = ms_since(item->start);
-                                                        return item;
-                                                      }) &
-            tbb::make_filter<std::shared_ptr<Item>, std::shared_ptr<Item>>(
-                tbb::filter_mode::parallel,
-                [&](std::shared_ptr<Item> item) {
-                  item->prepared = labeller.prepare(item->pair.left, item->pair.right);
-                  return item;
-                }) &
-            tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Item> item) {
-              const StereoPair& pair = item->pair;
-              eval::StreamStageTimes times;
-              const cv::Mat labels = labeller.label(std::move(item->prepared), pair.index, &times);
-              const auto tw = Clock::now();
-              write_outputs(pair, labels);
-              log.add(item->read_ms, times, ms_since(tw), ms_since(item->start));
-              if (first < 0) first = pair.index;
-              last = pair.index;
-            }));
+    eval::run_stream(
+        labeller, [&](eval::StreamInput& in) { return !g_stop && source->next(in, colour); },
+        [&](const eval::StreamInput& in, const cv::Mat& labels, const eval::StreamStageTimes& times) {
+          const auto tw = Clock::now();
+          write_outputs(in, labels);
+          log.add(times, ms_since(tw), ms_since(in.arrived));
+          if (first < 0) first = in.index;
+          last = in.index;
+        });
     const double wall_s = ms_since(wall0) / 1000;
     writer.release();
     const int n = static_cast<int>(log.latency.size());

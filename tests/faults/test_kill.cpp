@@ -142,6 +142,20 @@ TEST(Kill, EvalForestLeavesTheOldFolderOrNone) {
   fs::remove_all(dir);
 }
 
+TEST(Kill, LabelStreamLeavesTheOldFolderOrNone) {
+  const fs::path dir = temp_dir("kill_stream");
+  const fs::path forest = train_small_forest(dir), out = dir / "stream";
+  const fs::path seq = kSmallCorridor / "data" / "corridor";
+  const Command stream = {tool("label-stream"), "-q", seq.string(), forest.string(), "--overlays", "-o", out.string()};
+  kill_and_rerun({stream, {out}, dir, ""}, {}, 501);
+  // An older result of other options (grid labels, no overlays), and a file of the user's.
+  must_run(tool("label-stream") + " -q " + q(seq) + " " + q(forest) + " --grid 10 --votes 3 -o " + q(out));
+  std::ofstream(out / "notes.txt") << "the user's own file\n";
+  kill_and_rerun({stream, {out}, dir, ""}, snapshot(dir, {out}), 502);
+  EXPECT_TRUE(fs::exists(out / "notes.txt"));
+  fs::remove_all(dir);
+}
+
 TEST(Kill, SegmentCloudLeavesNoSummaryBesideAnotherRunsFiles) {
   const fs::path dir = temp_dir("kill_cloud");
   const fs::path input = dir / "input-table.pcd", out = dir / "seg.pcd";

@@ -5,6 +5,8 @@
 // grid or superpixel voting (label_frame). With the same options its labels are those of
 // `extract-features --causal` + `eval-forest` on the same frames (tests/eval/test_label_stream.cpp).
 
+#include <chrono>
+#include <functional>
 #include <optional>
 #include <string>
 
@@ -23,6 +25,7 @@ struct StreamOptions {
 
 /// Milliseconds of each stage of one frame.
 struct StreamStageTimes {
+  double read = 0;      ///< the source's time to give the pair
   features::StreamFrontEndTimes front_end;
   double features = 0;  ///< point attributes, rasters and summed-area tables
   double classify = 0;  ///< regions, classification, voting and smoothing (label_frame)
@@ -62,5 +65,23 @@ class StreamLabeller {
   features::FeatureStream features_;
   features::StreamFrame frame_;
 };
+
+/// One stereo pair of a stream, as a source gives it.
+struct StreamInput {
+  int index = 0;        ///< the frame's number (keys the voting pixels)
+  cv::Mat left, right;  ///< 8-bit grey
+  cv::Mat left_bgr;     ///< optional: the colour image, for pictures
+  std::chrono::steady_clock::time_point arrived;  ///< when reading it began (latency counts from here)
+};
+/// Fills the next pair; false at the end of the stream.
+using StreamSource = std::function<bool(StreamInput&)>;
+/// Takes each labelled frame, in order.
+using StreamSink = std::function<void(const StreamInput&, const cv::Mat& labels, const StreamStageTimes&)>;
+
+/// Runs a stream through the labeller as a pipeline: pairs are read in order, up to `in_flight` of
+/// them prepared (disparity, keypoints) in parallel, then labelled and handed to the sink in order.
+/// The labels are those of labeller.push() frame after frame, whatever the thread count. Returns the
+/// number of frames.
+int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight = 3);
 
 }  // namespace smseg::eval
