@@ -8,8 +8,11 @@
 
 namespace smseg::forest {
 
-Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::span<const std::uint8_t> labels,
-                      int num_classes, const std::string& source) {
+namespace {
+
+// The corpus of a table without its values: the checks, one test per row, candidate c = column c.
+Corpus corpus_without_values(std::span<const float> values, std::size_t columns, std::span<const std::uint8_t> labels,
+                             int num_classes, const std::string& source) {
   const std::size_t rows = labels.size();
   if (rows == 0) throw Error(source, "rows", "no rows");
   if (columns == 0) throw Error(source, "columns", "no columns");
@@ -28,6 +31,21 @@ Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::s
                                                           std::to_string(num_classes) + " classes");
     corpus.tests[r].label = labels[r];
   }
+  return corpus;
+}
+
+std::vector<std::uint64_t> tree_seeds(int trees, std::uint64_t seed) {
+  std::vector<std::uint64_t> seeds(static_cast<std::size_t>(std::max(trees, 0)));
+  for (int t = 0; t < trees; ++t) seeds[static_cast<std::size_t>(t)] = tree_seed(seed, t);
+  return seeds;
+}
+
+}  // namespace
+
+Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::span<const std::uint8_t> labels,
+                      int num_classes, const std::string& source) {
+  Corpus corpus = corpus_without_values(values, columns, labels, num_classes, source);
+  const std::size_t rows = labels.size();
   corpus.values.resize(rows * columns);  // candidate-major, the corpus's layout
   for (std::size_t r = 0; r < rows; ++r)
     for (std::size_t c = 0; c < columns; ++c) corpus.values[c * rows + r] = values[r * columns + c];
@@ -35,9 +53,14 @@ Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::s
 }
 
 std::vector<Tree> grow_tabular_forest(const Corpus& corpus, int trees, int n_min, std::uint64_t seed, Score score) {
-  std::vector<std::uint64_t> seeds(static_cast<std::size_t>(std::max(trees, 0)));
-  for (int t = 0; t < trees; ++t) seeds[static_cast<std::size_t>(t)] = tree_seed(seed, t);
-  return grow_trees(corpus, n_min, seeds, score);
+  return grow_trees(corpus, n_min, tree_seeds(trees, seed), score);
+}
+
+std::vector<Tree> grow_tabular_forest(std::span<const float> values, std::size_t columns,
+                                      std::span<const std::uint8_t> labels, int num_classes, int trees, int n_min,
+                                      std::uint64_t seed, Score score, const std::string& source) {
+  const Corpus corpus = corpus_without_values(values, columns, labels, num_classes, source);
+  return grow_trees_from_rows(corpus, values.data(), n_min, tree_seeds(trees, seed), score);
 }
 
 int tabular_posterior(const std::vector<Tree>& trees, const float* row, int num_classes, std::vector<double>& acc) {

@@ -355,9 +355,10 @@ Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree) {
 }
 
 namespace {
-void check_corpus(const Corpus& corpus, Score score) {
+// `with_values`: the corpus must carry its values (else they come test-major from the caller).
+void check_corpus(const Corpus& corpus, Score score, bool with_values = true) {
   if (corpus.tests.empty()) throw Error("", "corpus", "no tests");
-  if (corpus.values.size() != corpus.tests.size() * corpus.candidates.size())
+  if (with_values && corpus.values.size() != corpus.tests.size() * corpus.candidates.size())
     throw Error("", "corpus.values", "size is not tests x candidates");
   for (const auto& t : corpus.tests)
     if (t.label >= corpus.num_classes) throw Error("", "corpus.tests", "label outside the class list");
@@ -374,9 +375,15 @@ Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed, Score score)
 std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const std::uint64_t> seeds, Score score) {
   check_corpus(corpus, score);
   const auto rows = transpose_values(corpus.values.data(), corpus.tests.size(), corpus.candidates.size());
+  return grow_trees_from_rows(corpus, rows.get(), n_min, seeds, score);
+}
+
+std::vector<Tree> grow_trees_from_rows(const Corpus& corpus, const float* rows, int n_min,
+                                       std::span<const std::uint64_t> seeds, Score score) {
+  check_corpus(corpus, score, false);
   std::vector<Tree> trees(seeds.size());
   tbb::parallel_for(std::size_t{0}, seeds.size(), [&](std::size_t t) {
-    trees[t] = Grower(corpus, rows.get(), n_min, seeds[t], score).grow();
+    trees[t] = Grower(corpus, rows, n_min, seeds[t], score).grow();
   });
   return trees;
 }

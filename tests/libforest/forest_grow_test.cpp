@@ -7,6 +7,7 @@
 #include "forest_test_util.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/forest/rng.hpp"
+#include "smseg/forest/tabular.hpp"
 
 using namespace forest_test;
 
@@ -319,6 +320,29 @@ TEST(GrowTree, InformationGainEqualsTheReferenceAndIsDeterministic) {
     for (std::size_t i = 0; i < seeds.size(); ++i) expect_same_tree(many[i], grow_tree(c, 5, seeds[i], Score::InformationGain));
   }
   EXPECT_GT(differ, 0);  // the option does change trees
+}
+
+// A table's rows grown in place (forest-peers, the Python ExtraTreesClassifier) give the trees of its
+// corpus copy.
+TEST(GrowTree, TabularRowsInPlaceGrowTheCorpusTrees) {
+  Rng rng(77);
+  const std::size_t rows = 300, columns = 17;
+  const int classes = 4;
+  std::vector<float> values(rows * columns);
+  std::vector<std::uint8_t> labels(rows);
+  for (std::size_t r = 0; r < rows; ++r) {
+    labels[r] = static_cast<std::uint8_t>(rng.below(classes));
+    for (std::size_t c = 0; c < columns; ++c)
+      values[r * columns + c] = static_cast<float>(rng.uniform()) + (c % 3 == 0 ? 0.4f * labels[r] : 0.0f);
+  }
+  for (const Score score : {Score::WehenkelPavella, Score::InformationGain}) {
+    const std::vector<Tree> copied = grow_tabular_forest(tabular_corpus(values, columns, labels, classes), 3, 5, 9, score);
+    const std::vector<Tree> in_place = grow_tabular_forest(values, columns, labels, classes, 3, 5, 9, score);
+    ASSERT_EQ(copied.size(), in_place.size());
+    for (std::size_t t = 0; t < copied.size(); ++t) expect_same_tree(in_place[t], copied[t]);
+  }
+  labels[5] = classes;  // a label outside the classes is refused the same way
+  EXPECT_THROW(grow_tabular_forest(values, columns, labels, classes, 3, 5, 9, Score::WehenkelPavella), smseg::Error);
 }
 
 TEST(GrowTree, TrainForestUsesTheScoreOption) {

@@ -131,10 +131,10 @@ std::shared_ptr<TabularForest> fit_tabular(const FloatArray& X, const ByteArray&
   auto model = std::make_shared<TabularForest>();
   model->num_classes = num_classes;
   model->columns = static_cast<std::size_t>(X.shape(1));
-  const forest::Corpus corpus = forest::tabular_corpus({X.data(), static_cast<std::size_t>(X.size())}, model->columns,
-                                                       {y.data(), static_cast<std::size_t>(y.size())}, num_classes, "X");
-  py::gil_scoped_release unlocked;
-  model->trees = forest::grow_tabular_forest(corpus, n_estimators, n_min, seed, s);
+  py::gil_scoped_release unlocked;  // X and y stay alive (the caller holds them); the rows are read in place
+  model->trees = forest::grow_tabular_forest({X.data(), static_cast<std::size_t>(X.size())}, model->columns,
+                                             {y.data(), static_cast<std::size_t>(y.size())}, num_classes,
+                                             n_estimators, n_min, seed, s, "X");
   return model;
 }
 

@@ -23,6 +23,12 @@ Corpus tabular_corpus(std::span<const float> values, std::size_t columns, std::s
 /// `trees` trees grown from the corpus, tree t seeded by tree_seed(seed, t).
 std::vector<Tree> grow_tabular_forest(const Corpus& corpus, int trees, int n_min, std::uint64_t seed, Score score);
 
+/// The same trees grown straight from the row-major table (the grower's layout): no copy of the
+/// values is made, so a table as large as memory allows can be trained on. Errors as tabular_corpus.
+std::vector<Tree> grow_tabular_forest(std::span<const float> values, std::size_t columns,
+                                      std::span<const std::uint8_t> labels, int num_classes, int trees, int n_min,
+                                      std::uint64_t seed, Score score, const std::string& source = "tabular data");
+
 /// Summed normalised leaf distributions of one row (acc: num_classes values, overwritten); returns the
 /// argmax (lowest class on ties). A node sends the row left when double(row[feature]) < threshold.
 int tabular_posterior(const std::vector<Tree>& trees, const float* row, int num_classes, std::vector<double>& acc);

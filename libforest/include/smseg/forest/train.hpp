@@ -72,6 +72,12 @@ Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed, Score score 
 std::vector<Tree> grow_trees(const Corpus& corpus, int n_min, std::span<const std::uint64_t> seeds,
                              Score score = Score::WehenkelPavella);
 
+/// grow_trees on values the caller already holds test-major (rows[t * candidates + c], the grower's
+/// layout: a table's rows), so that no copy is made; corpus.values is not read (it may be empty).
+/// The same trees as grow_trees on the corpus with those values.
+std::vector<Tree> grow_trees_from_rows(const Corpus& corpus, const float* rows, int n_min,
+                                       std::span<const std::uint64_t> seeds, Score score = Score::WehenkelPavella);
+
 /// Wehenkel-Pavella normalised information gain of a binary split, 2 I(C;S) / (H(C) + H(S)),
 /// from the per-class test counts on each side; 0 when either side is empty or H(C) = 0.
 double wehenkel_pavella(std::span<const std::uint32_t> left, std::span<const std::uint32_t> right);
