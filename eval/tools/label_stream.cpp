@@ -181,7 +181,7 @@ int main(int argc, char** argv) {
   std::string seq_dir, forest_file, out, frames = "0:", stereo = "bm", detector = "sift", tracker = "descriptors",
       superpixels, vote = "sum", cameras, side_by_side, video;
   eval::StreamOptions opt;
-  int threads = 0, max_frames = 0;
+  int threads = 0, max_frames = 0, in_flight = 3;
   double camera_height = 0, video_fps = 15;
   bool no_labels = false, overlays = false, show = false, quiet = false, no_refine = false;
   app.add_option("SEQUENCE", seq_dir, "stereo sequence folder (holding sequence.json); with --cameras or --side-by-side "
@@ -197,6 +197,11 @@ int main(int argc, char** argv) {
       ->excludes(cams);
   app.add_option("--max-frames", max_frames, "stop after this many frames of a live source (0: until it ends)")
       ->capture_default_str();
+  app.add_option("--in-flight", in_flight,
+                 "frames in the pipeline at once (1: one at a time, the lowest latency; more: higher throughput "
+                 "when disparity and keypoints take longer than the rest)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 16));
   app.add_option("--grid", opt.eval.grid, "grid voting: cell size B in pixels (0: per pixel)")->capture_default_str();
   app.add_option("--superpixels", superpixels, "superpixel voting: SLIC region size, small, large or N px");
   app.add_option("--votes", opt.eval.votes, "V: random voting pixels per region")->capture_default_str();
@@ -316,7 +321,8 @@ int main(int argc, char** argv) {
           log.add(times, ms_since(tw), ms_since(in.arrived));
           if (first < 0) first = in.index;
           last = in.index;
-        });
+        },
+        static_cast<std::size_t>(in_flight));
     const double wall_s = ms_since(wall0) / 1000;
     writer.release();
     const int n = static_cast<int>(log.latency.size());
@@ -336,6 +342,7 @@ int main(int argc, char** argv) {
                     {"superpixels", opt.eval.superpixels},
                     {"votes", opt.eval.votes},
                     {"threads", threads},
+                    {"in_flight", in_flight},
                     {"front_end", features::front_end_options_to_json(opt.front_end)},
                     {"seconds", wall_s},
                     {"frames_per_second", fps},
