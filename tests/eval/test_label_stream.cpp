@@ -44,6 +44,21 @@ class LabelStream : public ::testing::TestWithParam<StreamCase> {
   }
   static void TearDownTestSuite() { fs::remove_all(dir); }
 
+  // extract-features --causal into `work` with the case's front end, and a small forest trained on it.
+  static forest::Forest causal_forest(const StreamCase& c, const fs::path& work) {
+    features::ExtractOptions eo;
+    eo.front_end = front_end(c);
+    eo.features.causal = true;
+    eo.progress = false;
+    features::extract_features(*seq, work, eo);
+    forest::TrainParams tp;
+    tp.K = 100;
+    tp.Kt = 1500;
+    tp.M = 3;
+    tp.textons = c.textons;
+    return forest::train_forest(features::open_stacks({work}, {}, true, true, {}).dataset, tp);
+  }
+
   static features::FrontEndOptions front_end(const StreamCase& c) {
     features::FrontEndOptions fe;
     fe.tracker = c.tracker;
@@ -58,19 +73,7 @@ std::optional<features::Sequence> LabelStream::seq;
 TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
   const StreamCase& c = GetParam();
   const fs::path work = dir / ("work-" + c.name);
-  features::ExtractOptions eo;
-  eo.front_end = front_end(c);
-  eo.features.causal = true;
-  eo.progress = false;
-  features::extract_features(*seq, work, eo);
-
-  forest::TrainParams tp;
-  tp.K = 100;
-  tp.Kt = 1500;
-  tp.M = 3;
-  tp.textons = c.textons;
-  const auto training = features::open_stacks({work}, features::FrameRange{}, true, true, {});
-  const forest::Forest forest = forest::train_forest(training.dataset, tp);
+  const forest::Forest forest = causal_forest(c, work);
 
   eval::EvalOptions ev;
   ev.grid = c.grid;
@@ -80,7 +83,7 @@ TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
   ASSERT_EQ(static_cast<int>(all.stacks.size()), seq->frame_count());
 
   eval::StreamOptions so;
-  so.front_end = eo.front_end;
+  so.front_end = front_end(c);
   so.eval = ev;
   eval::StreamLabeller stream(forest, "forest.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
   int points = 0;
@@ -127,16 +130,7 @@ TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
 TEST_F(LabelStream, ToolLabelsFoldersSideBySideVideoAndTwoCamerasAlike) {
   const StreamCase c{"tool", features::FrameTracker::Descriptors, features::KeypointMethod::Sift};
   const fs::path work = dir / "work-tool", forest_file = dir / "forest-tool.json";
-  features::ExtractOptions eo;
-  eo.front_end = front_end(c);
-  eo.features.causal = true;
-  eo.progress = false;
-  features::extract_features(*seq, work, eo);
-  forest::TrainParams tp;
-  tp.K = 100;
-  tp.Kt = 1500;
-  tp.M = 3;
-  forest::save_forest(forest::train_forest(features::open_stacks({work}, {}, true, true, {}).dataset, tp), forest_file);
+  forest::save_forest(causal_forest(c, work), forest_file);
 
   for (const char* side : {"sbs", "l", "r"}) fs::create_directories(dir / side);
   for (int f = 0; f < seq->frame_count(); ++f) {
