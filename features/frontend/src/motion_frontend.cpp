@@ -123,6 +123,7 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
     } else {
       try {
         in.disparity = compute_disparity(in.left, seq.load_right_gray(f), o.stereo);
+        apply_disparity_offset(in.disparity, seq.calibration.disparity_offset);
       } catch (const Error& e) {
         if (!e.file().empty()) throw;
         throw Error(manifest, "frames[" + std::to_string(f) + "]", e.what());

@@ -151,6 +151,15 @@ cv::Mat compute_disparity(const cv::Mat& left_in, const cv::Mat& right_in, const
   return dl;
 }
 
+void apply_disparity_offset(cv::Mat& disparity, double offset) {
+  if (offset == 0) return;
+  CV_Assert(disparity.type() == CV_32FC1);
+  const auto add = static_cast<float>(offset);
+  disparity.forEach<float>([&](float& d, const int*) {
+    if (d > 0) d = d + add > 0 ? d + add : kInvalidDisparity;
+  });
+}
+
 cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) {
   if (seq.kind != SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind", "the stereo front end needs a stereo sequence");
@@ -160,7 +169,9 @@ cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) 
     return d;
   }
   try {
-    return compute_disparity(seq.load_left_gray(frame), seq.load_right_gray(frame), o);
+    cv::Mat d = compute_disparity(seq.load_left_gray(frame), seq.load_right_gray(frame), o);
+    apply_disparity_offset(d, seq.calibration.disparity_offset);
+    return d;
   } catch (const Error& e) {
     if (!e.file().empty()) throw;
     throw Error(seq.manifest.string(), "frames[" + std::to_string(frame) + "]", e.what());

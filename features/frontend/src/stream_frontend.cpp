@@ -49,6 +49,7 @@ StereoFrontEndStream::Prepared StereoFrontEndStream::prepare(const cv::Mat& left
   p.left = left.clone();  // kept as the previous image (klt): the caller may reuse its buffer
   auto t0 = Clock::now();
   p.disparity = compute_disparity(left, right, opt_.stereo);
+  apply_disparity_offset(p.disparity, calib_.disparity_offset);
   p.ms.disparity = ms_since(t0);
   t0 = Clock::now();
   p.keypoints = detect_keypoints(left, opt_.tracking);

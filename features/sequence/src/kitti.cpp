@@ -105,6 +105,8 @@ std::vector<double> frame_times(const fs::path& root, std::size_t frames, double
 void KittiImportOptions::validate() const {
   if (!(camera_height > 0)) throw Error("", "--camera-height", "must be positive (metres)");
   if (!(fps > 0)) throw Error("", "--fps", "must be positive");
+  if (disparity_offset && !(std::abs(*disparity_offset) <= 1000))
+    throw Error("", "--disparity-offset", "must be a number of pixels in -1000..1000");
 }
 
 KittiCalibration read_kitti_calibration(const fs::path& file) {
@@ -119,6 +121,7 @@ KittiCalibration read_kitti_calibration(const fs::path& file) {
   if (!(c.fx > 0) || !(c.fy > 0)) throw Error(file.string(), "line " + std::to_string(lines[0].number), "focal length must be positive");
   if (!(p1[0] > 0)) throw Error(file.string(), "line " + std::to_string(lines[1].number), "focal length must be positive");
   c.baseline = -p1[3] / p1[0];
+  c.cx_right = p1[2];
   if (!(c.baseline > 0))
     throw Error(file.string(), "line " + std::to_string(lines[1].number),
                 "P1 gives no positive baseline (-P1[0][3] / fx): is it the right camera of the left one?");
@@ -180,6 +183,7 @@ Sequence import_kitti(const fs::path& dir, const fs::path& out, const KittiImpor
   seq.calibration.cx = calib.cx;
   seq.calibration.cy = calib.cy;
   seq.calibration.baseline = calib.baseline;
+  seq.calibration.disparity_offset = opt.disparity_offset.value_or(calib.cx_right - calib.cx);
   seq.camera_height = opt.camera_height;
   const std::vector<double> times = frame_times(root, names.size(), opt.fps);
   for (std::size_t i = 0; i < names.size(); ++i) {

@@ -128,6 +128,10 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
   if (auto v = cal.maybe("baseline")) seq.calibration.baseline = v->as_num();
   seq.calibration.cx = cal.num("cx");
   seq.calibration.cy = cal.num("cy");
+  if (auto v = cal.maybe("disparity_offset")) {
+    seq.calibration.disparity_offset = v->as_num();
+    if (!(std::abs(seq.calibration.disparity_offset) <= 1000)) v->fail("must be a number of pixels in -1000..1000");
+  }
   for (const auto& [key, v] : {std::pair{"fx", seq.calibration.fx}, std::pair{"fy", seq.calibration.fy},
                                std::pair{"baseline", seq.calibration.baseline}}) {
     if (v && !(*v > 0 && std::isfinite(*v))) cal.fail("must be a positive number", key);
@@ -256,6 +260,7 @@ Json sequence_to_json(const Sequence& seq) {
   if (seq.calibration.fx) cal["fx"] = *seq.calibration.fx;
   if (seq.calibration.fy) cal["fy"] = *seq.calibration.fy;
   if (seq.calibration.baseline) cal["baseline"] = *seq.calibration.baseline;
+  if (seq.calibration.disparity_offset != 0) cal["disparity_offset"] = seq.calibration.disparity_offset;
   j["calibration"] = cal;
   if (seq.camera_height) j["camera_height"] = *seq.camera_height;
   Json classes = Json::array();

@@ -23,12 +23,18 @@ int main(int argc, char** argv) {
   app.add_option("--fps", opt.fps, "frame rate when DIR has no times.txt")->capture_default_str();
   app.add_option("--name", opt.name, "sequence name (default: the folder's name)");
   app.add_option("--classes", classes, "class table in CamVid's classes.csv form (index,name,r,g,b with a Void row)");
+  double disparity_offset = 0;
+  app.add_option("--disparity-offset", disparity_offset,
+                 "pixels added to every disparity: the right images' offset against the left ones (cx_right - "
+                 "cx_left; default: from calib.txt, P1 cx - P0 cx, 0 for KITTI's own files)");
   return smseg::run_tool(app, argc, argv, [&] {
+    if (app.count("--disparity-offset")) opt.disparity_offset = disparity_offset;
     opt.poses = poses;
     opt.classes = classes;
     const Sequence seq = import_kitti(dir, out, opt);
     std::cout << seq.name << ": " << seq.frame_count() << " stereo frames of " << seq.size.width << "x" << seq.size.height
-              << ", fx " << *seq.calibration.fx << " px, baseline " << *seq.calibration.baseline << " m, "
+              << ", fx " << *seq.calibration.fx << " px, baseline " << *seq.calibration.baseline << " m, disparity offset "
+              << seq.calibration.disparity_offset << " px, "
               << (seq.gt_poses.empty() ? "no ground-truth poses" : "ground-truth poses") << " -> " << out << "/sequence.json\n";
     return 0;
   });

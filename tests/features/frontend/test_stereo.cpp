@@ -81,6 +81,32 @@ TEST(Stereo, BlockMatchingRecoversAFrontoParallelPlane) {
   EXPECT_GT(s.valid_share, 0.8);
 }
 
+// A right image offset by 1.5 px against the calibration (its content 1.5 px further right than a
+// pair rectified to one principal point): block matching sees d - 1.5, the disparity offset gives d back.
+TEST(Stereo, DisparityOffsetUndoesARightImageOffset) {
+  const cv::Mat tex = texture(W + 64, H, 3);
+  const double d = 12.5, offset = 1.5;
+  const cv::Mat left = shifted(tex, W, H, 0), right = shifted(tex, W, H, d - offset);
+  StereoOptions o;
+  cv::Mat disp = compute_disparity(left, right, o);
+  EXPECT_NEAR(plane_stats(disp, d - offset, o.num_disparities + o.block_size).median_error, 0, 0.5);
+  const cv::Mat before = disp.clone();
+  apply_disparity_offset(disp, offset);
+  const PlaneStats s = plane_stats(disp, d, o.num_disparities + o.block_size);
+  EXPECT_LT(s.median_error, 0.5);
+  EXPECT_GT(s.valid_share, 0.8);
+  // Invalid pixels stay invalid; a disparity the offset makes non-positive becomes invalid; 0 is a no-op.
+  EXPECT_EQ(cv::countNonZero((before <= 0) != (disp <= 0)), 0);
+  cv::Mat small = (cv::Mat_<float>(1, 3) << 0.5f, -1.0f, 3.0f);
+  apply_disparity_offset(small, -1.0);
+  EXPECT_EQ(small.at<float>(0), kInvalidDisparity);
+  EXPECT_EQ(small.at<float>(1), kInvalidDisparity);
+  EXPECT_EQ(small.at<float>(2), 2.0f);
+  const cv::Mat same = before.clone();
+  apply_disparity_offset(const_cast<cv::Mat&>(same), 0.0);
+  EXPECT_EQ(cv::countNonZero(same != before), 0);
+}
+
 TEST(Stereo, SemiGlobalMatchingRecoversAFrontoParallelPlane) {
   const cv::Mat tex = texture(W + 64, H, 2);
   const double d = 20.25;

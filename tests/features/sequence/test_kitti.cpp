@@ -72,6 +72,26 @@ TEST(ImportKitti, OwnLayoutGivesCalibrationTimesAndWorldPoses) {
   EXPECT_EQ(again.gt_poses.size(), 3u);
 }
 
+// A right camera whose principal point differs from the left one's (P1 cx 13.5 against P0's 12) shifts
+// every disparity by 1.5 px: the sequence records the offset (calibration.disparity_offset); an
+// explicit --disparity-offset (a slice whose images disagree with its calib.txt) wins; absurd values
+// are refused.
+TEST(ImportKitti, DisparityOffsetFromTheCalibrationOrTheOption) {
+  const fs::path d = make_kitti_slice("kitti_offset");
+  EXPECT_EQ(import_kitti(d, d / "zero", KittiImportOptions{}).calibration.disparity_offset, 0);
+  write_text(d / "calib.txt",
+             "P0: 100 0 12 0 0 100 6 0 0 0 1 0\n"
+             "P1: 100 0 13.5 -50 0 100 6 0 0 0 1 0\n");
+  EXPECT_DOUBLE_EQ(import_kitti(d, d / "calib", KittiImportOptions{}).calibration.disparity_offset, 1.5);
+  EXPECT_DOUBLE_EQ(load_sequence(d / "calib").calibration.disparity_offset, 1.5);
+  KittiImportOptions o;
+  o.disparity_offset = 1.25;
+  EXPECT_DOUBLE_EQ(import_kitti(d, d / "option", o).calibration.disparity_offset, 1.25);
+  EXPECT_DOUBLE_EQ(load_sequence(d / "option").calibration.disparity_offset, 1.25);
+  o.disparity_offset = 5000;
+  EXPECT_THROW(import_kitti(d, d / "absurd", o), smseg::Error);
+}
+
 TEST(ImportKitti, BadFilesNameTheFileAndLine) {
   const fs::path d = make_kitti_slice("kitti_bad");
   auto message_of = [&] {

@@ -54,8 +54,14 @@ cv::Mat compute_disparity(const cv::Mat& left, const cv::Mat& right, const Stere
 /// disparity at x - round(d) within max_diff pixels. Both CV_32FC1, same size; returns the count removed.
 long left_right_check(cv::Mat& left_disparity, const cv::Mat& right_disparity, double max_diff);
 
-/// The disparity of one frame of a stereo sequence: computed from its left/right images (BM, SGBM),
-/// or loaded (Given). Values <= 0 are normalised to -1.
+/// A pair whose images are offset against each other (Calibration::disparity_offset): `offset` pixels
+/// added to every valid (> 0) disparity, and one that is then not positive made invalid (-1). A no-op
+/// for 0 (the disparities stay bit for bit).
+void apply_disparity_offset(cv::Mat& disparity, double offset);
+
+/// The disparity of one frame of a stereo sequence: computed from its left/right images (BM, SGBM;
+/// with the calibration's disparity_offset applied), or loaded (Given: already true disparities).
+/// Values <= 0 are normalised to -1.
 cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& options);
 
 // ---------------------------------------------------------------------------------------------

@@ -22,6 +22,9 @@ struct KittiImportOptions {
   std::string name;              ///< sequence name; default: the folder's name
   fs::path poses;                ///< poses file; default: DIR/poses.txt when it exists
   fs::path classes;              ///< CamVid-style classes.csv; default: CamVid's 11 road classes
+  /// Pixels added to the disparities (Calibration::disparity_offset); unset: calib.txt's
+  /// P1 cx - P0 cx (0 in KITTI's own files, whose images share one principal point).
+  std::optional<double> disparity_offset;
   void validate() const;         ///< Error naming the option if a value is out of range
 };
 
@@ -29,6 +32,7 @@ struct KittiImportOptions {
 /// the first two are the left and right greyscale cameras). Errors name the file and line.
 struct KittiCalibration {
   double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;  ///< pixels; baseline in metres
+  double cx_right = 0;                                   ///< P1's principal point, pixels
 };
 KittiCalibration read_kitti_calibration(const fs::path& file);
 

@@ -37,6 +37,10 @@ struct Calibration {
   std::optional<double> fx, fy;  ///< focal length in pixels; may be unknown for mono
   double cx = 0, cy = 0;         ///< principal point in pixels
   std::optional<double> baseline;  ///< metres, stereo only
+  /// Pixels added to every computed disparity (stereo): the right image's principal point minus the
+  /// left's, cx_right - cx_left, for a pair whose images are offset against each other (a disparity is
+  /// x_left - x_right; the true one is that plus this). 0 for a pair rectified to one principal point.
+  double disparity_offset = 0;
 };
 
 /// A camera pose: camera-to-world rotation R (row-major 3x3) and camera centre t in the world frame,
