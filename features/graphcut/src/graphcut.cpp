@@ -110,9 +110,10 @@ void ExpansionOptions::validate() const {
 
 namespace {
 
-constexpr int kFixed = -1;      // MoveWorkspace::id of a node that keeps its label in the move
-constexpr int kUnseen = -2;     // ... of a node that may take alpha, not looked at closer yet
+constexpr int kFixed = -1;      // MoveWorkspace::id of a node not listed in the move (between moves: all)
+constexpr int kUnseen = -2;     // ... of a listed node that may take alpha, not looked at closer yet
 constexpr int kUndecided = -3;  // ... of a node that may take alpha, not (yet) in the move's graph
+constexpr int kKept = -4;       // ... of a listed node found to keep its label in every optimal move
 constexpr std::size_t kNever = std::numeric_limits<std::size_t>::max();  // label not expanded yet
 
 }  // namespace
@@ -158,7 +159,7 @@ struct MoveWorkspace {
   std::vector<int> changes;                // nodes whose label the moves changed, in order (repeats allowed)
   std::vector<std::size_t> seen_changes;   // per label: changes.size() after its last move, or kNever
   // Per move.
-  std::vector<int> id;           // graph node of each energy node, kUndecided or kFixed (kFixed between moves)
+  std::vector<int> id;           // graph node of each energy node, or kFixed, kUnseen, kUndecided, kKept
   std::vector<int> free_nodes;   // nodes that may take alpha
   std::vector<int> graph_node;   // energy node of each graph node
   std::vector<double> slack;     // per free node: by how much keeping its label provably wins (> 0: kept)
@@ -263,13 +264,28 @@ int select_free_nodes(const PottsEnergy& energy, const std::vector<int>& labelli
   return static_cast<int>(w.free_nodes.size());
 }
 
+/// Whether node i may take alpha in an optimal move: it is not at alpha and its unary rise (`rise`)
+/// is within the weight of its edges; every other node keeps its label.
+bool is_free(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, int i,
+             const MoveWorkspace& w, double& rise) {
+  const int li = labelling[std::size_t(i)];
+  if (li == alpha) return false;
+  rise = energy.unary_at(i, alpha) - energy.unary_at(i, li);
+  return rise <= w.incident[std::size_t(i)];
+}
+
+/// Which free nodes a move lists: all of them (alpha's first move), or only those the changes since
+/// alpha's last move reach (list_near_changes); then an unlisted neighbour (kFixed) may be free.
+enum class Listing { every_free_node, near_changes };
+
 /// Lower bound, over every labelling of the undecided nodes, of what node i (undecided, current label
-/// li) loses by taking alpha rather than keeping li: its unary rise, minus w for each edge to an undecided
-/// node or to a node at alpha (taking alpha can save that edge), plus w for each edge to a node that keeps
-/// li (taking alpha cuts it); an edge to a node that keeps another label costs w either way.
+/// li) loses by taking alpha rather than keeping li: its unary rise, minus w for each edge to a node that
+/// may take alpha (taking alpha can save that edge), plus w for each edge to a node that keeps li (taking
+/// alpha cuts it); an edge to a node that keeps another label costs w either way.
 /// `undecided_neighbour` tells whether a neighbour is kUndecided (whose slack a fix of i would raise).
-double keep_slack(const std::vector<int>& labelling, int alpha, int i, const MoveWorkspace& w,
-                  bool& undecided_neighbour) {
+template <Listing kListing>
+double keep_slack(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, int i,
+                  const MoveWorkspace& w, bool& undecided_neighbour) {
   const int li = labelling[std::size_t(i)];
   double slack = w.slack[std::size_t(i)];  // the unary rise (select_free_nodes)
   bool undecided = false;
@@ -277,7 +293,11 @@ double keep_slack(const std::vector<int>& labelling, int alpha, int i, const Mov
     const int lj = labelling[std::size_t(j)];
     const int state = w.id[std::size_t(j)];
     undecided |= state == kUndecided;
-    const bool may_take_alpha = state == kUnseen || state == kUndecided || lj == alpha;
+    bool may_take_alpha = state == kUnseen || state == kUndecided || lj == alpha;
+    if constexpr (kListing == Listing::near_changes) {
+      double rise = 0;
+      may_take_alpha = may_take_alpha || (state == kFixed && is_free(energy, labelling, alpha, j, w, rise));
+    }
     slack += may_take_alpha ? -wt : (lj == li ? wt : 0.0);
   }
   undecided_neighbour = undecided;
@@ -287,7 +307,7 @@ double keep_slack(const std::vector<int>& labelling, int alpha, int i, const Mov
 /// Node i keeps its label: the undecided neighbours' slack rises (an edge to i no longer helps alpha,
 /// and costs w when their labels agree), which may fix them in turn.
 void keep(const std::vector<int>& labelling, int i, MoveWorkspace& w) {
-  w.id[std::size_t(i)] = kFixed;
+  w.id[std::size_t(i)] = kKept;
   w.newly_kept.clear();
   w.newly_kept.push_back(i);
   while (!w.newly_kept.empty()) {
@@ -298,29 +318,62 @@ void keep(const std::vector<int>& labelling, int i, MoveWorkspace& w) {
       double& slack = w.slack[std::size_t(j)];
       slack += labelling[std::size_t(j)] == lk ? 2 * wt : wt;
       if (slack > 0) {
-        w.id[std::size_t(j)] = kFixed;
+        w.id[std::size_t(j)] = kKept;
         w.newly_kept.push_back(j);
       }
     }
   }
 }
 
-/// Fixes the free nodes that keep their label in every optimal move: those whose slack is positive
-/// (taking alpha loses whatever the others do). Fixing one raises its neighbours' slack, so fixing
-/// spreads through regions where alpha is unlikely. One pass in node order: a node's slack is computed
-/// from its neighbours' states so far, and later fixes update it. Every optimal move survives: the cut
-/// over the remaining nodes reaches the same energy.
-void fix_kept_nodes(const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
-  for (const int i : w.free_nodes) {
-    bool undecided_neighbour = false;
-    const double slack = keep_slack(labelling, alpha, i, w, undecided_neighbour);
-    if (slack > 0) {
-      if (undecided_neighbour) keep(labelling, i, w);
-      else w.id[std::size_t(i)] = kFixed;  // no neighbour to update
-    } else {
-      w.slack[std::size_t(i)] = slack;
-      w.id[std::size_t(i)] = kUndecided;
-    }
+/// Looks closer at listed node i (kUnseen): it keeps its label in every optimal move when its slack is
+/// positive (taking alpha loses whatever the others do), which raises its undecided neighbours' slack
+/// and may fix them in turn; else it is undecided. Returns whether it is undecided.
+template <Listing kListing>
+bool decide(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, int i, MoveWorkspace& w) {
+  bool undecided_neighbour = false;
+  const double slack = keep_slack<kListing>(energy, labelling, alpha, i, w, undecided_neighbour);
+  if (slack > 0) {
+    if (undecided_neighbour) keep(labelling, i, w);
+    else w.id[std::size_t(i)] = kKept;  // no neighbour to update
+    return false;
+  }
+  w.slack[std::size_t(i)] = slack;
+  w.id[std::size_t(i)] = kUndecided;
+  return true;
+}
+
+/// Fixes the free nodes that keep their label in every optimal move. Fixing spreads through regions
+/// where alpha is unlikely. One pass in node order: a node's slack is computed from its neighbours'
+/// states so far, and later fixes update it. Every optimal move survives: the cut over the remaining
+/// nodes reaches the same energy.
+void fix_kept_nodes(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
+  for (const int i : w.free_nodes) decide<Listing::every_free_node>(energy, labelling, alpha, i, w);
+}
+
+/// After alpha's first move, lists and decides only the free nodes that the changes since that move
+/// reach: the changed nodes and their neighbours, then, through undecided nodes, every free neighbour.
+/// The free nodes left unlisted are cut off from the changes by nodes that keep their label, in a
+/// region where nothing changed since alpha's last move, whose optimum (keep every label there) holds
+/// again (see select_graph_nodes). So the moves are those of the whole graph, and a cycle after the
+/// first costs in proportion to what the previous one changed.
+void list_near_changes(const PottsEnergy& energy, const std::vector<int>& labelling, int alpha, MoveWorkspace& w) {
+  w.free_nodes.clear();
+  auto list = [&](int i) {
+    double rise = 0;
+    if (w.id[std::size_t(i)] != kFixed || !is_free(energy, labelling, alpha, i, w, rise)) return;
+    w.id[std::size_t(i)] = kUnseen;
+    w.slack[std::size_t(i)] = rise;
+    w.free_nodes.push_back(i);
+  };
+  for (std::size_t k = w.seen_changes[std::size_t(alpha)]; k < w.changes.size(); ++k) {
+    const int c = w.changes[k];
+    list(c);
+    for (const auto& nb : w.neighbours(c)) list(nb.node);
+  }
+  for (std::size_t k = 0; k < w.free_nodes.size(); ++k) {  // grows as undecided nodes list their neighbours
+    const int i = w.free_nodes[k];
+    if (decide<Listing::near_changes>(energy, labelling, alpha, i, w))
+      for (const auto& nb : w.neighbours(i)) list(nb.node);
   }
 }
 
@@ -372,7 +425,7 @@ void build_move_graph(const PottsEnergy& energy, const std::vector<int>& labelli
     for (const auto& [j, wt] : w.neighbours(i)) {
       if (wt == 0) continue;
       const int vj = w.id[std::size_t(j)], lj = labelling[std::size_t(j)];
-      if (vj < 0) {  // kFixed, or kUndecided in a part that keeps its labels
+      if (vj < 0) {  // keeps its label: kFixed, kKept, or kUndecided in a part left out
         if (lj == alpha) {  // the free end pays wt unless it joins alpha
           w.e0[v] += wt;
         } else {  // the fixed end keeps a label other than alpha
@@ -446,8 +499,12 @@ bool cut_and_apply(const PottsEnergy& energy, std::vector<int>& labelling, int a
 /// The optimal alpha-expansion move from `labelling` (one min cut over the nodes that may change),
 /// applied when it lowers the energy. Returns true when applied.
 bool expand(const PottsEnergy& energy, std::vector<int>& labelling, int alpha, double& current, MoveWorkspace& w) {
-  select_free_nodes(energy, labelling, alpha, w);
-  fix_kept_nodes(labelling, alpha, w);
+  if (w.seen_changes[std::size_t(alpha)] == kNever) {
+    select_free_nodes(energy, labelling, alpha, w);
+    fix_kept_nodes(energy, labelling, alpha, w);
+  } else {
+    list_near_changes(energy, labelling, alpha, w);
+  }
   const int nodes = select_graph_nodes(alpha, w);
   w.graph_nodes += nodes;
   const bool applied = nodes > 0 && cut_and_apply(energy, labelling, alpha, current, w);
@@ -513,7 +570,7 @@ ExpansionReport ExpansionSolver::solve(const PottsEnergy& energy, std::vector<in
       }
     }
     ++rep.cycles;
-    rep.per_cycle.push_back(rep.energy);
+      rep.per_cycle.push_back(rep.energy);
     if (!changed) break;
     if (cycle_start - rep.energy <= opt.relative_tolerance * std::abs(rep.energy)) break;
   }

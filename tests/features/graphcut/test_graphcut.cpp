@@ -282,7 +282,8 @@ std::vector<double> reference_expansion(const PottsEnergy& e, std::vector<int>& 
 
 TEST(GraphCut, LeavingProvablyKeptNodesOutOfTheCutsChangesNoMove) {
   // The solver cuts only the nodes that may take alpha (after fixing those that provably keep their
-  // label) in the parts that changed since alpha's last move: cycle by cycle it must reach the
+  // label) in the parts that changed since alpha's last move, and after alpha's first move looks only
+  // at the nodes those changes reach: cycle by cycle it must reach the
   // energies of plain expansion, from the least-unary start and from random starts (costlier labels),
   // weak and strong smoothing (few and many nodes fixed).
   std::mt19937_64 g(21);
