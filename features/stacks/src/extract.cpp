@@ -10,6 +10,7 @@
 #include <tbb/parallel_for_each.h>
 
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/stacks/appearance.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
@@ -158,6 +159,7 @@ const char* motion_method_name(MotionMethod m) {
 Json feature_options_json(const FeatureOptions& o) {
   Json j = {{"causal", o.causal}, {"future_frames", o.future_frames}};
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
+  if (o.appearance) j["appearance"] = true;  // only when on: work folders from before keep their options
   return j;
 }
 
@@ -249,6 +251,8 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   m.sequence_name = seq.name;
   m.size = seq.size;
   m.features = structure_feature_names();
+  if (opt.features.appearance)
+    m.features.insert(m.features.end(), appearance_feature_names().begin(), appearance_feature_names().end());
   m.classes.clear();
   for (const auto& c : seq.classes) m.classes.push_back(c.name);
   m.options = options;
@@ -304,6 +308,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     Buffers& b = buffers.local();
     const auto tf = std::chrono::steady_clock::now();
     rasterise_features(video, attrs, f, seq.size, b.rasters);
+    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), b.rasters);
     b.sats.resize(b.rasters.size());
     for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
     double s = feature_seconds.load();
@@ -320,8 +325,9 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   for (int f : opt.preview) {
     char name[32];
     std::snprintf(name, sizeof name, "%06d_features.png", f);
-    write_image_atomic(work / "preview" / name,
-                       feature_preview(rasterise_features(video, attrs, f, seq.size), m.features));
+    std::vector<cv::Mat> rasters = rasterise_features(video, attrs, f, seq.size);
+    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
+    write_image_atomic(work / "preview" / name, feature_preview(rasters, m.features));
   }
   report.frames_written = static_cast<int>(todo.size());
   report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());

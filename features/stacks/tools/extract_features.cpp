@@ -22,7 +22,8 @@ int main(int argc, char** argv) {
       "sequences, --motion sfm for the left images of a stereo one): KLT or descriptor tracks, focal\n"
       "length from --focal, the manifest or self-calibration, essential-matrix initialisation, PnP, key\n"
       "frames and bundle adjustment (Ceres), metric scale from the camera height over a RANSAC ground\n"
-      "plane (docs/sfm.md). Then per frame the features fH fC fOx fOy fD fR as summed-area tables, the greyscale image and,\n"
+      "plane (docs/sfm.md). Then per frame the features fH fC fOx fOy fD fR (and with --appearance nine\n"
+      "image channels) as summed-area tables, the greyscale image and,\n"
       "for labelled frames, the labels: WORK/stacks.json and WORK/stacks/*.npy. Also WORK/tracks.json\n"
       "(tracks, camera path, front-end summary), WORK/cloud.pcd (one point per track, class colours and\n"
       "labels; opens in pcl_viewer) and WORK/path.png (top-down camera path and cloud). Parallel over\n"
@@ -96,6 +97,10 @@ int main(int argc, char** argv) {
   app.add_flag("--causal", opt.features.causal,
                "only what is known at each frame (on-line use, what label-stream computes): fC from the camera\n"
                "path up to the frame, and a track's points from the frame it reaches --min-track-frames on");
+  app.add_flag("--appearance", opt.features.appearance,
+               "also the image's own channels, after the six: fL fA fB (Lab colour), fG0..fG3 (gradient\n"
+               "magnitude by orientation) and fRow fCol (position); train-forest --features fH,fC,fOx,fOy,fD,fR\n"
+               "leaves them out (structure and motion only)");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");

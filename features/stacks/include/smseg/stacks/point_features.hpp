@@ -46,6 +46,7 @@ const std::vector<std::string>& structure_feature_names();  // {"fH","fC","fOx",
 struct FeatureOptions {
   bool causal = false;      ///< fC from the camera path up to the current frame only (on-line use)
   int future_frames = 100;  ///< frames of camera motion applied to a point's last position (thesis: 100)
+  bool appearance = false;  ///< also the image's own channels (appearance.hpp: colour, oriented gradients, position)
   void validate() const;    ///< Error naming the option when out of range
 };
 
