@@ -139,7 +139,8 @@ int main(int argc, char** argv) {
   app.add_option("--windows", windows, "window sampling: uniform | thesis-biased | learned (thesis 4.5.3)")
       ->capture_default_str();
   app.add_option("--learned-from", learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
-  app.add_option("--balance", balance, "none | classes: draw tests per class so no class swamps the rest")
+  app.add_option("--balance", balance, "none | classes | sqrt: draw tests per class so no class swamps the rest (classes: each class\n"
+                 "equally often; sqrt: in proportion to the square root of its pixel count)")
       ->capture_default_str();
   std::string score = "wehenkel-pavella";
   app.add_option("--score", score, "split score: wehenkel-pavella (the thesis) | information-gain")

@@ -2,6 +2,7 @@
 #include "forest_corpus.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
@@ -45,6 +46,11 @@ TestSampler::TestSampler(const Dataset& data)
   for (std::size_t c = 0; c < C_; ++c)
     if (!rows_.empty() && class_cum_[c].back() > 0) present_.push_back(static_cast<int>(c));
   if (nonempty_.empty()) throw Error("training data", "labels", "no labelled (non-void) pixel in any frame");
+  // Integer weights (1/1024 steps of sqrt(pixels)), so the draw is exact and the same everywhere.
+  for (const int c : present_) {
+    const auto w = static_cast<std::uint64_t>(std::llround(1024.0 * std::sqrt(double(class_cum_[std::size_t(c)].back()))));
+    sqrt_cum_.push_back((sqrt_cum_.empty() ? 0 : sqrt_cum_.back()) + std::max<std::uint64_t>(w, 1));
+  }
 }
 
 std::size_t TestSampler::bytes(const Dataset& data) {
@@ -72,8 +78,15 @@ std::uint32_t TestSampler::select(std::size_t fi, std::size_t k, std::uint64_t r
 TestPoint TestSampler::draw(Rng& rng, Balance balance) const {
   std::size_t fi = 0;
   std::uint32_t p = 0;
-  if (balance == Balance::Classes) {
-    const auto c = static_cast<std::size_t>(present_[rng.below(present_.size())]);
+  if (balance == Balance::Classes || balance == Balance::Sqrt) {
+    std::size_t which = 0;
+    if (balance == Balance::Classes) {
+      which = rng.below(present_.size());
+    } else {
+      const std::uint64_t w = rng.below(sqrt_cum_.back());
+      which = static_cast<std::size_t>(std::upper_bound(sqrt_cum_.begin(), sqrt_cum_.end(), w) - sqrt_cum_.begin());
+    }
+    const auto c = static_cast<std::size_t>(present_[which]);
     const auto& cc = class_cum_[c];
     const std::uint64_t r = rng.below(cc.back());
     fi = static_cast<std::size_t>(std::upper_bound(cc.begin(), cc.end(), r) - cc.begin());

@@ -40,6 +40,7 @@ class TestSampler {
   std::vector<std::vector<std::uint32_t>> rows_;
   std::vector<std::vector<std::uint64_t>> class_cum_;  // [class][frame] cumulative pixel counts
   std::vector<int> nonempty_, present_;
+  std::vector<std::uint64_t> sqrt_cum_;  // per present class: cumulative integer weights ~ sqrt(pixels)
 };
 
 /// A tree's corpus without its values: candidates, and tests sorted by class, frame, row, column.

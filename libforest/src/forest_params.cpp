@@ -53,12 +53,15 @@ void Dataset::validate(bool need_labels, bool need_gray, const std::string& sour
   }
 }
 
-std::string to_string(Balance b) { return b == Balance::Classes ? "classes" : "none"; }
+std::string to_string(Balance b) {
+  return b == Balance::Classes ? "classes" : b == Balance::Sqrt ? "sqrt" : "none";
+}
 
 Balance balance_from_string(const std::string& s, const std::string& field) {
   if (s == "none") return Balance::None;
   if (s == "classes") return Balance::Classes;
-  throw Error("", field, "is \"" + s + "\", expected none or classes");
+  if (s == "sqrt") return Balance::Sqrt;
+  throw Error("", field, "is \"" + s + "\", expected none, classes or sqrt");
 }
 
 std::string to_string(Score s) { return s == Score::InformationGain ? "information-gain" : "wehenkel-pavella"; }

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 
 #include "forest_test_util.hpp"
 
@@ -36,8 +37,19 @@ std::vector<TestPoint> reference_tests(const Dataset& d, const TrainParams& p, i
   for (int k = 0; k < p.kt(); ++k) {
     std::size_t fi = 0;
     std::uint32_t px = 0;
-    if (p.balance == Balance::Classes) {
-      const auto c = static_cast<std::size_t>(present[rng.below(present.size())]);
+    if (p.balance != Balance::None) {
+      std::size_t which = 0;
+      if (p.balance == Balance::Classes) {
+        which = rng.below(present.size());
+      } else {  // Sqrt: a class in proportion to llround(1024 sqrt(its pixels))
+        std::vector<std::uint64_t> weight_cum;
+        for (const int c : present)
+          weight_cum.push_back((weight_cum.empty() ? 0 : weight_cum.back()) +
+                               static_cast<std::uint64_t>(std::llround(1024.0 * std::sqrt(double(cum[std::size_t(c)].back())))));
+        const std::uint64_t w = rng.below(weight_cum.back());
+        while (weight_cum[which] <= w) ++which;
+      }
+      const auto c = static_cast<std::size_t>(present[which]);
       const std::uint64_t r = rng.below(cum[c].back());
       fi = static_cast<std::size_t>(std::upper_bound(cum[c].begin(), cum[c].end(), r) - cum[c].begin());
       px = lists[fi][c][r - (fi ? cum[c][fi - 1] : 0)];
@@ -71,7 +83,7 @@ TEST(Corpus, TestsAreDrawnAsFromPixelListsGroupedByClass) {
   for (std::size_t fi = 0; fi < s.labels.size(); ++fi)
     for (std::size_t i = 0; i < s.labels[fi].size(); ++i)
       if (fi == 2 || (i / 64) % 7 == 3 || i % 11 == 0) s.labels[fi][i] = kVoidLabel;
-  for (const Balance balance : {Balance::None, Balance::Classes}) {
+  for (const Balance balance : {Balance::None, Balance::Classes, Balance::Sqrt}) {
     TrainParams p;
     p.K = 50;
     p.Kt = 3000;

@@ -1,6 +1,8 @@
 // Training: learning what can be learned, not learning noise, determinism, balance, parameters.
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include <oneapi/tbb/global_control.h>
 
 #include "forest_test_util.hpp"
@@ -235,9 +237,15 @@ TEST(Train, BalanceDrawsTestsPerClass) {
     for (const auto& t : c.tests) n[t.label] += 1.0 / static_cast<double>(c.tests.size());
     return n;
   };
-  const auto plain = share(Balance::None), balanced = share(Balance::Classes);
+  const auto plain = share(Balance::None), balanced = share(Balance::Classes), halfway = share(Balance::Sqrt);
   EXPECT_LT(plain[3], 0.1);
   for (double v : balanced) EXPECT_NEAR(v, 0.25, 0.07);
+  // sqrt: each class in proportion to the square root of its share of the pixels (~ plain's share).
+  double root_sum = 0;
+  for (double v : plain) root_sum += std::sqrt(v);
+  for (std::size_t c = 0; c < 4; ++c) EXPECT_NEAR(halfway[c], std::sqrt(plain[c]) / root_sum, 0.03) << "class " << c;
+  EXPECT_GT(halfway[3], plain[3] + 0.03);  // the box gains, less than with classes
+  EXPECT_LT(halfway[3], balanced[3] - 0.03);
 }
 
 TEST(Train, BadParametersAreRefusedByName) {

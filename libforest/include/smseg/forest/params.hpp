@@ -15,9 +15,11 @@ namespace smseg::forest {
 /// How training keeps the dominant class from swamping the others.
 enum class Balance {
   None,     ///< tests drawn as the thesis does: a random labelled frame, then a random non-void pixel
-  Classes   ///< tests drawn per class: a class uniformly among those present, then a pixel of that
+  Classes,  ///< tests drawn per class: a class uniformly among those present, then a pixel of that
             ///< class uniformly among all training frames; splits and leaves then see a balanced
             ///< sample (leaf distributions are class-balanced, i.e. a flat prior over classes)
+  Sqrt      ///< halfway: a class with probability proportional to the square root of its pixel count,
+            ///< then a pixel of it as with Classes (a rare class gains, the frequent ones keep most)
 };
 std::string to_string(Balance b);
 Balance balance_from_string(const std::string& s, const std::string& field);

@@ -5,7 +5,8 @@
 // Per tree t, with a generator seeded by tree_seed(seed, t):
 //  1. draw Ks windows (WindowSampler) and, with textons, Ks texton offsets;
 //  2. draw Kt tests: a labelled frame uniformly, then a non-void pixel uniformly in it
-//     (Balance::Classes: a class uniformly, then a pixel of that class uniformly over all frames);
+//     (Balance::Classes: a class uniformly, then a pixel of that class uniformly over all frames;
+//     Balance::Sqrt: a class in proportion to the square root of its pixel count, then likewise);
 //  3. evaluate every candidate attribute (window x feature, texton offset x test) at every test:
 //     the corpus, a float matrix (Kt x candidates x 4 bytes);
 //  4. grow the tree depth first: at each node every non-constant candidate gets one threshold
