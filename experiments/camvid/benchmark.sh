@@ -1,0 +1,106 @@
+#!/usr/bin/env bash
+# One-command CamVid benchmark (docs/camvid.md, "Benchmark").
+# Usage: experiments/camvid/benchmark.sh CAMVID_DIR OUT
+#   CAMVID_DIR  a CamVid folder in the layout of ../shared/data/camvid: frames.csv, classes.csv and the
+#               image / label folders it names (train, trainannot, val, valannot, and optionally test,
+#               testannot). With test rows in frames.csv it trains on train + val and tests on test;
+#               without, it trains on train and tests on val.
+#   OUT         output folder: sequences/, work/, forests/, eval/, measure/ and summary.json
+# Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default:
+#   sm               structure and motion only: the six features fH fC fOx fOy fD fR
+#   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
+#                    with --balance sqrt (measured on val: docs/camvid.md, "Appearance channels")
+#   combined_smooth  the combined forest, evaluated with --smooth graphcut
+# Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
+# OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "combined_smooth": {...}}}, each with
+# global_accuracy, class_average_accuracy, mean_iou, per_class, train_seconds, train_peak_rss_mb.
+# Training frames are extracted with --require-label (the training filters); test frames without it,
+# so no test label reaches the test features.
+# Environment: SMSEG_BIN (the tools; default build/bin, built with CMake when a tool is missing there),
+# SMSEG_KT, SMSEG_M (smaller values for a quick check), SMSEG_JOBS (extractions at once; default: cores).
+set -euo pipefail
+here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
+
+fail() { echo "benchmark.sh: $*" >&2; exit 2; }
+[[ $# -eq 2 ]] || fail "usage: experiments/camvid/benchmark.sh CAMVID_DIR OUT"
+camvid="$(cd "$1" 2>/dev/null && pwd)" || fail "$1: no such folder"
+[[ -f "$camvid/frames.csv" ]] || fail "$camvid/frames.csv: missing (not a CamVid folder in the layout of ../shared/data/camvid)"
+[[ -f "$camvid/classes.csv" ]] || fail "$camvid/classes.csv: missing"
+mkdir -p "$2" || fail "$2: cannot be created"
+out="$(cd "$2" && pwd)"
+kt="${SMSEG_KT:-20000}"
+trees="${SMSEG_M:-7}"
+jobs="${SMSEG_JOBS:-$(nproc)}"
+tools=(import-camvid extract-features train-forest eval-forest)
+
+# The tools: SMSEG_BIN as given, or build/bin (built when a tool is missing).
+if [[ -n "${SMSEG_BIN:-}" ]]; then
+  bin="$(cd "$SMSEG_BIN" 2>/dev/null && pwd)" || fail "SMSEG_BIN=$SMSEG_BIN: no such folder"
+  for t in "${tools[@]}"; do [[ -x "$bin/$t" ]] || fail "$bin/$t: missing (SMSEG_BIN must hold ${tools[*]})"; done
+else
+  bin="$here/build/bin"
+  missing=0
+  for t in "${tools[@]}"; do [[ -x "$bin/$t" ]] || missing=1; done
+  if ((missing)); then
+    echo "== building ${tools[*]} into $here/build" >&2
+    bash "$here/.ci/install-deps.sh"
+    cmake -S "$here" -B "$here/build" -DCMAKE_BUILD_TYPE=Release >/dev/null
+    cmake --build "$here/build" -j"$(nproc)" --target "${tools[@]}" >/dev/null
+  fi
+fi
+summary_py="$here/experiments/camvid/benchmark_summary.py"
+
+# Which splits train and which one tests.
+if awk -F, 'NR > 1 && $3 == "test" { found = 1 } END { exit !found }' "$camvid/frames.csv"; then
+  train_splits=train,val test_split=test
+else
+  train_splits=train test_split=val
+fi
+echo "== CamVid $camvid: training on $train_splits, testing on $test_split (Kt = $kt, M = $trees)"
+
+echo "== 1/4 import-camvid"
+rm -rf "$out/sequences"
+"$bin/import-camvid" "$camvid" --split "$train_splits" -o "$out/sequences/train" >/dev/null
+"$bin/import-camvid" "$camvid" --split "$test_split" -o "$out/sequences/test" >/dev/null
+
+echo "== 2/4 extract-features --appearance ($jobs at once; resumes what is on disk)"
+extract() {  # SIDE SEQUENCE_FOLDER [extra options]
+  local side=$1 seq=$2
+  shift 2
+  local name
+  name="$(basename "$seq")"
+  mkdir -p "$out/work/$side" "$out/logs"
+  if ! "$bin/extract-features" "$seq" -o "$out/work/$side/$name" --appearance --threads 1 -q "$@" \
+      >"$out/logs/extract-$side-$name.txt" 2>&1; then
+    cat "$out/logs/extract-$side-$name.txt" >&2
+    return 1
+  fi
+}
+export -f extract
+export bin out
+{
+  for s in "$out"/sequences/train/*/; do printf 'train %s --require-label\n' "${s%/}"; done
+  for s in "$out"/sequences/test/*/; do printf 'test %s\n' "${s%/}"; done
+} | xargs -P "$jobs" -L 1 bash -c 'extract "$@"' _ || fail "extract-features failed (see $out/logs/)"
+works_of() {  # SIDE: the work folders of this run's sequences of that side
+  local s
+  for s in "$out"/sequences/"$1"/*/; do printf '%s\n' "$out/work/$1/$(basename "$s")"; done
+}
+mapfile -t train_works < <(works_of train)
+mapfile -t test_works < <(works_of test)
+
+echo "== 3/4 train-forest: sm (six S+M features), combined (+ appearance channels and textons, --balance sqrt)"
+mkdir -p "$out/forests" "$out/measure"
+common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
+python3 "$summary_py" measure "$out/measure/sm.json" -- \
+  "$bin/train-forest" "${train_works[@]}" --features fH,fC,fOx,fOy,fD,fR "${common[@]}" -o "$out/forests/sm.json"
+python3 "$summary_py" measure "$out/measure/combined.json" -- \
+  "$bin/train-forest" "${train_works[@]}" --textons --balance sqrt "${common[@]}" -o "$out/forests/combined.json"
+
+echo "== 4/4 eval-forest on $test_split"
+"$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined"
+"$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \
+  -o "$out/eval/combined_smooth"
+
+python3 "$summary_py" summary "$out" --train "$train_splits" --test "$test_split" --kt "$kt" --trees "$trees"

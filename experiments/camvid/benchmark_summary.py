@@ -1,0 +1,108 @@
+#!/usr/bin/env python3
+"""Helpers of experiments/camvid/benchmark.sh.
+
+  benchmark_summary.py measure RECORD.json -- COMMAND...   runs COMMAND, writes its wall seconds and
+                                                          peak resident set (MB) to RECORD.json
+  benchmark_summary.py summary OUT --train S --test S --kt N --trees M
+                                                          prints the table of OUT/eval/*/results.json
+                                                          and writes OUT/summary.json
+"""
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+
+RUNS = [  # (name in summary.json, eval folder, forest whose training is measured, title)
+    ("sm", "sm", "sm", "S+M"),
+    ("combined", "combined", "combined", "S+M + appearance"),
+    ("combined_smooth", "combined_smooth", "combined", "S+M + appearance + smoothing"),
+]
+
+
+def write_json_atomic(path, value):
+    folder = os.path.dirname(os.path.abspath(path))
+    fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=folder)
+    with os.fdopen(fd, "w") as f:
+        json.dump(value, f, indent=2)
+        f.write("\n")
+    os.replace(tmp, path)
+
+
+def measure(record, command):
+    start = time.monotonic()
+    code = subprocess.call(command)
+    seconds = time.monotonic() - start
+    if code != 0:
+        sys.exit(f"benchmark.sh: {command[0]} failed (exit {code})")
+    peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss  # Linux: kilobytes
+    write_json_atomic(record, {"seconds": round(seconds, 1), "peak_rss_mb": round(peak_kb / 1024.0, 1)})
+
+
+def load(path):
+    try:
+        with open(path) as f:
+            return json.load(f)
+    except (OSError, ValueError) as e:
+        sys.exit(f"benchmark.sh: {path}: {e}")
+
+
+def summary(out, train, test, kt, trees):
+    runs = {}
+    for name, folder, forest, title in RUNS:
+        r = load(os.path.join(out, "eval", folder, "results.json"))
+        m = load(os.path.join(out, "measure", forest + ".json"))
+        runs[name] = {
+            "title": title,
+            "global_accuracy": r["global_accuracy"],
+            "class_average_accuracy": r["class_average_accuracy"],
+            "mean_iou": r["mean_iou"],
+            "per_class": {c["class"]: {"accuracy": c["accuracy"], "iou": c["iou"]} for c in r["per_class"]},
+            "train_seconds": m["seconds"],
+            "train_peak_rss_mb": m["peak_rss_mb"],
+            "eval_ms_per_frame": 1000.0 * r["seconds_per_frame"],
+            "smooth_ms_per_frame": 1000.0 * r.get("smooth_seconds_per_frame", 0.0),
+            "test_frames": len(r["per_frame"]),
+        }
+    classes = list(runs["sm"]["per_class"].keys())
+    pct = lambda v: f"{100.0 * v:5.1f}"
+    head = ["run", "global", "class-avg", "mIoU"] + [c[:6] for c in classes] + ["train s", "peak MB"]
+    rows = []
+    for name, run in runs.items():
+        rows.append([run["title"], pct(run["global_accuracy"]), pct(run["class_average_accuracy"]), pct(run["mean_iou"])]
+                    + [pct(run["per_class"][c]["accuracy"]) for c in classes]
+                    + [f"{run['train_seconds']:.0f}", f"{run['train_peak_rss_mb']:.0f}"])
+    widths = [max(len(str(x[i])) for x in [head] + rows) for i in range(len(head))]
+    print(f"CamVid: trained on {train}, tested on {test} ({runs['sm']['test_frames']} frames), Kt = {kt}, M = {trees};"
+          " accuracies in %, per-class columns are per-class accuracy")
+    for row in [head] + rows:
+        print("  ".join(str(v).rjust(w) if i else str(v).ljust(w) for i, (v, w) in enumerate(zip(row, widths))))
+    write_json_atomic(os.path.join(out, "summary.json"),
+                      {"format": "smseg-camvid-benchmark", "version": 1, "train": train.split(","), "test": test,
+                       "Kt": kt, "M": trees, "runs": runs})
+    print(f"summary: {os.path.join(out, 'summary.json')}")
+
+
+def main():
+    if len(sys.argv) > 1 and sys.argv[1] == "measure":
+        if len(sys.argv) < 5 or sys.argv[3] != "--":
+            sys.exit("usage: benchmark_summary.py measure RECORD.json -- COMMAND...")
+        measure(sys.argv[2], sys.argv[4:])
+        return
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="cmd", required=True)
+    s = sub.add_parser("summary")
+    s.add_argument("out")
+    s.add_argument("--train", required=True)
+    s.add_argument("--test", required=True)
+    s.add_argument("--kt", type=int, required=True)
+    s.add_argument("--trees", type=int, required=True)
+    a = p.parse_args()
+    summary(a.out, a.train, a.test, a.kt, a.trees)
+
+
+if __name__ == "__main__":
+    main()

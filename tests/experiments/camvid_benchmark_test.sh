@@ -1,0 +1,54 @@
+#!/usr/bin/env bash
+# experiments/camvid/benchmark.sh end to end on a small CamVid folder cut from ../shared/data/camvid:
+# one 1 Hz train run (16 frames), val frames 0-11 as val and frames 12-21 as a test split, so the
+# script must train on train + val and test on test; tiny forests (Kt = 1000, M = 2). Checks the
+# summary's shape and ranges, then that a folder without frames.csv is one clear line and exit 2.
+# Usage: camvid_benchmark_test.sh SOURCE_DIR BIN_DIR SHARED_DIR     (exit 77: no CamVid, skipped)
+set -euo pipefail
+src=$1 bin=$2 shared=$3
+camvid="$shared/data/camvid"
+[[ -f "$camvid/frames.csv" ]] || { echo "no CamVid under $shared/data: skipped"; exit 77; }
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+mini="$tmp/camvid"
+mkdir -p "$mini"
+for d in train trainannot val valannot; do ln -s "$camvid/$d" "$mini/$d"; done
+cp "$camvid/classes.csv" "$mini/"
+{
+  head -1 "$camvid/frames.csv"
+  awk -F, '$1 == "0016E5" && $3 == "train" && $2 >= 8190 && $2 <= 8640' "$camvid/frames.csv"
+  awk -F, 'BEGIN { OFS = "," } $3 == "val" { n++; if (n <= 12) print; else if (n <= 22) { $3 = "test"; print } }' "$camvid/frames.csv"
+} >"$mini/frames.csv"
+[[ $(grep -c ',train,' "$mini/frames.csv") -eq 16 ]] || { echo "FAIL: the train run should have 16 frames"; exit 1; }
+
+SMSEG_BIN="$bin" SMSEG_KT=1000 SMSEG_M=2 SMSEG_JOBS=2 bash "$src/experiments/camvid/benchmark.sh" "$mini" "$tmp/out" \
+  >"$tmp/stdout.txt"
+cat "$tmp/stdout.txt"
+grep -q "training on train,val, testing on test" "$tmp/stdout.txt" || { echo "FAIL: splits not chosen from frames.csv"; exit 1; }
+python3 - "$tmp/out/summary.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert s["train"] == ["train", "val"] and s["test"] == "test", s
+assert set(s["runs"]) == {"sm", "combined", "combined_smooth"}, s["runs"].keys()
+for name, r in s["runs"].items():
+    for k in ("global_accuracy", "class_average_accuracy", "mean_iou"):
+        assert 0.0 <= r[k] <= 1.0, (name, k, r[k])
+    assert len(r["per_class"]) == 11, (name, r["per_class"].keys())
+    assert all(0.0 <= c["accuracy"] <= 1.0 for c in r["per_class"].values()), name
+    assert r["test_frames"] == 10, (name, r["test_frames"])
+    assert r["train_seconds"] > 0 and r["train_peak_rss_mb"] > 10, (name, r)
+assert s["runs"]["combined_smooth"]["smooth_ms_per_frame"] > 0
+assert s["runs"]["sm"]["smooth_ms_per_frame"] == 0
+print("summary.json: ok")
+PY
+
+# Bad input: one line naming the file, exit 2, nothing half-made.
+set +e
+SMSEG_BIN="$bin" bash "$src/experiments/camvid/benchmark.sh" "$tmp" "$tmp/out2" 2>"$tmp/err.txt"
+code=$?
+set -e
+[[ $code -eq 2 ]] || { echo "FAIL: exit $code for a folder without frames.csv"; exit 1; }
+[[ $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "$tmp/frames.csv: missing" "$tmp/err.txt" ||
+  { echo "FAIL: error was:"; cat "$tmp/err.txt"; exit 1; }
+echo "bad input: ok"
