@@ -64,6 +64,19 @@ TEST(Appearance, ColourTellsRedFromBlueAndBrightFromDark) {
   EXPECT_LT(at(rasters_of(grey), "fL", 1, 1), 0.6);
 }
 
+TEST(Appearance, LabMatchesTheCieReferenceValues) {
+  // sRGB primaries in CIE L*a*b* (D65): red (53.24, 80.09, 67.20), blue (32.30, 79.19, -107.86).
+  cv::Mat bgr(2, 2, CV_8UC3, cv::Scalar(0, 0, 255));
+  bgr.row(1).setTo(cv::Scalar(255, 0, 0));
+  const auto r = rasters_of(bgr);
+  EXPECT_NEAR(at(r, "fL", 0, 0) * 100.0, 53.24, 0.05);
+  EXPECT_NEAR(at(r, "fA", 0, 0) * 255.0 - 128.0, 80.09, 0.1);
+  EXPECT_NEAR(at(r, "fB", 0, 0) * 255.0 - 128.0, 67.20, 0.1);
+  EXPECT_NEAR(at(r, "fL", 1, 0) * 100.0, 32.30, 0.05);
+  EXPECT_NEAR(at(r, "fA", 1, 0) * 255.0 - 128.0, 79.19, 0.1);
+  EXPECT_NEAR(at(r, "fB", 1, 0) * 255.0 - 128.0, -107.86, 0.1);
+}
+
 TEST(Appearance, GradientsFallInTheBinOfTheirOrientation) {
   cv::Mat vertical_edge(16, 16, CV_8UC3, cv::Scalar::all(0));  // intensity changes along x: 0 degrees
   vertical_edge(cv::Rect(8, 0, 8, 16)).setTo(cv::Scalar::all(255));

@@ -1,7 +1,8 @@
 #pragma once
 // Appearance channels (extract-features --appearance): what the image itself says at each pixel, as
 // rasters the forest's windows average like the structure-and-motion features (summed-area tables).
-//   fL fA fB          CIE Lab colour (OpenCV's 8-bit Lab of the left image, / 255: each in [0, 1])
+//   fL fA fB          CIE Lab colour of the left image (sRGB, D65; L* / 100, (a* + 128) / 255, (b* + 128) / 255:
+//                     OpenCV's 8-bit Lab scaling without its rounding, each about [0, 1])
 //   fG0 fG1 fG2 fG3   gradient magnitude of the greyscale image (3x3 Sobel, / (4 * 255 * sqrt 2): in
 //                     [0, 1]) shared between four orientation bins, 0, 45, 90 and 135 degrees (the
 //                     gradient's direction modulo 180), linearly between the two nearest: a window's
