@@ -5,15 +5,21 @@
 #               image / label folders it names (train, trainannot, val, valannot, and optionally test,
 #               testannot). With test rows in frames.csv it trains on train + val and tests on test;
 #               without, it trains on train and tests on val.
-#   OUT         output folder: sequences/, work/, forests/, eval/, measure/ and summary.json
+#   OUT         output folder: sequences/, work/, forests/, context/, eval/, measure/ and summary.json
 # Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default:
 #   sm               structure and motion only: the six features fH fC fOx fOy fD fR
 #   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
 #                    with --balance sqrt (measured on val: docs/camvid.md, "Appearance channels")
 #   combined_smooth  the combined forest, evaluated with --smooth graphcut
+#   sm_context       auto-context on sm: add-context writes the sm forest's class posteriors as 11 more
+#                    channels (out of 4 folds on the training runs, from the sm forest on the test runs),
+#                    and a second forest, with sm's options, trains on the six features and them
+#   combined_context the same on the combined forest (its features, textons and --balance sqrt)
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
-# OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "combined_smooth": {...}}}, each with
-# global_accuracy, class_average_accuracy, mean_iou, per_class, train_seconds, train_peak_rss_mb.
+# OUT/summary.json: {"runs": {"sm": {...}, "sm_context": {...}, "combined": {...}, "combined_context": {...},
+# "combined_smooth": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class,
+# train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
+# forests', the context channels' and the second forest's).
 # Training frames are extracted with --require-label (the training filters); test frames without it,
 # so no test label reaches the test features.
 # Environment: SMSEG_BIN (the tools; default build/bin, built with CMake when a tool is missing there),
@@ -31,7 +37,7 @@ out="$(cd "$2" && pwd)"
 kt="${SMSEG_KT:-20000}"
 trees="${SMSEG_M:-7}"
 jobs="${SMSEG_JOBS:-$(nproc)}"
-tools=(import-camvid extract-features train-forest eval-forest)
+tools=(import-camvid extract-features train-forest eval-forest add-context)
 
 # The tools: SMSEG_BIN as given, or build/bin (built when a tool is missing).
 if [[ -n "${SMSEG_BIN:-}" ]]; then
@@ -58,12 +64,12 @@ else
 fi
 echo "== CamVid $camvid: training on $train_splits, testing on $test_split (Kt = $kt, M = $trees)"
 
-echo "== 1/4 import-camvid"
+echo "== 1/5 import-camvid"
 rm -rf "$out/sequences"
 "$bin/import-camvid" "$camvid" --split "$train_splits" -o "$out/sequences/train" >/dev/null
 "$bin/import-camvid" "$camvid" --split "$test_split" -o "$out/sequences/test" >/dev/null
 
-echo "== 2/4 extract-features --appearance ($jobs at once; resumes what is on disk)"
+echo "== 2/5 extract-features --appearance ($jobs at once; resumes what is on disk)"
 extract() {  # SIDE SEQUENCE_FOLDER [extra options]
   local side=$1 seq=$2
   shift 2
@@ -89,7 +95,7 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
 
-echo "== 3/4 train-forest: sm (six S+M features), combined (+ appearance channels and textons, --balance sqrt)"
+echo "== 3/5 train-forest: sm (six S+M features), combined (+ appearance channels and textons, --balance sqrt)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
 python3 "$summary_py" measure "$out/measure/sm.json" -- \
@@ -97,7 +103,23 @@ python3 "$summary_py" measure "$out/measure/sm.json" -- \
 python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --textons --balance sqrt "${common[@]}" -o "$out/forests/combined.json"
 
-echo "== 4/4 eval-forest on $test_split"
+echo "== 4/5 auto-context: the sm and combined forests' posteriors (out of 4 folds on the training runs), second forests"
+context() {  # FIRST [train-forest options of the second forest...]: OUT/context/FIRST-{train,test}, OUT/forests/FIRST_context.json
+  local first=$1 w
+  shift
+  local ctx_train=() ctx_test=()
+  for w in "${train_works[@]}"; do ctx_train+=("$out/context/$first-train/$(basename "$w")"); done
+  for w in "${test_works[@]}"; do ctx_test+=("$out/context/$first-test/$(basename "$w")"); done
+  python3 "$summary_py" measure "$out/measure/${first}_context.json" -- \
+    "$bin/add-context" "$out/forests/$first.json" "${train_works[@]}" --folds 4 -q -o "$out/context/$first-train" \
+    --then "$bin/train-forest" "${ctx_train[@]}" "$@" "${common[@]}" -o "$out/forests/${first}_context.json"
+  "$bin/add-context" "$out/forests/$first.json" "${test_works[@]}" -q -o "$out/context/$first-test" >/dev/null
+  "$bin/eval-forest" "$out/forests/${first}_context.json" "${ctx_test[@]}" --no-pictures -q -o "$out/eval/${first}_context"
+}
+context sm
+context combined --textons --balance sqrt
+
+echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \

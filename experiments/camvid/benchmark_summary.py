@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """Helpers of experiments/camvid/benchmark.sh.
 
-  benchmark_summary.py measure RECORD.json -- COMMAND...   runs COMMAND, writes its wall seconds and
+  benchmark_summary.py measure RECORD.json -- COMMAND... [--then COMMAND...]
+                                                          runs the commands one after the other (each
+                                                          must succeed), writes their wall seconds and
                                                           peak resident set (MB) to RECORD.json
   benchmark_summary.py summary OUT --train S --test S --kt N --trees M
                                                           prints the table of OUT/eval/*/results.json
@@ -16,10 +18,12 @@ import sys
 import tempfile
 import time
 
-RUNS = [  # (name in summary.json, eval folder, forest whose training is measured, title)
-    ("sm", "sm", "sm", "S+M"),
-    ("combined", "combined", "combined", "S+M + appearance"),
-    ("combined_smooth", "combined_smooth", "combined", "S+M + appearance + smoothing"),
+RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
+    ("sm", "sm", ["sm"], "S+M"),
+    ("sm_context", "sm_context", ["sm", "sm_context"], "S+M + auto-context"),
+    ("combined", "combined", ["combined"], "S+M + appearance"),
+    ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
+    ("combined_smooth", "combined_smooth", ["combined"], "S+M + appearance + smoothing"),
 ]
 
 
@@ -32,12 +36,13 @@ def write_json_atomic(path, value):
     os.replace(tmp, path)
 
 
-def measure(record, command):
+def measure(record, commands):
     start = time.monotonic()
-    code = subprocess.call(command)
+    for command in commands:
+        code = subprocess.call(command)
+        if code != 0:
+            sys.exit(f"benchmark.sh: {command[0]} failed (exit {code})")
     seconds = time.monotonic() - start
-    if code != 0:
-        sys.exit(f"benchmark.sh: {command[0]} failed (exit {code})")
     peak_kb = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss  # Linux: kilobytes
     write_json_atomic(record, {"seconds": round(seconds, 1), "peak_rss_mb": round(peak_kb / 1024.0, 1)})
 
@@ -52,9 +57,10 @@ def load(path):
 
 def summary(out, train, test, kt, trees):
     runs = {}
-    for name, folder, forest, title in RUNS:
+    for name, folder, trainings, title in RUNS:
         r = load(os.path.join(out, "eval", folder, "results.json"))
-        m = load(os.path.join(out, "measure", forest + ".json"))
+        measured = [load(os.path.join(out, "measure", t + ".json")) for t in trainings]
+        m = {"seconds": sum(x["seconds"] for x in measured), "peak_rss_mb": max(x["peak_rss_mb"] for x in measured)}
         runs[name] = {
             "title": title,
             "global_accuracy": r["global_accuracy"],
@@ -89,8 +95,16 @@ def summary(out, train, test, kt, trees):
 def main():
     if len(sys.argv) > 1 and sys.argv[1] == "measure":
         if len(sys.argv) < 5 or sys.argv[3] != "--":
-            sys.exit("usage: benchmark_summary.py measure RECORD.json -- COMMAND...")
-        measure(sys.argv[2], sys.argv[4:])
+            sys.exit("usage: benchmark_summary.py measure RECORD.json -- COMMAND... [--then COMMAND...]")
+        commands = [[]]
+        for arg in sys.argv[4:]:
+            if arg == "--then":
+                commands.append([])
+            else:
+                commands[-1].append(arg)
+        if any(not c for c in commands):
+            sys.exit("benchmark_summary.py measure: an empty command")
+        measure(sys.argv[2], commands)
         return
     p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = p.add_subparsers(dest="cmd", required=True)
