@@ -1,7 +1,6 @@
 // train-forest: extremely randomized trees over sampling windows, trained on feature stacks.
 #include <iostream>
 #include <optional>
-#include <sstream>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/option_names.hpp"
@@ -12,14 +11,6 @@
 #include "smseg/common/slurm.hpp"
 
 namespace {
-
-std::vector<std::string> split_list(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 int report(const smseg::forest::Forest& f, const std::string& what, const std::string& out) {
   int nodes = 0;
@@ -168,7 +159,7 @@ int main(int argc, char** argv) {
     p.balance = forest::balance_from_string(balance, "--balance");
     p.score = forest::score_from_string(score, "--score");
     if (p.windows.mode == forest::WindowSampling::Learned) {
-      const auto files = split_list(learned_from);
+      const auto files = smseg::split_comma_list(learned_from);
       if (files.empty()) throw Error("", "--learned-from", "--windows learned needs the forests to learn from");
       std::vector<forest::Forest> earlier;
       for (const auto& f : files) earlier.push_back(forest::load_forest(f));
@@ -185,7 +176,7 @@ int main(int argc, char** argv) {
     if (on_slurm) check_slurm_options(slurm, p, tree_range, corpus);
     const auto range = features::FrameRange::parse(frames, "--train-frames");
     const features::StackSet set = features::open_stacks(
-        std::vector<fs::path>(works.begin(), works.end()), range, true, true, split_list(features_opt));
+        std::vector<fs::path>(works.begin(), works.end()), range, true, true, smseg::split_comma_list(features_opt));
     check_points(set, quiet);
     if (!quiet)
       std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, "

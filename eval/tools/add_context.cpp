@@ -3,21 +3,12 @@
 #include <cstdio>
 #include <iostream>
 #include <set>
-#include <sstream>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/context.hpp"
 
 namespace {
-
-std::vector<std::string> split_list(const std::string& s) {
-  std::vector<std::string> out;
-  std::stringstream ss(s);
-  for (std::string item; std::getline(ss, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
 
 /// OUT/<name of WORK> for each WORK; two work folders of one name would write one folder.
 std::vector<smseg::fs::path> output_folders(const std::vector<std::string>& works, const smseg::fs::path& root) {
@@ -90,7 +81,7 @@ int main(int argc, char** argv) {
   return run_tool(app, argc, argv, threads, [&] {
     if (opt.folds == 1) throw UsageError("", "--folds", "is 1: out of fold needs at least 2 folds (0: no folds)");
     opt.frames = features::FrameRange::parse(frames, "--frames");
-    opt.keep = split_list(keep);
+    opt.keep = smseg::split_comma_list(keep);
     opt.progress = !quiet;
     const forest::Forest forest = forest::load_forest(forest_file);
     FolderReplacement replacement(out);

@@ -4,7 +4,9 @@
 
 #include <exception>
 #include <iostream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 
@@ -29,6 +31,15 @@ inline const CLI::Validator kDecimalDigits(
       return digits ? std::string() : "expected a non-negative whole number (decimal digits), got '" + value + "'";
     },
     "UINT");
+
+/// The items of an option's comma-separated list ("fH,fC,fD"), empty items dropped.
+inline std::vector<std::string> split_comma_list(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream ss(s);
+  for (std::string item; std::getline(ss, item, ',');)
+    if (!item.empty()) out.push_back(item);
+  return out;
+}
 
 /// f(), with an Error it throws turned into a UsageError: for checking option values with the
 /// library's own parsers (a bad value is bad usage, exit status 2, not a failure of the run).
