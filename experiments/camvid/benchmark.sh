@@ -15,9 +15,10 @@
 #                    channels (out of 4 folds on the training runs, from the sm forest on the test runs),
 #                    and a second forest, with sm's options, trains on the six features and them
 #   combined_context the same on the combined forest (its features, textons and --balance sqrt)
+#   combined_context_smooth  the combined_context forest, evaluated with --smooth graphcut
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
 # OUT/summary.json: {"runs": {"sm": {...}, "sm_context": {...}, "combined": {...}, "combined_context": {...},
-# "combined_smooth": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class,
+# "combined_smooth": {...}, "combined_context_smooth": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class,
 # train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
 # forests', the context channels' and the second forest's).
 # Training frames are extracted with --require-label (the training filters); test frames without it,
@@ -118,11 +119,14 @@ context() {  # FIRST [train-forest options of the second forest...]: OUT/context
 }
 context sm
 context combined --textons --balance sqrt
+mapfile -t combined_context_test < <(for w in "${test_works[@]}"; do echo "$out/context/combined-test/$(basename "$w")"; done)
 
 echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \
   -o "$out/eval/combined_smooth"
+"$bin/eval-forest" "$out/forests/combined_context.json" "${combined_context_test[@]}" --smooth graphcut --no-pictures \
+  -q -o "$out/eval/combined_context_smooth"
 
 python3 "$summary_py" summary "$out" --train "$train_splits" --test "$test_split" --kt "$kt" --trees "$trees"

@@ -24,6 +24,8 @@ RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add 
     ("combined", "combined", ["combined"], "S+M + appearance"),
     ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
     ("combined_smooth", "combined_smooth", ["combined"], "S+M + appearance + smoothing"),
+    ("combined_context_smooth", "combined_context_smooth", ["combined", "combined_context"],
+     "S+M + appearance + auto-context + smoothing"),
 ]
 
 

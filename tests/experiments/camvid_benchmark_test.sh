@@ -30,7 +30,7 @@ python3 - "$tmp/out/summary.json" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
 assert s["train"] == ["train", "val"] and s["test"] == "test", s
-assert set(s["runs"]) == {"sm", "sm_context", "combined", "combined_context", "combined_smooth"}, s["runs"].keys()
+assert set(s["runs"]) == {"sm", "sm_context", "combined", "combined_context", "combined_smooth", "combined_context_smooth"}, s["runs"].keys()
 assert s["runs"]["sm_context"]["train_seconds"] > s["runs"]["sm"]["train_seconds"], s["runs"]  # first forest + folds + second
 for name, r in s["runs"].items():
     for k in ("global_accuracy", "class_average_accuracy", "mean_iou"):
@@ -40,6 +40,7 @@ for name, r in s["runs"].items():
     assert r["test_frames"] == 10, (name, r["test_frames"])
     assert r["train_seconds"] > 0 and r["train_peak_rss_mb"] > 10, (name, r)
 assert s["runs"]["combined_smooth"]["smooth_ms_per_frame"] > 0
+assert s["runs"]["combined_context_smooth"]["smooth_ms_per_frame"] > 0
 assert s["runs"]["sm"]["smooth_ms_per_frame"] == 0
 print("summary.json: ok")
 PY
