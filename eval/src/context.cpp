@@ -9,6 +9,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/common/progress.hpp"
 #include "smseg/stacks/point_features.hpp"
+#include "smseg/eval/evaluate.hpp"
 #include "smseg/forest/train.hpp"
 
 namespace smseg::eval {
@@ -69,17 +70,6 @@ std::vector<int> feature_indices(const features::StackManifest& m, const std::ve
   return idx;
 }
 
-/// The forest must fit every work folder: its classes, image size and features.
-void check_fits(const forest::Forest& forest, const fs::path& forest_file, const features::StackManifest& m) {
-  forest::check_compatible(forest, m.classes, forest.features, m.manifest_path());
-  if (forest.width != m.size.width || forest.height != m.size.height)
-    throw Error(m.manifest_path().string(), "image_size",
-                "stacks are " + std::to_string(m.size.width) + "x" + std::to_string(m.size.height) + ", the forest " +
-                    forest_file.string() + " was trained on " + std::to_string(forest.width) + "x" +
-                    std::to_string(forest.height));
-  feature_indices(m, forest.features, "the forest " + forest_file.string() + " reads it");
-}
-
 /// The forests that label each labelled frame out of fold: fold forest k trained on every labelled frame
 /// (of all work folders, inside the range) outside fold k, with the given forest's parameters.
 struct OutOfFold {
@@ -135,22 +125,42 @@ Json context_record(const fs::path& forest_file, const fs::path& source, const C
           {"channels", "per class, the mean over the trees of the leaf distributions (posterior), as a SAT"}};
 }
 
+/// A work folder to write: its manifest and where the forest's and the kept features are in its tables.
+struct Source {
+  fs::path work;
+  features::StackManifest manifest;
+  std::vector<int> reads, kept;
+};
+
+/// Every check before any work: the forest fits each folder, each has the features read and kept, and a
+/// frame inside the range.
+std::vector<Source> open_sources(const forest::Forest& forest, const std::vector<fs::path>& works,
+                                 const std::vector<std::string>& keep, const features::FrameRange& frames) {
+  std::vector<Source> sources;
+  for (const auto& w : works) {
+    Source s{w, features::load_stack_manifest(w), {}, {}};
+    check_forest_fits(forest, s.manifest);
+    s.reads = feature_indices(s.manifest, forest.features, "the forest reads it");
+    s.kept = feature_indices(s.manifest, keep, "--features keeps it");
+    if (std::none_of(s.manifest.frames.begin(), s.manifest.frames.end(), [&](int f) { return frames.contains(f); }))
+      throw Error(w.string(), "frames", "no frame with a feature stack in " + frames.str());
+    sources.push_back(std::move(s));
+  }
+  return sources;
+}
+
 }  // namespace
 
 ContextReport add_context(const forest::Forest& forest, const fs::path& forest_file, const std::vector<fs::path>& works,
                           const std::vector<fs::path>& outs, const ContextOptions& options) {
   if (works.empty()) throw Error("", "WORK", "name at least one work folder");
   if (works.size() != outs.size()) throw Error("", "WORK", "one output folder per work folder");
-  std::vector<features::StackManifest> manifests;
-  for (const auto& w : works) {
-    manifests.push_back(features::load_stack_manifest(w));
-    check_fits(forest, forest_file, manifests.back());
-  }
   const std::vector<std::string> keep = options.keep.empty() ? forest.features : options.keep;
   const std::vector<std::string> context = context_feature_names(forest.classes);
   for (const auto& k : keep)
     if (std::find(context.begin(), context.end(), k) != context.end())
       throw Error("", "--features", "\"" + k + "\" is a context channel this run writes anew; leave it out");
+  const std::vector<Source> sources = open_sources(forest, works, keep, options.frames);
 
   ContextReport report;
   const auto t0 = std::chrono::steady_clock::now();
@@ -164,18 +174,17 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
   std::vector<forest::Classifier> by_fold;
   for (const auto& f : oof.forests) by_fold.emplace_back(f);
   const int trees = static_cast<int>(forest.trees.size());
-  for (std::size_t w = 0; w < works.size(); ++w) {
-    const features::StackManifest& m = manifests[w];
-    const std::vector<int> reads = feature_indices(m, forest.features, "the forest reads it");
-    const std::vector<int> kept = feature_indices(m, keep, "--features keeps it");
+  for (std::size_t w = 0; w < sources.size(); ++w) {
+    const Source& src = sources[w];
+    const features::StackManifest& m = src.manifest;
     features::StackManifest out = m;
     out.work = outs[w];
     out.features = keep;
     out.features.insert(out.features.end(), context.begin(), context.end());
     out.frames.clear();
     out.labelled_frames.clear();
-    out.options["context"] = context_record(forest_file, works[w], options, keep);
-    Progress progress("add-context " + works[w].filename().string(), static_cast<int>(m.frames.size()),
+    out.options["context"] = context_record(forest_file, src.work, options, keep);
+    Progress progress("add-context " + src.work.filename().string(), static_cast<long>(m.frames.size()),
                       options.progress);
     for (int f : m.frames) {
       progress.tick();
@@ -184,22 +193,18 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
       const features::FrameStack stack = features::FrameStack::open(m, f, labelled);
       forest::FrameData input = stack.view();
       input.sats.clear();
-      for (int i : reads) input.sats.push_back(stack.sat(i));
+      for (int i : src.reads) input.sats.push_back(stack.sat(i));
       const auto fold = oof.fold_of.find({static_cast<int>(w), f});
       const bool out_of_fold = fold != oof.fold_of.end();
       const forest::Classifier& classifier = out_of_fold ? by_fold[fold->second] : whole;
-      const std::vector<cv::Mat> sats = output_tables(stack, kept, classifier, input, trees);
       const cv::Mat gray(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.gray()));
       const cv::Mat labels = labelled ? cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.labels())) : cv::Mat();
-      features::write_frame_stack(out.work, f, sats, gray, labels);
-      input.release();
+      features::write_frame_stack(out.work, f, output_tables(stack, src.kept, classifier, input, trees), gray, labels);
       out.frames.push_back(f);
       if (labelled) out.labelled_frames.push_back(f);
       ++report.frames_written;
       report.out_of_fold_frames += out_of_fold;
     }
-    if (out.frames.empty())
-      throw Error(works[w].string(), "frames", "no frame with a feature stack in " + options.frames.str());
     features::save_stack_manifest(out);
   }
   report.label_seconds = seconds_since(t1);

@@ -260,13 +260,16 @@ cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameDat
   return labels;
 }
 
-void check_forest_fits(const forest::Forest& forest, const features::StackSet& set) {
-  const features::StackManifest& m0 = set.manifests.front();
-  forest::check_compatible(forest, m0.classes, forest.features, m0.manifest_path());
-  if (forest.width != m0.size.width || forest.height != m0.size.height)
-    throw Error(m0.manifest_path().string(), "image_size",
-                "stacks are " + std::to_string(m0.size.width) + "x" + std::to_string(m0.size.height) +
+void check_forest_fits(const forest::Forest& forest, const features::StackManifest& m) {
+  forest::check_compatible(forest, m.classes, forest.features, m.manifest_path());
+  if (forest.width != m.size.width || forest.height != m.size.height)
+    throw Error(m.manifest_path().string(), "image_size",
+                "stacks are " + std::to_string(m.size.width) + "x" + std::to_string(m.size.height) +
                     ", the forest was trained on " + std::to_string(forest.width) + "x" + std::to_string(forest.height));
+}
+
+void check_forest_fits(const forest::Forest& forest, const features::StackSet& set) {
+  check_forest_fits(forest, set.manifests.front());
 }
 
 namespace {

@@ -118,6 +118,9 @@ cv::Mat vote_regions(const forest::Classifier& classifier, const forest::FrameDa
 
 /// Checks that the forest fits the stacks (classes, features, image size): one Error naming the file.
 void check_forest_fits(const forest::Forest& forest, const features::StackSet& set);
+/// The same against one work folder's manifest (classes and image size; its features are checked where
+/// they are selected by name).
+void check_forest_fits(const forest::Forest& forest, const features::StackManifest& m);
 
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt);
 /// The same on stacks already open (the forest is checked against them).
