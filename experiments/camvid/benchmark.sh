@@ -105,12 +105,17 @@ python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --textons --balance sqrt "${common[@]}" -o "$out/forests/combined.json"
 
 echo "== 4/5 auto-context: the sm and combined forests' posteriors (out of 4 folds on the training runs), second forests"
-context() {  # FIRST [train-forest options of the second forest...]: OUT/context/FIRST-{train,test}, OUT/forests/FIRST_context.json
-  local first=$1 w
+under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-context's output folders)
+  local folder=$1 w
   shift
-  local ctx_train=() ctx_test=()
-  for w in "${train_works[@]}"; do ctx_train+=("$out/context/$first-train/$(basename "$w")"); done
-  for w in "${test_works[@]}"; do ctx_test+=("$out/context/$first-test/$(basename "$w")"); done
+  for w in "$@"; do printf '%s\n' "$folder/$(basename "$w")"; done
+}
+context() {  # FIRST [train-forest options of the second forest...]: OUT/context/FIRST-{train,test}, OUT/forests/FIRST_context.json
+  local first=$1
+  shift
+  local ctx_train ctx_test
+  mapfile -t ctx_train < <(under "$out/context/$first-train" "${train_works[@]}")
+  mapfile -t ctx_test < <(under "$out/context/$first-test" "${test_works[@]}")
   python3 "$summary_py" measure "$out/measure/${first}_context.json" -- \
     "$bin/add-context" "$out/forests/$first.json" "${train_works[@]}" --folds 4 -q -o "$out/context/$first-train" \
     --then "$bin/train-forest" "${ctx_train[@]}" "$@" "${common[@]}" -o "$out/forests/${first}_context.json"
@@ -119,7 +124,7 @@ context() {  # FIRST [train-forest options of the second forest...]: OUT/context
 }
 context sm
 context combined --textons --balance sqrt
-mapfile -t combined_context_test < <(for w in "${test_works[@]}"; do echo "$out/context/combined-test/$(basename "$w")"; done)
+mapfile -t combined_context_test < <(under "$out/context/combined-test" "${test_works[@]}")
 
 echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
