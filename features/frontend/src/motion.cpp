@@ -1,4 +1,5 @@
 #include "smseg/frontend/motion.hpp"
+#include "smseg/frontend/trajectory.hpp"
 
 #include "pair_motion.hpp"
 
@@ -43,21 +44,6 @@ Eigen::Matrix3d nearest_rotation(const Eigen::Matrix3d& M) {
   return U * V.transpose();
 }
 
-Eigen::Matrix3d to_eigen(const Pose& p) {
-  Eigen::Matrix3d R;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) R(i, j) = p.R[3 * i + j];
-  return R;
-}
-
-Pose from_eigen(const Eigen::Matrix3d& R, const Eigen::Vector3d& c) {
-  Pose p;
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) p.R[3 * i + j] = R(i, j);
-    p.t[i] = c[i];
-  }
-  return p;
-}
 
 // Inliers of m over all correspondences under the depth-scaled threshold; returns count and SSE.
 int count_inliers(const RigidMotion& m, const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
@@ -381,7 +367,7 @@ Pose initial_pose(double camera_height) {
 namespace detail {
 
 PathChain::PathChain(double camera_height)
-    : first_(initial_pose(camera_height)), Rw_(to_eigen(first_)), c_(first_.t[0], first_.t[1], first_.t[2]) {}
+    : first_(initial_pose(camera_height)), Rw_(pose_rotation(first_)), c_(first_.t[0], first_.t[1], first_.t[2]) {}
 
 Pose PathChain::step(PairMotion& pm) {
   if (pm.ok && pm.motion.R.allFinite() && pm.motion.t.allFinite()) {
@@ -394,7 +380,7 @@ Pose PathChain::step(PairMotion& pm) {
   }
   Rw_ = nearest_rotation(Rw_ * pm.motion.R.transpose());
   c_ = c_ - Rw_ * pm.motion.t;
-  return from_eigen(Rw_, c_);
+  return make_pose(Rw_, c_);
 }
 
 }  // namespace detail

@@ -19,6 +19,7 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/progress.hpp"
+#include "smseg/frontend/trajectory.hpp"
 #include "sfm_matching.hpp"
 
 namespace smseg::features {
@@ -75,15 +76,6 @@ bool triangulate(const CamPose& A, const CamPose& B, const cv::Point2f& pa, cons
   const double c = ra.dot(rb) / (ra.norm() * rb.norm());
   if (!(std::acos(std::clamp(c, -1.0, 1.0)) >= min_angle)) return false;
   return reprojection_error(A, X, pa, in) <= thr && reprojection_error(B, X, pb, in) <= thr;
-}
-
-Pose to_pose(const Eigen::Matrix3d& R_cw, const Eigen::Vector3d& c) {
-  Pose p;
-  for (int r = 0; r < 3; ++r) {
-    for (int k = 0; k < 3; ++k) p.R[3 * r + k] = R_cw(r, k);
-    p.t[r] = c(r);
-  }
-  return p;
 }
 
 }  // namespace
@@ -709,7 +701,7 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
   res.first_frame = first;
   res.poses.resize(n);
   for (int t = 0; t < n; ++t)
-    res.poses[t] = to_pose(B * pose[t].R.transpose(), scale * B * (pose[t].centre() - origin));
+    res.poses[t] = make_pose(B * pose[t].R.transpose(), scale * B * (pose[t].centre() - origin));
   std::vector<FrameObservations> fobs(n);
   for (int t = 0; t < n; ++t) {
     auto& fo = fobs[t];

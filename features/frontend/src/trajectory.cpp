@@ -46,6 +46,15 @@ Eigen::Matrix3d pose_rotation(const Pose& p) {
   return R;
 }
 
+Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c) {
+  Pose p;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) p.R[3 * i + j] = R(i, j);
+    p.t[i] = c(i);
+  }
+  return p;
+}
+
 Similarity3 umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<Eigen::Vector3d>& dst,
                     bool with_scale) {
   if (src.size() != dst.size()) throw Error("", "points", "umeyama needs as many target points as source points");

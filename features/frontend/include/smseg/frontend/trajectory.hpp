@@ -57,6 +57,8 @@ struct PathError {
 /// Camera centre of a pose (its t) and its camera-to-world rotation, as Eigen types.
 Eigen::Vector3d pose_centre(const Pose& p);
 Eigen::Matrix3d pose_rotation(const Pose& p);
+/// The pose with camera-to-world rotation R and camera centre c (the inverse of the two above).
+Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c);
 
 /// Ground-truth path length: sum of distances between consecutive centres.
 double path_length(const std::vector<Pose>& poses);
