@@ -34,6 +34,7 @@ void FrontEndOptions::validate() const {
   filters.validate();
   motion.validate();
   refine.validate();
+  gravity.validate();
   if (camera_height && !(*camera_height > 0)) throw Error("", "camera_height", "must be positive (metres)");
   if (first_frame < 0) throw Error("", "first_frame", "must be >= 0");
   if (last_frame != -1 && last_frame <= first_frame)
@@ -219,6 +220,10 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   t0 = Clock::now();
   res.pair_motions = estimate_pair_motions(for_motion, first, n, o.motion, StereoCamera::from(seq.calibration), o.refine);
   res.poses = chain_poses(res.pair_motions, *height);
+  if (o.gravity.method == GravityMethod::Estimate) {
+    res.summary.gravity = estimate_gravity(res.poses, first, res.tracks, *height, o.gravity);
+    level_world(res.poses, res.summary.gravity->up);
+  }
   const double t_motion = since(t0);
 
   // Summary.

@@ -103,6 +103,14 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                  {"disparity_weight", o.refine.disparity_weight},
                  {"second_hypothesis", o.refine.second_hypothesis},
                  {"second_min_share", o.refine.second_min_share}};
+  if (o.gravity.method != GravityMethod::Level)  // only when on: work folders from before keep their options
+    j["gravity"] = {{"method", gravity_method_name(o.gravity.method)},
+                    {"max_tilt_deg", o.gravity.max_tilt_deg},
+                    {"plane_threshold", o.gravity.plane_threshold},
+                    {"min_below", o.gravity.min_below},
+                    {"min_inliers", o.gravity.min_inliers},
+                    {"iterations", o.gravity.iterations},
+                    {"seed", o.gravity.seed}};
   if (o.camera_height) j["camera_height"] = *o.camera_height;
   j["first_frame"] = o.first_frame;
   j["last_frame"] = o.last_frame;
@@ -167,6 +175,16 @@ Json summary_to_json(const FrontEndSummary& s) {
                   {"ground_inliers", m.ground_inliers},
                   {"ground_candidates", m.ground_candidates},
                   {"seconds_per_frame", {{"sfm", m.seconds_sfm}, {"bundle_adjustment", m.seconds_ba}}}};
+  }
+  if (s.gravity) {
+    const GravityEstimate& g = *s.gravity;
+    out["gravity"] = {{"up_before_levelling", {g.up.x(), g.up.y(), g.up.z()}},
+                      {"path_up", {g.path_up.x(), g.path_up.y(), g.path_up.z()}},
+                      {"source", g.source},
+                      {"candidates", g.candidates},
+                      {"inliers", g.inliers},
+                      {"plane_below_first_camera_m", g.plane_below_first_camera},
+                      {"correction_deg", g.correction_deg}};
   }
   return out;
 }
@@ -235,6 +253,21 @@ FrontEndSummary summary_from_json(const JsonView& j) {
     f.seconds_ba = m->at("seconds_per_frame").num("bundle_adjustment");
     s.sfm = f;
   }
+  if (const auto g = j.maybe("gravity")) {
+    GravityEstimate e;
+    const auto vec = [&](const char* key) {
+      const auto v = numbers(g->at(key), 3, "3 numbers (a direction)");
+      return Eigen::Vector3d(v[0], v[1], v[2]);
+    };
+    e.up = vec("up_before_levelling");
+    e.path_up = vec("path_up");
+    e.source = g->str("source");
+    e.candidates = static_cast<int>(g->integer("candidates"));
+    e.inliers = static_cast<int>(g->integer("inliers"));
+    e.plane_below_first_camera = g->num("plane_below_first_camera_m");
+    e.correction_deg = g->num("correction_deg");
+    s.gravity = e;
+  }
   return s;
 }
 
@@ -250,9 +283,13 @@ void write_tracks(const fs::path& path, const FrontEndResult& r, const std::stri
          {"first_frame", r.first_frame},
          {"frame_count", n},
          {"pose_convention",
-          "camera-to-world R (row-major) and camera centre t; camera x right, y down, z forward; world Y up, "
-          "origin on the ground under the first camera, which is assumed level (y axis straight down) and "
-          "looking along +Z"},
+          r.summary.gravity
+              ? "camera-to-world R (row-major) and camera centre t; camera x right, y down, z forward; world Y up "
+                "along the estimated gravity (summary.gravity), origin camera_height below the first camera, its "
+                "optical axis on the ground along +Z"
+              : "camera-to-world R (row-major) and camera centre t; camera x right, y down, z forward; world Y up, "
+                "origin on the ground under the first camera, which is assumed level (y axis straight down) and "
+                "looking along +Z"},
          {"options", options}};
   Json poses = Json::array();
   for (const auto& p : r.poses) poses.push_back({{"R", p.R}, {"t", p.t}});

@@ -208,6 +208,10 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
 ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
   opt.features.validate();
   const bool sfm = uses_sfm(seq, opt);
+  if (sfm && opt.front_end.gravity.method != GravityMethod::Level)
+    throw Error(seq.manifest.string(), "gravity",
+                "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
+                "ground plane");
   if (sfm)
     effective_sfm(opt).validate();
   else if (seq.kind != SequenceKind::Stereo)

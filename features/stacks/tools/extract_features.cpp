@@ -67,6 +67,11 @@ int main(int argc, char** argv) {
   bool no_refine = false;
   app.add_flag("--no-refine", no_refine,
                "motion from RANSAC + Arun SVD alone (the thesis method), without the reprojection refinement");
+  std::string gravity = "level";
+  app.add_option("--gravity", gravity,
+                 "stereo: world Y up along the first camera's up axis (level: the thesis assumes it level) | along\n"
+                 "gravity estimated from the camera path and a RANSAC ground plane (estimate; docs/stereo.md)")
+      ->capture_default_str();
   app.add_option("--camera-height", camera_height, "camera height above the ground in metres (default: the sequence's)");
   app.add_option("--focal", focal,
                  "sfm: focal length in pixels (default: the manifest's fx, else estimated by self-calibration, "
@@ -124,6 +129,7 @@ int main(int argc, char** argv) {
       opt.front_end.camera_height = camera_height;
     }
     opt.front_end.refine.enabled = !no_refine;
+    opt.front_end.gravity.method = as_usage([&] { return parse_gravity_method(gravity, "--gravity"); });
     if (app.count("--focal")) {
       if (!(focal > 0)) throw UsageError("", "--focal", "must be positive (pixels)");
       opt.sfm.focal = focal;

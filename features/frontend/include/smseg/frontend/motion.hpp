@@ -51,6 +51,7 @@
 #include <Eigen/Core>
 
 #include "smseg/sequence/sequence.hpp"
+#include "smseg/frontend/gravity.hpp"
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/frontend/tracking.hpp"
 
@@ -167,6 +168,7 @@ struct FrontEndOptions {
   TrackFilterOptions filters;
   RansacOptions motion;
   RefineOptions refine;                 ///< motion refinement by reprojection error (enabled by default)
+  GravityOptions gravity;               ///< level first camera (default) or gravity from path and ground (gravity.hpp)
   std::optional<double> camera_height;  ///< overrides the sequence's; one of them is required
   int first_frame = 0;                   ///< frames [first_frame, last_frame) are processed
   int last_frame = -1;                   ///< -1: to the end
@@ -215,6 +217,7 @@ struct FrontEndSummary {
   std::vector<int> bridged_pairs;     ///< t of each bridged pair (t, t+1)
   StageSeconds seconds;
   std::optional<SfmSummary> sfm;      ///< monocular SfM runs only
+  std::optional<GravityEstimate> gravity;  ///< stereo runs with GravityMethod::Estimate only
 };
 
 struct FrontEndResult {
