@@ -239,5 +239,10 @@ TEST(SegmentCloudTool, GrabCutSfmOnTheTabletopScene) {
           " --frame 1 --truth-instance nearest -o " + (dir / "x.png").string());
   EXPECT_EQ(r.status, 1);  // frame 1 is not labelled: no instance image
   EXPECT_NE(r.out.find("instance"), std::string::npos) << r.out;
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work + " --frame 0" + tabletop +
+          " --plane-up sideways -o " + (dir / "y.png").string());
+  EXPECT_EQ(r.status, 2) << r.out;
+  EXPECT_NE(r.out.find("--plane-up"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "y.png"));
   fs::remove_all(dir);
 }

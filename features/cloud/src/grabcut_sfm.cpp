@@ -103,7 +103,7 @@ bool project_point(const Eigen::Vector3f& world, const Pose& pose, const Pinhole
 
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
-                               double min_cos) {
+                               double min_cos, bool up_is_known) {
   const std::size_t n = points.size();
   std::vector<char> inlier(n, 0);
   if (plane_out) plane_out->setZero();
@@ -118,6 +118,16 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
   Eigen::Vector4d best(0, 0, 0, 0);
   int best_count = -1;
   for (int it = 0; it < iterations; ++it) {
+    if (up_is_known) {
+      const Eigen::Vector3d pa = points[draw(rng, n)].cast<double>();
+      const Eigen::Vector4d pl(up.x(), up.y(), up.z(), -up.dot(pa));
+      const int cnt = count(pl);
+      if (cnt > best_count) {
+        best_count = cnt;
+        best = pl;
+      }
+      continue;
+    }
     const std::size_t a = draw(rng, n), b = draw(rng, n), c = draw(rng, n);
     if (a == b || b == c || a == c) continue;
     const Eigen::Vector3d pa = points[a].cast<double>(), pb = points[b].cast<double>(), pc = points[c].cast<double>();
@@ -150,9 +160,11 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
       cov += d * d.transpose();
     }
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  const Eigen::Vector3d nrm = es.eigenvectors().col(0).normalized();
+  Eigen::Vector3d nrm = es.eigenvectors().col(0).normalized();
+  if (up_is_known && nrm.dot(up) < 0) nrm = -nrm;
   const Eigen::Vector4d refit(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(mean));
-  const Eigen::Vector4d& pl = count(refit) >= best_count ? refit : best;
+  const bool refit_faces_up = !up_is_known || nrm.dot(up) >= min_cos;
+  const Eigen::Vector4d& pl = refit_faces_up && count(refit) >= best_count ? refit : best;
   for (std::size_t i = 0; i < n; ++i)
     inlier[i] = std::abs(pl.head<3>().dot(points[i].cast<double>()) + pl[3]) <= distance ? 1 : 0;
   if (plane_out) *plane_out = pl;
@@ -511,11 +523,12 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   rep.considered = int(considered.size());
   std::vector<Eigen::Vector3f> rest = considered;
   const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
-  // The camera's up axis in the world (camera y points down). Used instead of world +Y: a chained
-  // camera path drifts (on the tabletop sequence world +Y and the camera's up differ by 18 and 24 degrees
-  // at frames 100 and 200).
+  // The camera's up axis in the world (camera y points down), or world +Y when the work folder's world
+  // was levelled by gravity estimation. Not world +Y of a level-first-camera work folder: that world is
+  // tilted by the first camera's pitch (13.6 degrees on the tabletop sequence), the camera's up by the
+  // frame's own pitch (8-15 degrees there); only a levelled world has +Y within 1.5 degrees of gravity.
   const Eigen::Matrix3d Rcw = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
-  const Eigen::Vector3d up = -Rcw.col(1);
+  const Eigen::Vector3d up = params.world_up ? Eigen::Vector3d::UnitY() : Eigen::Vector3d(-Rcw.col(1));
   const double min_cos = params.height_band > 0 ? std::cos(params.max_tilt * 3.14159265358979323846 / 180) : -1;
   std::vector<Eigen::Vector3f> support_points;  // the first plane's inliers
   if (params.plane_distance > 0) {
@@ -525,7 +538,8 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
       Eigen::Vector4d pl;
       const std::vector<char> on_plane =
           ransac_plane(rest, params.plane_distance, params.plane_iterations,
-                       stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1);
+                       stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1,
+                       pi == 0 && params.world_up && params.height_band > 0);
       const int count = int(std::count(on_plane.begin(), on_plane.end(), char(1)));
       if (count < 3 || (pi > 0 && double(count) < params.plane_min_share * double(rest.size()))) break;
       if (pi == 0) rep.plane = pl;
@@ -618,6 +632,7 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   rep.cluster_in_frame.assign(K, 0);
   rep.cluster_distances.assign(K, 0);
   std::vector<std::vector<double>> point_distances(params.median_distance ? K : 0);
+  std::vector<std::size_t> projected_point;  // per rep.projected, its point in `rest`
   for (std::size_t i = 0; i < rest.size(); ++i) {
     if (cluster[i] < 0) continue;
     ++rep.cluster_sizes[std::size_t(cluster[i])];
@@ -629,6 +644,7 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
       ++rep.cluster_in_frame[std::size_t(cluster[i])];
       rep.projected.push_back(q);
       rep.projected_cluster.push_back(cluster[i]);
+      projected_point.push_back(i);
     }
   }
   double best = std::numeric_limits<double>::infinity();
@@ -644,8 +660,12 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
     throw Error("", "cloud",
                 "no cluster has " + std::to_string(params.min_cluster_points) +
                     " or more points in front of the camera inside the frame (is the pose right?)");
+  std::vector<std::size_t> chosen_point;  // per rep.chosen_points, its point in `rest`
   for (std::size_t i = 0; i < rep.projected.size(); ++i)
-    if (rep.projected_cluster[i] == rep.chosen) rep.chosen_points.push_back(rep.projected[i]);
+    if (rep.projected_cluster[i] == rep.chosen) {
+      rep.chosen_points.push_back(rep.projected[i]);
+      chosen_point.push_back(projected_point[i]);
+    }
 
   // 4. 2D RANSAC, 5. box.
   rep.chosen_inlier =
@@ -660,6 +680,22 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
       y1 = std::max(y1, rep.chosen_points[i].y);
     }
   if (rep.inliers_2d == 0) throw Error("", "cloud", "the 2D RANSAC kept no projection of the nearest cluster");
+  if (params.box_to_plane && rep.support == 0) {
+    // The object stands on the supporting plane, but its lower part lies in the plane's slab or has no
+    // tracked point: the box reaches down to where the kept points' feet on the plane project.
+    const Eigen::Vector3d n = rep.planes[0].head<3>();
+    for (std::size_t i = 0; i < rep.chosen_points.size(); ++i) {
+      if (!rep.chosen_inlier[i]) continue;
+      const Eigen::Vector3d p = rest[chosen_point[i]].cast<double>();
+      cv::Point2f q;
+      if (!in_frame((p - (n.dot(p) + rep.planes[0][3]) * n).cast<float>(), &q)) continue;
+      ++rep.feet_in_box;
+      x0 = std::min(x0, q.x);
+      y0 = std::min(y0, q.y);
+      x1 = std::max(x1, q.x);
+      y1 = std::max(y1, q.y);
+    }
+  }
   const int ix0 = int(std::floor(x0)), iy0 = int(std::floor(y0));
   rep.inlier_box = cv::Rect(ix0, iy0, int(std::ceil(x1)) + 1 - ix0, int(std::ceil(y1)) + 1 - iy0) & frame;
   const double mx = params.box_margin * rep.inlier_box.width, my = params.box_margin * rep.inlier_box.height;

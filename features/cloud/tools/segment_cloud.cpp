@@ -160,8 +160,15 @@ int main(int argc, char** argv) {
                  "supporting plane (the first plane, its RANSAC hypotheses restricted to normals within --max-tilt of "
                  "the camera's up axis; 0: no band, 001)")->capture_default_str();
   app.add_option("--max-tilt", gc.params.max_tilt,
-                 "grabcut-sfm, --height-band: degrees between the supporting plane's normal and the camera's up at most")
+                 "grabcut-sfm, --height-band: degrees between the supporting plane's normal and the up direction (--plane-up) at most")
       ->capture_default_str();
+  app.add_option("--plane-up", gc.up,
+                 "grabcut-sfm, --height-band: the up direction the supporting plane faces: camera (the frame's up "
+                 "axis) | world (world +Y: for work folders made with extract-features --gravity estimate)")
+      ->capture_default_str();
+  app.add_flag("--box-to-plane", gc.params.box_to_plane,
+               "grabcut-sfm, --height-band: the box reaches down to the projections of the chosen points' feet on the "
+               "supporting plane (an object's lower part is in the plane's slab or untracked)");
   app.add_option("--support-radius", gc.params.support_radius,
                  "grabcut-sfm, --height-band: metres; > 0 keeps only the points standing on the supporting plane (their "
                  "foot on the plane within this of a plane inlier's foot; 0: the whole band)")->capture_default_str();
@@ -197,6 +204,9 @@ int main(int argc, char** argv) {
       gc.params.euclidean = gc.cluster == "euclidean";
       gc.params.median_distance = gc.nearest == "median" || gc.nearest == "depth";
       gc.params.median_depth = gc.nearest == "depth";
+      if (gc.up != "camera" && gc.up != "world")
+        throw UsageError("", "--plane-up", "is \"" + gc.up + "\", expected camera or world");
+      gc.params.world_up = gc.up == "world";
       gc.sequence = sal.sequence;
       gc.work = sal.work;
       gc.frame = sal.frame;

@@ -72,7 +72,7 @@ struct GrabCutSfmCli {
   std::string truth_label, truth_region = "largest", truth_mask, truth_instance;
   int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
   int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
-  std::string cluster = "kmeans", nearest = "centre";
+  std::string cluster = "kmeans", nearest = "centre", up = "camera";  // up: --plane-up
   smseg::features::GrabCutSfmParams params;
 };
 int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp

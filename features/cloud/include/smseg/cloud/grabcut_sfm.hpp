@@ -69,10 +69,15 @@ struct GrabCutSfmParams {
   int planes = 1;                ///< planes removed in turn at most (001: 1)
   double plane_min_share = 0.1;  ///< a second or later plane is removed only if it holds this share of the rest
   double height_band = 0;        ///< metres: > 0: the first plane is the supporting plane, RANSAC hypotheses
-                                 ///< restricted to normals within max_tilt of the camera's up axis, and only
+                                 ///< restricted to normals within max_tilt of the camera's up axis (or world +Y,
+                                 ///< world_up), and only
                                  ///< the points between plane_distance and height_band above it are kept
                                  ///< (0: no band, 001)
   double max_tilt = 30;          ///< degrees, see height_band
+  bool box_to_plane = false;     ///< with height_band: the box also holds the projections of the kept
+                                 ///< points' feet on the supporting plane (the object's lower part)
+  bool world_up = false;         ///< the supporting plane faces world +Y (a work folder levelled by
+                                 ///< extract-features --gravity estimate) instead of the camera's up axis
   double support_radius = 0;     ///< metres: > 0 keeps, of the band, only the points standing on the supporting
                                  ///< plane: the foot of the point within this of a plane inlier's foot
   // Clustering and the choice of the nearest cluster:
@@ -94,6 +99,7 @@ struct GrabCutSfmReport {
   std::vector<int> planes_inliers;      ///< per plane, its inliers
   int support = -1;                     ///< with height_band: the supporting plane's index in `planes` (0)
   int in_band = 0;                      ///< with height_band: points kept in the band
+  int feet_in_box = 0;                  ///< with box_to_plane: feet of the chosen points added to the box
   std::vector<int> cluster_sizes;       ///< per cluster, points
   std::vector<double> cluster_distances;  ///< per cluster, distance from the camera (metres): of its centre, or
                                           ///< the median of its points' with median_distance
@@ -127,10 +133,14 @@ std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int f
 /// RANSAC plane over `points` (3-point hypotheses, inliers within `distance`, the plane refitted by least
 /// squares to the best hypothesis's inliers and the inliers recounted). Returns per point 1 = inlier.
 /// Fewer than 3 points: no inliers, plane zero. With `min_cos` > 0 only hypotheses whose normal n has
-/// |n . up| >= min_cos count (a plane facing `up`, unit, within acos(min_cos)).
+/// |n . up| >= min_cos count (a plane facing `up`, unit, within acos(min_cos)). With `up_is_known` the
+/// hypotheses are the planes normal to `up` through one point each (a levelled world: 3-point samples
+/// of a noisy table top fall within a few degrees of `up` too rarely), and the refitted normal is kept
+/// only within acos(min_cos) of `up`.
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane = nullptr,
-                               const Eigen::Vector3d& up = Eigen::Vector3d::Zero(), double min_cos = -1);
+                               const Eigen::Vector3d& up = Eigen::Vector3d::Zero(), double min_cos = -1,
+                               bool up_is_known = false);
 
 /// k-means of n rows of `dim` floats (row-major), k-means++ seeding, Lloyd iterations until no label
 /// changes, best of `attempts` (lowest sum of squared distances). Labels 0..k-1 ordered by the first point
