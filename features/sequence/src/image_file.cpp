@@ -108,7 +108,12 @@ cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize
   }
   cv::Mat m;
   try {
-    m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
+    // OpenCV's PFM decoder cannot read from memory: imdecode would copy the bytes to a temporary file
+    // (cv::tempfile) and leave it behind when decoding fails. A PFM is decoded from its own file.
+    if (format == "PFM")
+      m = cv::imread(path.string(), flags);
+    else
+      m = cv::imdecode(cv::Mat(1, static_cast<int>(bytes.size()), CV_8UC1, const_cast<char*>(bytes.data())), flags);
   } catch (const cv::Exception& e) {
     throw Error(path.string(), "", std::string("cannot be decoded: ") + e.what());
   }

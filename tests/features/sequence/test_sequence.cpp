@@ -9,6 +9,7 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "smseg/common/error.hpp"
 #include "smseg/sequence/image_file.hpp"
 #include "smseg/sequence/sequence.hpp"
 
@@ -227,6 +228,29 @@ TEST(ImageFile, EachFormatASequenceHoldsIsToldByItsFirstBytesAndDecoded) {
   for (const std::string& other : {webp_then_dicom, std::string("P5#x"), std::string("Pfx"), std::string(128, '\0') + "DICM", std::string("#?RADIANCE\n"),
                                   std::string("\x76\x2f\x31\x01", 4), std::string("\x59\xa6\x6a\x95"), std::string()})
     EXPECT_EQ(image_format(other), "") << other;
+  fs::remove_all(dir);
+}
+
+// OpenCV's PFM decoder cannot read from memory: imdecode copies the bytes to a temporary file and, when
+// decoding fails, leaves it behind (one __opencv_temp.* in /tmp per corrupt PFM; the fuzzers left
+// thousands). A PFM is read from its own file instead: no temporary is made, good or corrupt.
+TEST(ImageFile, APfmGoodOrCorruptLeavesNoTemporaryFileBehind) {
+  const fs::path dir = fs::temp_directory_path() / ("smseg_image_pfm_" + std::to_string(::getpid()));
+  fs::create_directories(dir / "opencv_temp");
+  ::setenv("OPENCV_TEMP_PATH", (dir / "opencv_temp").c_str(), 1);
+  cv::Mat image(6, 8, CV_32FC1);
+  cv::randu(image, -5.f, 5.f);
+  ASSERT_TRUE(cv::imwrite((dir / "good.pfm").string(), image));
+  const cv::Mat back = read_image_file(dir / "good.pfm", cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(back.size(), image.size());
+  EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0);
+  for (const std::string& corrupt : {std::string("Pf\n8 6\n-1\n") + std::string(10, 'x'), std::string("PF\n99999 2\n-1\n"),
+                                     std::string("Pf\n-3 6\n-1\n")}) {
+    std::ofstream(dir / "bad.pfm", std::ios::binary | std::ios::trunc) << corrupt;
+    EXPECT_THROW(read_image_file(dir / "bad.pfm", cv::IMREAD_UNCHANGED), smseg::Error) << corrupt;
+  }
+  EXPECT_TRUE(fs::is_empty(dir / "opencv_temp"));
+  ::unsetenv("OPENCV_TEMP_PATH");
   fs::remove_all(dir);
 }
 
