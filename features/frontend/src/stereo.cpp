@@ -45,7 +45,8 @@ cv::Ptr<cv::StereoMatcher> make_matcher(const StereoOptions& o) {
   const int b2 = o.block_size * o.block_size;
   auto sg = cv::StereoSGBM::create(o.min_disparity, o.num_disparities, o.block_size, 8 * cn * b2, 32 * cn * b2,
                                    o.lr_max_diff >= 0 ? o.lr_max_diff : -1, o.prefilter_cap, o.uniqueness_ratio,
-                                   o.speckle_window, o.speckle_range, cv::StereoSGBM::MODE_SGBM);
+                                   o.speckle_window, o.speckle_range,
+                                   o.sgbm_full_paths ? cv::StereoSGBM::MODE_HH : cv::StereoSGBM::MODE_SGBM);
   return sg;
 }
 

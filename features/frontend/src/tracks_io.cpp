@@ -77,6 +77,7 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                  {"speckle_window", o.stereo.speckle_window},
                  {"speckle_range", o.stereo.speckle_range},
                  {"prefilter_cap", o.stereo.prefilter_cap}};
+  if (o.stereo.sgbm_full_paths) j["stereo"]["sgbm_full_paths"] = true;  // only when on: older folders keep their options
   j["tracking"] = {{"detector", keypoint_method_name(o.tracking.detector)},
                    {"max_keypoints", o.tracking.max_keypoints},
                    {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},

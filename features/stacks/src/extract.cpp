@@ -11,6 +11,7 @@
 
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/appearance.hpp"
+#include "smseg/stacks/dense.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
@@ -160,6 +161,7 @@ Json feature_options_json(const FeatureOptions& o) {
   Json j = {{"causal", o.causal}, {"future_frames", o.future_frames}};
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
   if (o.appearance) j["appearance"] = true;  // only when on: work folders from before keep their options
+  if (o.dense) j["dense"] = true;            // the same
   return j;
 }
 
@@ -212,6 +214,10 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     throw Error(seq.manifest.string(), "gravity",
                 "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
                 "ground plane");
+  if (sfm && opt.features.dense)
+    throw Error(seq.manifest.string(), "dense",
+                "dense geometry channels need a stereo sequence and the stereo front end (no dense depth from "
+                "structure from motion yet)");
   if (sfm)
     effective_sfm(opt).validate();
   else if (seq.kind != SequenceKind::Stereo)
@@ -257,6 +263,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   m.features = structure_feature_names();
   if (opt.features.appearance)
     m.features.insert(m.features.end(), appearance_feature_names().begin(), appearance_feature_names().end());
+  if (opt.features.dense) m.features.insert(m.features.end(), dense_feature_names().begin(), dense_feature_names().end());
   m.classes.clear();
   for (const auto& c : seq.classes) m.classes.push_back(c.name);
   m.options = options;
@@ -302,6 +309,12 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     todo.push_back(f);
   }
 
+  // The channels after the six, in stacks.json's order: appearance, then dense geometry.
+  const StereoOptions dense_stereo = dense_stereo_options(opt.front_end.stereo);
+  const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
+    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
+    if (opt.features.dense) append_dense_rasters(dense_depth(seq, f, dense_stereo), seq.calibration, video.poses[f], rasters);
+  };
   Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
   struct Buffers {
     std::vector<cv::Mat> rasters, sats;
@@ -312,7 +325,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     Buffers& b = buffers.local();
     const auto tf = std::chrono::steady_clock::now();
     rasterise_features(video, attrs, f, seq.size, b.rasters);
-    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), b.rasters);
+    append_image_rasters(f, b.rasters);
     b.sats.resize(b.rasters.size());
     for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
     double s = feature_seconds.load();
@@ -330,7 +343,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     char name[32];
     std::snprintf(name, sizeof name, "%06d_features.png", f);
     std::vector<cv::Mat> rasters = rasterise_features(video, attrs, f, seq.size);
-    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
+    append_image_rasters(f, rasters);
     write_image_atomic(work / "preview" / name, feature_preview(rasters, m.features));
   }
   report.frames_written = static_cast<int>(todo.size());

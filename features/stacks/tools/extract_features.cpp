@@ -106,6 +106,10 @@ int main(int argc, char** argv) {
                "also the image's own channels, after the six: fL fA fB (Lab colour), fG0..fG3 (gradient\n"
                "magnitude by orientation) and fRow fCol (position); train-forest --features fH,fC,fOx,fOy,fD,fR\n"
                "leaves them out (structure and motion only)");
+  app.add_flag("--dense", opt.features.dense,
+               "stereo: also dense geometry channels from semi-global matching, after the others: fZV (valid),\n"
+               "fZI (inverse depth), fZH (height), fZU (surface facing up), fZE (depth edges); structure and\n"
+               "motion, not appearance (docs/stereo.md)");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");

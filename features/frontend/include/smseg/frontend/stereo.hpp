@@ -42,6 +42,7 @@ struct StereoOptions {
   int speckle_window = 50;    ///< connected regions of fewer pixels are invalidated (0 = off)
   int speckle_range = 2;      ///< max disparity step (pixels) inside one speckle region
   int prefilter_cap = 31;     ///< 1..63, clamp of the prefiltered image (BM and SGBM)
+  bool sgbm_full_paths = false;  ///< SGBM: all eight paths (MODE_HH; more memory, fewer errors on slanted surfaces)
   /// Throws Error("", "stereo.<field>", reason) for an out-of-range value.
   void validate() const;
 };

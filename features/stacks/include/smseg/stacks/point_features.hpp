@@ -47,6 +47,7 @@ struct FeatureOptions {
   bool causal = false;      ///< fC from the camera path up to the current frame only (on-line use)
   int future_frames = 100;  ///< frames of camera motion applied to a point's last position (thesis: 100)
   bool appearance = false;  ///< also the image's own channels (appearance.hpp: colour, oriented gradients, position)
+  bool dense = false;       ///< stereo: also the dense geometry channels (dense.hpp: depth, height, facing, edges)
   void validate() const;    ///< Error naming the option when out of range
 };
 

@@ -1,0 +1,48 @@
+#pragma once
+// Dense geometry channels (extract-features --dense; stereo sequences; issue 14, lever 1).
+//
+// The six structure-and-motion features live at the tracked points only (100-300 per frame); a window
+// that holds none says nothing about the surface under it. A stereo pair gives depth almost everywhere:
+// semi-global matching (StereoSGBM, 7x7 blocks, all eight paths, its left-right check, speckle filter) over the
+// front end's disparity range, depth Z = fx * baseline / d, the validity mask where the matcher
+// answered. From the depth and the frame's pose, per pixel:
+//   fZV   1 where the depth is valid, else 0: a window's mean is its valid share, and the other
+//         channels' window sums divided by this one's are means over the valid pixels
+//   fZI   inverse depth 1 / Z (1/m), 0 where invalid: near things stand out, far ones fade smoothly
+//   fZH   height of the pixel's 3D point above the ground (world Y, metres; the world of the camera path,
+//         levelled by --gravity estimate or by the level-first-camera assumption), 0 where invalid
+//   fZU   how much the surface faces up: n . up of its normal (from the 3D points 2 pixels either side,
+//         in the world), 1 floor, 0 wall, -1 ceiling; 0 where the normal is unknown
+//   fZE   depth discontinuity: |log Z(x+1) - log Z(x-1)| + |log Z(y+1) - log Z(y-1)|, clamped to 1, 0
+//         where a neighbour is invalid (object outlines)
+// All of them come from the stereo geometry and the camera path, none from image appearance: they
+// count as structure and motion (issue 14). Monocular sequences have no dense depth here (plane sweep
+// from the SfM poses is not built): --dense is refused for them.
+
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "smseg/frontend/stereo.hpp"
+#include "smseg/sequence/sequence.hpp"
+
+namespace smseg::features {
+
+/// {"fZV", "fZI", "fZH", "fZU", "fZE"}, in raster order.
+const std::vector<std::string>& dense_feature_names();
+
+/// The matcher of the dense depth: SGBM, 7x7 blocks, eight paths, `num_disparities` and `min_disparity` of the front
+/// end's options (its range fits the sequence), its left-right check and speckle filter.
+StereoOptions dense_stereo_options(const StereoOptions& front_end);
+
+/// Depth (CV_32FC1, metres, 0 where invalid) of one frame of a stereo sequence from its dense
+/// disparity. Error for a sequence without a focal length or baseline.
+cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& dense_options);
+
+/// Appends the dense rasters of a depth map (dense_depth) seen from `pose` (camera-to-world) to `out`,
+/// in dense_feature_names() order, each CV_64FC1 of the depth's size.
+void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
+                          std::vector<cv::Mat>& out);
+
+}  // namespace smseg::features

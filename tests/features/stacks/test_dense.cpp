@@ -1,0 +1,152 @@
+// Dense geometry channels (extract-features --dense): the dense depth against the synthetic scenes'
+// ground-truth depth, each channel on a made-up depth map whose answer is known, and the work folder.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "smseg/common/error.hpp"
+#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/frontend/trajectory.hpp"
+#include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/extract.hpp"
+#include "smseg/synth/synth.hpp"
+#include "temp_dir.hpp"
+
+namespace {
+
+using namespace smseg;
+using namespace smseg::features;
+namespace fs = std::filesystem;
+
+struct DepthScore {
+  double valid_share = 0, median_relative_error = 1;
+};
+
+// Median |Z - Z_gt| / Z_gt over the pixels with both a dense depth and a ground-truth depth; the valid
+// share over the pixels with a ground-truth depth.
+DepthScore score(const cv::Mat& depth, const cv::Mat& truth) {
+  std::vector<double> err;
+  long known = 0;
+  for (int y = 0; y < depth.rows; ++y)
+    for (int x = 0; x < depth.cols; ++x) {
+      const float t = truth.at<float>(y, x);
+      if (!(t > 0)) continue;
+      ++known;
+      const float z = depth.at<float>(y, x);
+      if (z > 0) err.push_back(std::abs(z - t) / t);
+    }
+  DepthScore s;
+  if (known == 0 || err.empty()) return s;
+  s.valid_share = double(err.size()) / double(known);
+  std::nth_element(err.begin(), err.begin() + long(err.size() / 2), err.end());
+  s.median_relative_error = err[err.size() / 2];
+  return s;
+}
+
+int channel(const std::string& name) {
+  const auto& n = dense_feature_names();
+  return static_cast<int>(std::find(n.begin(), n.end(), name) - n.begin());
+}
+
+double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) {
+  return r[std::size_t(channel(name))].at<double>(y, x);
+}
+
+}  // namespace
+
+// The test: on the synthetic corridor and lab, median relative depth error < 5 % on the valid
+// pixels, valid >= 60 % of the pixels (frames 0, 6 and 12 of each).
+TEST(DenseDepth, CorridorAndLabWithinFivePercentOnAtLeastSixtyPercentOfPixels) {
+  const fs::path dir = test::temp_dir("dense_depth");
+  for (const std::string scene : {"corridor", "lab"}) {
+    synth::SynthOptions so;
+    so.scene = scene;
+    so.frames = 13;
+    const Sequence seq = synth::make_sequence(so, dir / scene);
+    const StereoOptions o = dense_stereo_options(StereoOptions{});
+    for (int f : {0, 6, 12}) {
+      const DepthScore s = score(dense_depth(seq, f, o), seq.load_gt_depth(f));
+      EXPECT_GE(s.valid_share, 0.6) << scene << " frame " << f;
+      EXPECT_LT(s.median_relative_error, 0.05) << scene << " frame " << f;
+      std::cout << scene << " frame " << f << ": valid " << s.valid_share << ", median relative error "
+                << s.median_relative_error << "\n";
+    }
+  }
+  fs::remove_all(dir);
+}
+
+// A level camera 1 m above a floor (lower half of the image) in front of a wall 4 m away (upper half).
+TEST(DenseChannels, FloorFacesUpWallDoesNotAndTheStepIsAnEdge) {
+  Calibration c;
+  c.fx = c.fy = 200;
+  c.cx = 79.5;
+  c.cy = 59.5;
+  const int W = 160, H = 120;
+  cv::Mat depth(H, W, CV_32FC1, cv::Scalar(0));
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const double v = (y - c.cy) / *c.fy;             // ray's y per unit depth
+      const double floor = v > 0 ? 1.0 / v : 1e9;      // Z where the ray meets y = 1 (1 m below)
+      depth.at<float>(y, x) = float(std::min(floor, 4.0));
+    }
+  depth.at<float>(5, 5) = 0;  // one hole
+  Pose level;
+  level.R = {-1, 0, 0, 0, -1, 0, 0, 0, 1};  // the front end's first pose: camera y down = world -Y
+  level.t = {0, 1, 0};
+  std::vector<cv::Mat> r;
+  append_dense_rasters(depth, c, level, r);
+  ASSERT_EQ(r.size(), dense_feature_names().size());
+  for (const auto& m : r) EXPECT_EQ(m.size(), depth.size());
+  EXPECT_EQ(at(r, "fZV", 5, 5), 0);
+  EXPECT_EQ(at(r, "fZI", 5, 5), 0);
+  EXPECT_EQ(at(r, "fZV", 30, 80), 1);
+  EXPECT_NEAR(at(r, "fZI", 30, 80), 0.25, 1e-6);
+  EXPECT_NEAR(at(r, "fZU", 30, 80), 0, 1e-6);   // wall
+  EXPECT_NEAR(at(r, "fZU", 116, 80), 1, 1e-6);  // floor (it starts at row 110: Z < 4 m below)
+  EXPECT_NEAR(at(r, "fZH", 116, 80), 0, 1e-5);  // on the ground
+  EXPECT_NEAR(at(r, "fZH", 30, 80), 1 + (c.cy - 30) / *c.fy * 4, 1e-5);
+  EXPECT_EQ(at(r, "fZE", 30, 80), 0);  // smooth wall
+  // Where the floor meets the wall (row 110) the rows above and below differ.
+  double step = 0;
+  for (int y = 100; y < 115; ++y) step = std::max(step, at(r, "fZE", y, 80));
+  EXPECT_GT(step, 0.01);
+  std::vector<cv::Mat> none;
+  EXPECT_THROW(append_dense_rasters(cv::Mat(), c, level, none), Error);
+}
+
+TEST(DenseChannels, ExtractWritesThemAfterTheSixAndRefusesAMonoSequence) {
+  const fs::path dir = test::temp_dir("dense_extract");
+  synth::SynthOptions so;
+  so.frames = 6;
+  so.label_every = 3;
+  const Sequence seq = synth::make_sequence(so, dir / "seq");
+  ExtractOptions eo;
+  eo.progress = false;
+  eo.front_end.progress = false;
+  eo.features.dense = true;
+  extract_features(seq, dir / "work", eo);
+  const StackManifest m = load_stack_manifest(dir / "work");
+  ASSERT_EQ(m.features.size(), 11u);
+  EXPECT_TRUE(std::equal(dense_feature_names().begin(), dense_feature_names().end(), m.features.begin() + 6));
+  EXPECT_EQ(m.options["features"]["dense"], true);
+  const int f = m.frames.at(2);
+  const FrameStack stack = FrameStack::open(m, f, false);
+  std::vector<cv::Mat> want;
+  const TracksFile tracks = read_tracks(dir / "work" / "tracks.json");
+  append_dense_rasters(dense_depth(seq, f, dense_stereo_options(eo.front_end.stereo)), seq.calibration,
+                       tracks.result.poses.at(std::size_t(f - tracks.result.first_frame)), want);
+  const int W = seq.size.width, H = seq.size.height;
+  for (int k = 0; k < 5; ++k) {
+    const double total = stack.sat(6 + k)[std::size_t(H) * std::size_t(W + 1) + std::size_t(W)];
+    EXPECT_NEAR(total, cv::sum(want[std::size_t(k)])[0], 1e-4 * (1 + std::abs(total))) << dense_feature_names()[std::size_t(k)];
+  }
+  eo.motion = MotionMethod::Sfm;
+  try {
+    extract_features(seq, dir / "mono", eo);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("dense"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
