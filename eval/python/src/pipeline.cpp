@@ -47,6 +47,11 @@ features::ExtractOptions extract_options(const py::dict& o) {
   take(o, "force", opt.force);
   take(o, "progress", opt.progress);
   take(o, "future_frames", opt.features.future_frames);
+  take(o, "appearance", opt.features.appearance);
+  take(o, "dense", opt.features.dense);
+  std::string gravity = "level";
+  take(o, "gravity", gravity);
+  opt.front_end.gravity.method = features::parse_gravity_method(gravity, "gravity");
   opt.motion = features::parse_motion_method(motion, "motion");
   opt.front_end.stereo.method = features::parse_stereo_method(stereo, "stereo");
   opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, "keypoints");
@@ -65,7 +70,8 @@ features::ExtractOptions extract_options(const py::dict& o) {
 
 py::dict extract(const std::string& sequence_dir, const std::string& out_dir, const py::dict& options) {
   check_keywords(options, {"motion", "stereo", "keypoints", "tracker", "max_keypoints", "camera_height", "focal",
-                           "frames", "future_frames", "force", "progress", "n_jobs", "verbose"},
+                           "frames", "future_frames", "appearance", "dense", "gravity", "force", "progress", "n_jobs",
+                           "verbose"},
                  "extract_features");
   const features::ExtractOptions opt = extract_options(options);
   int n_jobs = 0;

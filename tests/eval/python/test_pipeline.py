@@ -22,6 +22,13 @@ def test_extract_features_writes_the_tools_stacks(corridor, tmp_path):
         smseg.extract_features(seq, tmp_path / "w2", motion="lidar")
     with pytest.raises(smseg.Error, match="speed: is not an option of extract_features"):
         smseg.extract_features(seq, tmp_path / "w2", speed=2)
+    with pytest.raises(smseg.Error, match="gravity"):
+        smseg.extract_features(seq, tmp_path / "w2", gravity="sideways")
+    dense = smseg.extract_features(seq, tmp_path / "dense", future_frames=10, dense=True, gravity="estimate",
+                                   frames="0:2")
+    assert dense["frames_written"] == 2
+    manifest = (tmp_path / "dense" / "stacks.json").read_text()
+    assert '"fZE"' in manifest and '"dense": true' in manifest and '"estimate"' in manifest
 
 
 def test_readme_python_example(corridor, source_dir, tmp_path, monkeypatch):
