@@ -141,6 +141,17 @@ Scene make_scene(std::uint64_t seed = 5) {
   return sc;
 }
 
+// The supporting plane (the ground) and the 1 m band of points standing on it, Euclidean clusters: the
+// box scene's parameters for the height-band tests.
+GrabCutSfmParams standing_on_the_ground() {
+  GrabCutSfmParams p;
+  p.height_band = 1.0;
+  p.support_radius = 0.3;
+  p.euclidean = true;
+  p.cluster_tolerance = 0.15;
+  return p;
+}
+
 cv::Rect truth_box(const cv::Mat& truth) {
   std::vector<cv::Point> pts;
   cv::findNonZero(truth, pts);
@@ -379,11 +390,7 @@ TEST(GrabCutSfm, HeightBandKeepsThePointsStandingOnTheSupportingPlane) {
   // The ground faces up (the camera's up within 20 degrees): it is the supporting plane; the band 0.05-1 m
   // above it within 0.3 m of a ground point's foot holds the box and the wall's foot, not the wall above 1 m.
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
-  p.height_band = 1.0;
-  p.support_radius = 0.3;
-  p.euclidean = true;
-  p.cluster_tolerance = 0.15;
+  GrabCutSfmParams p = standing_on_the_ground();
   GrabCutSfmReport rep;
   const cv::Mat mask = grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
   EXPECT_EQ(rep.support, 0);
@@ -417,11 +424,7 @@ TEST(GrabCutSfm, WorldUpFindsTheGroundWhereTheCamerasUpIsTooTilted) {
   // plane; within 10 degrees of world +Y (a world levelled by extract-features --gravity estimate) the
   // ground is found, by one-point hypotheses normal to +Y.
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
-  p.height_band = 1.0;
-  p.support_radius = 0.3;
-  p.euclidean = true;
-  p.cluster_tolerance = 0.15;
+  GrabCutSfmParams p = standing_on_the_ground();
   p.max_tilt = 10;
   EXPECT_THROW(grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p), Error);
   p.world_up = true;
@@ -452,11 +455,7 @@ TEST(GrabCutSfm, BoxToPlaneReachesDownToTheObjectsFoot) {
   std::vector<Eigen::Vector3f> cloud;
   for (std::size_t i = 0; i < sc.cloud.size(); ++i)
     if (sc.cloud_label[i] != 1 || sc.cloud[i].y() > 0.45f) cloud.push_back(sc.cloud[i]);
-  GrabCutSfmParams p;
-  p.height_band = 1.0;
-  p.support_radius = 0.3;
-  p.euclidean = true;
-  p.cluster_tolerance = 0.15;
+  GrabCutSfmParams p = standing_on_the_ground();
   p.box_margin = 0;
   GrabCutSfmReport without, with;
   grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, &without);

@@ -9,6 +9,8 @@
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/synth/synth.hpp"
+#include "named_rasters.hpp"
+#include "small_corridor.hpp"
 #include "temp_dir.hpp"
 
 namespace {
@@ -23,13 +25,8 @@ std::vector<cv::Mat> rasters_of(const cv::Mat& bgr) {
   return out;
 }
 
-int channel(const std::string& name) {
-  const auto& n = appearance_feature_names();
-  return static_cast<int>(std::find(n.begin(), n.end(), name) - n.begin());
-}
-
 double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) {
-  return r[std::size_t(channel(name))].at<double>(y, x);
+  return test::raster_at(r, appearance_feature_names(), name, y, x);
 }
 
 }  // namespace
@@ -113,13 +110,8 @@ TEST(Appearance, AGreyOrEmptyImageIsRefused) {
 
 TEST(Appearance, ExtractWritesThemAfterTheSixAndRecordsTheOption) {
   const fs::path dir = test::temp_dir("appearance_extract");
-  synth::SynthOptions so;
-  so.frames = 8;
-  so.label_every = 4;
-  const Sequence seq = synth::make_sequence(so, dir / "seq");
-  ExtractOptions eo;
-  eo.progress = false;
-  eo.front_end.progress = false;
+  const Sequence seq = test::small_corridor(dir / "seq", 8, 4);
+  ExtractOptions eo = test::quiet_extract_options();
   extract_features(seq, dir / "plain", eo);
   const StackManifest plain = load_stack_manifest(dir / "plain");
   EXPECT_EQ(plain.features, structure_feature_names());

@@ -11,6 +11,8 @@
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/synth/synth.hpp"
+#include "named_rasters.hpp"
+#include "small_corridor.hpp"
 #include "temp_dir.hpp"
 
 namespace {
@@ -44,13 +46,8 @@ DepthScore score(const cv::Mat& depth, const cv::Mat& truth) {
   return s;
 }
 
-int channel(const std::string& name) {
-  const auto& n = dense_feature_names();
-  return static_cast<int>(std::find(n.begin(), n.end(), name) - n.begin());
-}
-
 double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) {
-  return r[std::size_t(channel(name))].at<double>(y, x);
+  return test::raster_at(r, dense_feature_names(), name, y, x);
 }
 
 }  // namespace
@@ -117,13 +114,8 @@ TEST(DenseChannels, FloorFacesUpWallDoesNotAndTheStepIsAnEdge) {
 
 TEST(DenseChannels, ExtractWritesThemAfterTheSixAndRefusesAMonoSequence) {
   const fs::path dir = test::temp_dir("dense_extract");
-  synth::SynthOptions so;
-  so.frames = 6;
-  so.label_every = 3;
-  const Sequence seq = synth::make_sequence(so, dir / "seq");
-  ExtractOptions eo;
-  eo.progress = false;
-  eo.front_end.progress = false;
+  const Sequence seq = test::small_corridor(dir / "seq", 6, 3);
+  ExtractOptions eo = test::quiet_extract_options();
   eo.features.dense = true;
   extract_features(seq, dir / "work", eo);
   const StackManifest m = load_stack_manifest(dir / "work");
