@@ -474,6 +474,22 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
   return 2.0 * double(tp) / double(2 * tp + fp + fn);
 }
 
+std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& c, const Pose& pose, int step) {
+  if (step < 1) throw Error("", "--dense-cloud", "the pixel step must be >= 1");
+  if (depth.type() != CV_32FC1 || !c.fx) throw Error("", "depth", "expected a CV_32FC1 depth map and a focal length");
+  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
+  const Eigen::Vector3d centre(pose.t[0], pose.t[1], pose.t[2]);
+  const double fx = *c.fx, fy = c.fy.value_or(fx);
+  std::vector<Eigen::Vector3f> out;
+  for (int y = 0; y < depth.rows; y += step)
+    for (int x = 0; x < depth.cols; x += step) {
+      const double z = depth.at<float>(y, x);
+      if (!(z > 0)) continue;
+      out.push_back((R * Eigen::Vector3d((x - c.cx) * z / fx, (y - c.cy) * z / fy, z) + centre).cast<float>());
+    }
+  return out;
+}
+
 std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, int window) {
   std::vector<Eigen::Vector3f> out;
   const int first = fe.first_frame, n = static_cast<int>(fe.poses.size());

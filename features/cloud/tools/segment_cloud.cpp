@@ -144,6 +144,10 @@ int main(int argc, char** argv) {
   app.add_option("--max-distance", gc.params.max_distance,
                  "grabcut-sfm: cluster only the points within this many metres of the camera (0: all; 001 uses all)")
       ->capture_default_str();
+  app.add_option("--dense-cloud", gc.dense_cloud,
+                 "grabcut-sfm, stereo sequences: cluster the frame's own dense depth (eight-path SGBM, as extract-features "
+                 "--dense), one point every this many pixels, instead of the tracked cloud")
+      ->check(CLI::Range(1, 64));
   app.add_option("--window", gc.window,
                  "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
                  "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "

@@ -469,6 +469,30 @@ TEST(GrabCutSfm, BoxToPlaneReachesDownToTheObjectsFoot) {
   EXPECT_GE((with.box & tb).area(), int(0.9 * tb.area()));
 }
 
+TEST(GrabCutSfm, DenseFrameCloudPutsEachSampledDepthPixelInTheWorld) {
+  // The box scene's camera (1.2 m up, pitched 20 degrees down) seeing a depth of 2 m everywhere but a hole.
+  const Scene sc = make_scene();
+  Calibration c;
+  c.fx = sc.k.fx;
+  c.fy = sc.k.fy;
+  c.cx = sc.k.cx;
+  c.cy = sc.k.cy;
+  cv::Mat depth(120, 160, CV_32FC1, cv::Scalar(2));
+  depth.at<float>(0, 0) = 0;
+  const std::vector<Eigen::Vector3f> all = dense_frame_cloud(depth, c, sc.pose, 1);
+  EXPECT_EQ(all.size(), 160u * 120u - 1);
+  const std::vector<Eigen::Vector3f> every4 = dense_frame_cloud(depth, c, sc.pose, 4);
+  EXPECT_EQ(every4.size(), 40u * 30u - 1);  // (0, 0) is the hole
+  // Each point lies at depth 2 m along the camera's optical axis and projects back onto its pixel.
+  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(sc.pose.R.data());
+  const Eigen::Vector3d o(sc.pose.t[0], sc.pose.t[1], sc.pose.t[2]);
+  const Eigen::Vector3d in_camera = R.transpose() * (every4[0].cast<double>() - o);  // pixel (4, 0)
+  EXPECT_NEAR(in_camera.z(), 2, 1e-5);
+  EXPECT_NEAR(sc.k.fx * in_camera.x() / in_camera.z() + sc.k.cx, 4, 1e-4);
+  EXPECT_NEAR(sc.k.fy * in_camera.y() / in_camera.z() + sc.k.cy, 0, 1e-4);
+  EXPECT_THROW(dense_frame_cloud(depth, c, sc.pose, 0), Error);
+}
+
 TEST(GrabCutSfm, SeveralPlanesTakeTheGroundThenTheWall) {
   // The ground first (the dominant plane), then the wall at z = 8 while it holds 10% of the points left;
   // a share of 1 stops after the ground.

@@ -6,6 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "runs.hpp"
+#include "smseg/stacks/dense.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/sequence/image_file.hpp"
 
@@ -69,10 +70,22 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
   } else {
     throw Error(seq.manifest.string(), "calibration", "no focal length (neither fx/fy nor an SfM focal in tracks.json)");
   }
-  if (o.window >= 0 && !o.cloud.empty()) throw Error("", "--window", "give a CLOUD or --window, not both");
+  if (int(o.window >= 0) + int(!o.cloud.empty()) + int(o.dense_cloud > 0) > 1)
+    throw Error("", "--window", "give one of a CLOUD, --window and --dense-cloud");
   std::string cloud_path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
   sf::ColouredCloud cloud;
-  if (o.window >= 0) {  // the tracks around the frame
+  if (o.dense_cloud > 0) {  // the frame's own dense depth, with the stereo range the work folder used
+    if (seq.kind != sf::SequenceKind::Stereo)
+      throw Error(seq.manifest.string(), "--dense-cloud", "needs a stereo sequence (dense depth from its pairs)");
+    sf::StereoOptions stereo;
+    const Json& st = tracks.options.contains("stereo") ? tracks.options["stereo"] : Json::object();
+    stereo.num_disparities = st.value("num_disparities", stereo.num_disparities);
+    stereo.min_disparity = st.value("min_disparity", stereo.min_disparity);
+    cloud_path = seq.manifest.string();
+    cloud.points = sf::dense_frame_cloud(sf::dense_depth(seq, o.frame, sf::dense_stereo_options(stereo)), seq.calibration,
+                                         pose, o.dense_cloud);
+    if (cloud.points.empty()) throw Error(cloud_path, "--dense-cloud", "frame " + std::to_string(o.frame) + " has no dense depth");
+  } else if (o.window >= 0) {  // the tracks around the frame
     cloud_path = tracks_path.string();
     cloud.points = sf::window_cloud(tracks.result, o.frame, o.window);
     if (cloud.points.empty())
@@ -214,6 +227,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"frustum_only", p.frustum_only},
                     {"max_distance", p.max_distance},
                     {"window", o.window},
+                    {"dense_cloud", o.dense_cloud},
                     {"planes", p.planes},
                     {"plane_min_share", p.plane_min_share},
                     {"height_band", p.height_band},

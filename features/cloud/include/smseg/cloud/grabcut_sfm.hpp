@@ -128,6 +128,12 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
 /// each observation's frame). Keeps the drift and the far structure of a long sequence out of the clusters.
 std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int frame, int window);
 
+/// The world points of a frame's dense depth map (CV_32FC1 metres, 0 = none; stacks/dense.hpp's
+/// dense_depth) seen from `pose` (camera-to-world), one per `step`-th pixel in x and y: a cloud with
+/// points on surfaces no keypoint was tracked on (low-contrast objects). Error for step < 1.
+std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
+                                               int step);
+
 // ---- building blocks (exposed for tests) ------------------------------------------------------------
 
 /// RANSAC plane over `points` (3-point hypotheses, inliers within `distance`, the plane refitted by least
