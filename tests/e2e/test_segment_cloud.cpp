@@ -244,5 +244,15 @@ TEST(SegmentCloudTool, GrabCutSfmOnTheTabletopScene) {
   EXPECT_EQ(r.status, 2) << r.out;
   EXPECT_NE(r.out.find("--plane-up"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(dir / "y.png"));
+  // The frame's dense depth as the cloud: runs on this stereo sequence; not together with --window.
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work + " --frame 0 --dense-cloud 2"
+          " --frustum-only --max-distance 3 --plane-distance 0.02 --height-band 0.35 --support-radius 0.15"
+          " --cluster euclidean --cluster-tolerance 0.025 --min-cluster-size 100 -o " + (dir / "d.png").string());
+  EXPECT_EQ(r.status, 0) << r.out;
+  EXPECT_GT(smseg::read_json(dir / "d.png.json")["points"].get<int>(), 5000);
+  r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work + " --frame 0 --dense-cloud 2" + tabletop +
+          " -o " + (dir / "z.png").string());
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_NE(r.out.find("--dense-cloud"), std::string::npos) << r.out;
   fs::remove_all(dir);
 }

@@ -71,7 +71,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
     throw Error(seq.manifest.string(), "calibration", "no focal length (neither fx/fy nor an SfM focal in tracks.json)");
   }
   if (int(o.window >= 0) + int(!o.cloud.empty()) + int(o.dense_cloud > 0) > 1)
-    throw Error("", "--window", "give one of a CLOUD, --window and --dense-cloud");
+    throw Error("", o.dense_cloud > 0 ? "--dense-cloud" : "--window", "give one of a CLOUD, --window and --dense-cloud");
   std::string cloud_path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
   sf::ColouredCloud cloud;
   if (o.dense_cloud > 0) {  // the frame's own dense depth, with the stereo range the work folder used
