@@ -2,6 +2,7 @@
 // Plain Eigen / OpenCV (our own seeded RANSAC and k-means so that a seed fixes every draw); it lives
 // with the other cloud segmenters in smseg_cloud.
 #include "smseg/cloud/grabcut_sfm.hpp"
+#include "smseg/frontend/trajectory.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -477,8 +478,8 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
 std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& c, const Pose& pose, int step) {
   if (step < 1) throw Error("", "--dense-cloud", "the pixel step must be >= 1");
   if (depth.type() != CV_32FC1 || !c.fx) throw Error("", "depth", "expected a CV_32FC1 depth map and a focal length");
-  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
-  const Eigen::Vector3d centre(pose.t[0], pose.t[1], pose.t[2]);
+  const Eigen::Matrix3d R = pose_rotation(pose);
+  const Eigen::Vector3d centre = pose_centre(pose);
   const double fx = *c.fx, fy = c.fy.value_or(fx);
   std::vector<Eigen::Vector3f> out;
   for (int y = 0; y < depth.rows; y += step)
