@@ -12,6 +12,7 @@
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
@@ -189,6 +190,42 @@ PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count, int
   return v;
 }
 
+namespace {
+
+// What a plane sweep of a monocular run needs beyond the images: which frames the SfM posed itself,
+// and its camera (the focal it used; the principal point as it took it).
+struct SweepInputs {
+  std::vector<bool> usable;
+  Calibration calibration;
+  cv::Matx33d K;
+};
+
+SweepInputs sweep_inputs(const Sequence& seq, const FrontEndResult& fe) {
+  SweepInputs in;
+  in.usable.assign(seq.frame_count(), false);
+  const int n = static_cast<int>(fe.poses.size());
+  for (int k = 0; k < n; ++k) {
+    const int f = fe.first_frame + k;
+    if (f < 0 || f >= seq.frame_count()) continue;
+    // A pair motion's `bridged` marks its second frame (sfm.hpp); the first frame is posed when the
+    // reconstruction started there.
+    in.usable[f] = k == 0 ? fe.summary.sfm && fe.summary.sfm->init_frame_a == f
+                          : k - 1 < static_cast<int>(fe.pair_motions.size()) && !fe.pair_motions[k - 1].bridged;
+  }
+  in.calibration = seq.calibration;
+  const double focal = fe.summary.sfm ? fe.summary.sfm->focal : 0;
+  if (!(focal > 0)) throw Error(seq.manifest.string(), "focal", "the structure from motion reported no focal length");
+  in.calibration.fx = in.calibration.fy = focal;
+  if (in.calibration.cx == 0 && in.calibration.cy == 0) {  // as the SfM takes it (sfm.cpp)
+    in.calibration.cx = (seq.size.width - 1) / 2.0;
+    in.calibration.cy = (seq.size.height - 1) / 2.0;
+  }
+  in.K = cv::Matx33d(focal, 0, in.calibration.cx, 0, focal, in.calibration.cy, 0, 0, 1);
+  return in;
+}
+
+}  // namespace
+
 cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names) {
   CV_Assert(!rasters.empty() && rasters.size() == names.size());
   const int cols = 3, rows = (static_cast<int>(rasters.size()) + cols - 1) / cols;
@@ -198,7 +235,9 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
   const auto fd = std::find(names.begin(), names.end(), "fD");
   if (fd != names.end()) cv::dilate(rasters[fd - names.begin()], points, cv::Mat(), cv::Point(-1, -1), 1);
   for (std::size_t k = 0; k < rasters.size(); ++k) {
-    const bool sparse = names[k] != "fOx" && names[k] != "fOy";
+    // The point features hold values at the tracked points only; fOx, fOy and the image and dense
+    // channels cover the frame.
+    const bool sparse = names[k] == "fH" || names[k] == "fC" || names[k] == "fD" || names[k] == "fR";
     cv::Mat tile = false_colour(rasters[k], sparse ? points : cv::Mat());
     cv::putText(tile, names[k], cv::Point(6, 18), cv::FONT_HERSHEY_SIMPLEX, 0.55, cv::Scalar::all(255), 2);
     const int r = static_cast<int>(k) / cols, c = static_cast<int>(k) % cols;
@@ -214,10 +253,6 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     throw Error(seq.manifest.string(), "gravity",
                 "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
                 "ground plane");
-  if (sfm && opt.features.dense)
-    throw Error(seq.manifest.string(), "dense",
-                "dense geometry channels need a stereo sequence and the stereo front end (no dense depth from "
-                "structure from motion yet)");
   if (sfm)
     effective_sfm(opt).validate();
   else if (seq.kind != SequenceKind::Stereo)
@@ -309,11 +344,20 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     todo.push_back(f);
   }
 
-  // The channels after the six, in stacks.json's order: appearance, then dense geometry.
+  // The channels after the six, in stacks.json's order: appearance, then dense geometry (stereo
+  // matching, or a plane sweep over the SfM's posed neighbours).
   const StereoOptions dense_stereo = dense_stereo_options(opt.front_end.stereo);
+  const SweepInputs sweep = sfm && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{};
+  const auto frame_depth = [&](int f) {
+    if (!sfm) return dense_depth(seq, f, dense_stereo);
+    std::vector<SweepView> views;
+    for (int g : sweep_neighbours(f, sweep.usable, video.poses)) views.push_back({seq.load_left_gray(g), video.poses[g]});
+    return plane_sweep_depth(seq.load_left_gray(f), video.poses[f], views, sweep.K, PlaneSweepOptions{});
+  };
   const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
-    if (opt.features.dense) append_dense_rasters(dense_depth(seq, f, dense_stereo), seq.calibration, video.poses[f], rasters);
+    if (opt.features.dense)
+      append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters);
   };
   Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
   struct Buffers {

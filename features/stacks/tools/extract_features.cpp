@@ -107,9 +107,10 @@ int main(int argc, char** argv) {
                "magnitude by orientation) and fRow fCol (position); train-forest --features fH,fC,fOx,fOy,fD,fR\n"
                "leaves them out (structure and motion only)");
   app.add_flag("--dense", opt.features.dense,
-               "stereo: also dense geometry channels from semi-global matching, after the others: fZV (valid),\n"
-               "fZI (inverse depth), fZH (height), fZU (surface facing up), fZE (depth edges); structure and\n"
-               "motion, not appearance (docs/stereo.md)");
+               "also dense geometry channels, after the others: fZV (valid), fZI (inverse depth), fZH (height),\n"
+               "fZU (surface facing up), fZE (depth edges), from semi-global matching (stereo) or a plane sweep\n"
+               "over the SfM's posed neighbour frames (mono); structure and motion, not appearance\n"
+               "(docs/stereo.md, docs/sfm.md)");
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");

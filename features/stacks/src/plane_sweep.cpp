@@ -1,0 +1,261 @@
+// Plane-sweep depth of a monocular frame: see plane_sweep.hpp.
+#include "smseg/stacks/plane_sweep.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include <Eigen/Core>
+#include <Eigen/LU>
+#include <opencv2/imgproc.hpp>
+
+#include "smseg/common/error.hpp"
+#include "smseg/frontend/trajectory.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+// Box means of a float image over the sweep window.
+cv::Mat box_mean(const cv::Mat& m, int window) {
+  cv::Mat out;
+  cv::boxFilter(m, out, CV_32F, cv::Size(window, window), cv::Point(-1, -1), true, cv::BORDER_REFLECT);
+  return out;
+}
+
+// The reference image's window statistics, computed once per frame.
+struct ReferenceWindows {
+  cv::Mat image, mean, stddev;  // CV_32F
+};
+
+ReferenceWindows reference_windows(const cv::Mat& gray, int window) {
+  ReferenceWindows r;
+  gray.convertTo(r.image, CV_32F);
+  r.mean = box_mean(r.image, window);
+  const cv::Mat mean_sq = box_mean(r.image.mul(r.image), window);
+  r.stddev.create(gray.size(), CV_32F);
+  for (int y = 0; y < gray.rows; ++y) {
+    const float *m = r.mean.ptr<float>(y), *q = mean_sq.ptr<float>(y);
+    float* s = r.stddev.ptr<float>(y);
+    for (int x = 0; x < gray.cols; ++x) s[x] = std::sqrt(std::max(0.0f, q[x] - m[x] * m[x]));
+  }
+  return r;
+}
+
+// A neighbour prepared for warping: its float image, a mask of ones, and the reference-to-neighbour
+// camera motion (X_n = R X_r + t).
+struct PreparedView {
+  cv::Mat image, ones;
+  Eigen::Matrix3d R;
+  Eigen::Vector3d t;
+};
+
+PreparedView prepare(const SweepView& v, const Pose& reference_pose) {
+  PreparedView p;
+  v.gray.convertTo(p.image, CV_32F);
+  p.ones = cv::Mat(v.gray.size(), CV_8UC1, cv::Scalar(1));
+  const Eigen::Matrix3d Rr = pose_rotation(reference_pose), Rn = pose_rotation(v.pose);
+  p.R = Rn.transpose() * Rr;
+  p.t = Rn.transpose() * (pose_centre(reference_pose) - pose_centre(v.pose));
+  return p;
+}
+
+// ZNCC per pixel of the reference against the neighbour warped through the plane Z = depth of the
+// reference camera; -1 where the window reaches outside the neighbour's image.
+void plane_scores(const ReferenceWindows& ref, const PreparedView& v, const Eigen::Matrix3d& K, double depth,
+                  int window, cv::Mat& score) {
+  const Eigen::Matrix3d H = K * (v.R + v.t * Eigen::RowVector3d(0, 0, 1.0 / depth)) * K.inverse();
+  cv::Matx33d Hcv;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Hcv(r, c) = H(r, c);
+  cv::Mat warped, inside;
+  // WARP_INVERSE_MAP: warped(x) = neighbour(H x), H taking reference pixels to neighbour pixels.
+  cv::warpPerspective(v.image, warped, Hcv, ref.image.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_REPLICATE);
+  cv::warpPerspective(v.ones, inside, Hcv, ref.image.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
+                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)), cv::Point(-1, -1), 1,
+            cv::BORDER_CONSTANT, cv::Scalar(0));
+  const cv::Mat mean = box_mean(warped, window);
+  const cv::Mat mean_sq = box_mean(warped.mul(warped), window);
+  const cv::Mat mean_cross = box_mean(warped.mul(ref.image), window);
+  score.create(ref.image.size(), CV_32F);
+  for (int y = 0; y < score.rows; ++y) {
+    const float *mj = mean.ptr<float>(y), *qj = mean_sq.ptr<float>(y), *mij = mean_cross.ptr<float>(y),
+                *mi = ref.mean.ptr<float>(y), *si = ref.stddev.ptr<float>(y);
+    const std::uint8_t* in = inside.ptr<std::uint8_t>(y);
+    float* s = score.ptr<float>(y);
+    for (int x = 0; x < score.cols; ++x) {
+      const float sj = std::sqrt(std::max(0.0f, qj[x] - mj[x] * mj[x]));
+      const float denominator = si[x] * sj;
+      s[x] = in[x] && denominator > 1e-3f ? (mij[x] - mi[x] * mj[x]) / denominator : -1.0f;
+    }
+  }
+}
+
+// The best plane so far per pixel.
+struct BestPlane {
+  cv::Mat score, plane;  // CV_32F, CV_32S
+  explicit BestPlane(cv::Size size)
+      : score(size, CV_32F, cv::Scalar(-std::numeric_limits<float>::infinity())), plane(size, CV_32S, cv::Scalar(-1)) {}
+  void update(const cv::Mat& s, int p) {
+    for (int y = 0; y < s.rows; ++y) {
+      const float* in = s.ptr<float>(y);
+      float* b = score.ptr<float>(y);
+      int* k = plane.ptr<int>(y);
+      for (int x = 0; x < s.cols; ++x)
+        if (in[x] > b[x]) {
+          b[x] = in[x];
+          k[x] = p;
+        }
+    }
+  }
+};
+
+constexpr float kNoScore = -2.0f;  // below any ZNCC: "no such plane"
+
+// The joint best plane, and the scores of the planes either side of it: a new best at p takes the
+// previous plane's score as its left one; the plane after the best gives its right one.
+// `worst` keeps the lowest score (how flat the scores are).
+void update_joint(const cv::Mat& joint, const cv::Mat& previous, int p, BestPlane& best, cv::Mat& left, cv::Mat& right,
+                  cv::Mat& worst) {
+  for (int y = 0; y < joint.rows; ++y) {
+    const float *s = joint.ptr<float>(y), *before = previous.ptr<float>(y);
+    float *b = best.score.ptr<float>(y), *l = left.ptr<float>(y), *r = right.ptr<float>(y), *w = worst.ptr<float>(y);
+    int* k = best.plane.ptr<int>(y);
+    for (int x = 0; x < joint.cols; ++x) {
+      w[x] = std::min(w[x], s[x]);
+      if (s[x] > b[x]) {
+        b[x] = s[x];
+        k[x] = p;
+        l[x] = before[x];
+        r[x] = kNoScore;
+      } else if (k[x] == p - 1) {
+        r[x] = s[x];
+      }
+    }
+  }
+}
+
+}  // namespace
+
+void PlaneSweepOptions::validate() const {
+  if (!(max_step_px > 0)) throw Error("", "plane_sweep.max_step_px", "must be > 0");
+  if (min_planes < 3 || max_planes > 4096 || max_planes < min_planes)
+    throw Error("", "plane_sweep.max_planes", "needs 3 <= min_planes <= max_planes <= 4096");
+  if (!(min_depth > 0) || !(max_depth > min_depth))
+    throw Error("", "plane_sweep.min_depth", "needs 0 < min_depth < max_depth");
+  if (window < 3 || window % 2 == 0 || window > 31) throw Error("", "plane_sweep.window", "must be odd, 3..31");
+  if (!(min_score >= -1 && min_score <= 1)) throw Error("", "plane_sweep.min_score", "must be in [-1, 1]");
+  if (!(min_texture >= 0)) throw Error("", "plane_sweep.min_texture", "must be >= 0");
+  if (!(min_score_range >= 0 && min_score_range <= 2))
+    throw Error("", "plane_sweep.min_score_range", "must be in [0, 2]");
+  if (consistency_planes < 0) throw Error("", "plane_sweep.consistency_planes", "must be >= 0");
+}
+
+int sweep_plane_count(const Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
+                      const PlaneSweepOptions& o) {
+  double baseline = 0;
+  for (const auto& v : neighbours)
+    baseline = std::max(baseline, (pose_centre(v.pose) - pose_centre(reference_pose)).norm());
+  const double span_px = focal * baseline * (1.0 / o.min_depth - 1.0 / o.max_depth);
+  const double wanted = std::ceil(span_px / o.max_step_px) + 1;
+  return static_cast<int>(std::clamp(wanted, double(o.min_planes), double(o.max_planes)));
+}
+
+cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_pose,
+                          const std::vector<SweepView>& neighbours, const cv::Matx33d& K,
+                          const PlaneSweepOptions& o) {
+  o.validate();
+  if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
+    throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
+  for (const auto& v : neighbours)
+    if (v.gray.size() != reference_gray.size() || v.gray.type() != CV_8UC1)
+      throw Error("", "plane_sweep", "every neighbour image must be 8-bit grey of the reference's size");
+  cv::Mat depth(reference_gray.size(), CV_32FC1, cv::Scalar(0));
+  if (neighbours.size() < 2) return depth;  // no consistency check possible: nothing is trusted
+
+  const ReferenceWindows ref = reference_windows(reference_gray, o.window);
+  std::vector<PreparedView> views;
+  for (const auto& v : neighbours) views.push_back(prepare(v, reference_pose));
+  Eigen::Matrix3d Ke;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) Ke(r, c) = K(r, c);
+
+  const double near_inv = 1.0 / o.min_depth, far_inv = 1.0 / o.max_depth;
+  const int planes = sweep_plane_count(reference_pose, neighbours, K(0, 0), o);
+  const double step = (near_inv - far_inv) / (planes - 1);
+  BestPlane best_joint(reference_gray.size());  // the mean score over the neighbours
+  std::vector<BestPlane> best_own(views.size(), BestPlane(reference_gray.size()));
+  // The mean scores of the planes either side of the joint best (for the parabola), kept as the sweep
+  // goes so that no cost volume is held.
+  cv::Mat left(reference_gray.size(), CV_32F, cv::Scalar(kNoScore)), right = left.clone();
+  cv::Mat worst(reference_gray.size(), CV_32F, cv::Scalar(1));
+  cv::Mat score, joint(reference_gray.size(), CV_32F), previous(reference_gray.size(), CV_32F, cv::Scalar(kNoScore));
+  for (int p = 0; p < planes; ++p) {
+    const double depth_p = 1.0 / (far_inv + p * step);
+    joint.setTo(0);
+    for (std::size_t n = 0; n < views.size(); ++n) {
+      plane_scores(ref, views[n], Ke, depth_p, o.window, score);
+      best_own[n].update(score, p);
+      joint += score;
+    }
+    joint /= static_cast<double>(views.size());
+    update_joint(joint, previous, p, best_joint, left, right, worst);
+    std::swap(joint, previous);
+  }
+
+  for (int y = 0; y < depth.rows; ++y) {
+    float* out = depth.ptr<float>(y);
+    const float* texture = ref.stddev.ptr<float>(y);
+    for (int x = 0; x < depth.cols; ++x) {
+      const int p = best_joint.plane.at<int>(y, x);
+      const float best = best_joint.score.at<float>(y, x);
+      if (p < 0 || best < o.min_score || texture[x] < o.min_texture) continue;
+      if (best - worst.at<float>(y, x) < o.min_score_range) continue;  // no parallax: every plane fits
+      bool agree = true;
+      for (const auto& b : best_own) agree = agree && std::abs(b.plane.at<int>(y, x) - p) <= o.consistency_planes;
+      if (!agree) continue;
+      // Between planes: the vertex of the parabola through the best plane and its two neighbours.
+      double offset = 0;
+      const double a = left.at<float>(y, x), b = best_joint.score.at<float>(y, x), c = right.at<float>(y, x);
+      const double curvature = a - 2 * b + c;
+      if (a != kNoScore && c != kNoScore && curvature < 0) offset = std::clamp(0.5 * (a - c) / curvature, -0.5, 0.5);
+      out[x] = static_cast<float>(1.0 / (far_inv + (p + offset) * step));
+    }
+  }
+  return depth;
+}
+
+std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<Pose>& poses,
+                                  const SweepNeighbourOptions& o) {
+  const int n = static_cast<int>(usable.size());
+  if (f < 0 || f >= n || !usable[f] || static_cast<int>(poses.size()) != n) return {};
+  const auto baseline = [&](int g) { return (pose_centre(poses[g]) - pose_centre(poses[f])).norm(); };
+  // Per side: the nearest frame at least target_baseline away, else the widest at least min_baseline.
+  const auto pick = [&](int dir) {
+    int widest = -1;
+    for (int k = 1; k <= o.reach; ++k) {
+      const int g = f + dir * k;
+      if (g < 0 || g >= n || !usable[g] || baseline(g) < o.min_baseline) continue;
+      if (baseline(g) >= o.target_baseline) return g;
+      if (widest < 0 || baseline(g) > baseline(widest)) widest = g;
+    }
+    return widest;
+  };
+  const int before = pick(-1), after = pick(1);
+  if (before >= 0 && after >= 0) return {before, after};
+  // One side only (the ends of the sequence): that side's pick and the next qualifying frame beyond
+  // it, else the nearest qualifying one before it.
+  const int dir = before >= 0 ? -1 : 1, first = before >= 0 ? before : after;
+  if (first < 0) return {};
+  int second = -1;
+  for (int g = first + dir; second < 0 && std::abs(g - f) <= o.reach && g >= 0 && g < n; g += dir)
+    if (usable[g] && baseline(g) >= o.min_baseline) second = g;
+  for (int g = f + dir; second < 0 && g != first; g += dir)
+    if (usable[g] && baseline(g) >= o.min_baseline) second = g;
+  if (second < 0) return {};
+  return {first, second};
+}
+
+}  // namespace smseg::features
