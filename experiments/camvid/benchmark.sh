@@ -8,6 +8,9 @@
 #   OUT         output folder: sequences/, work/, forests/, context/, eval/, measure/ and summary.json
 # Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default:
 #   sm               structure and motion only: the six features fH fC fOx fOy fD fR
+#   sm_dense         the six and the five dense geometry channels of --dense (a plane sweep over the SfM
+#                    poses: fZV fZI fZH fZU fZE; structure and motion, no appearance; docs/camvid.md,
+#                    "Dense geometry from the plane sweep")
 #   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
 #                    with --balance sqrt (measured on val: docs/camvid.md, "Appearance channels")
 #   combined_smooth  the combined forest, evaluated with --smooth graphcut
@@ -17,7 +20,7 @@
 #   combined_context the same on the combined forest (its features, textons and --balance sqrt)
 #   combined_context_smooth  the combined_context forest, evaluated with --smooth graphcut
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
-# OUT/summary.json: {"runs": {"sm": {...}, "sm_context": {...}, "combined": {...}, "combined_context": {...},
+# OUT/summary.json: {"runs": {"sm": {...}, "sm_dense": {...}, "sm_context": {...}, "combined": {...}, "combined_context": {...},
 # "combined_smooth": {...}, "combined_context_smooth": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class,
 # train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
 # forests', the context channels' and the second forest's).
@@ -70,14 +73,14 @@ rm -rf "$out/sequences"
 "$bin/import-camvid" "$camvid" --split "$train_splits" -o "$out/sequences/train" >/dev/null
 "$bin/import-camvid" "$camvid" --split "$test_split" -o "$out/sequences/test" >/dev/null
 
-echo "== 2/5 extract-features --appearance ($jobs at once; resumes what is on disk)"
+echo "== 2/5 extract-features --appearance --dense ($jobs at once; resumes what is on disk)"
 extract() {  # SIDE SEQUENCE_FOLDER [extra options]
   local side=$1 seq=$2
   shift 2
   local name
   name="$(basename "$seq")"
   mkdir -p "$out/work/$side" "$out/logs"
-  if ! "$bin/extract-features" "$seq" -o "$out/work/$side/$name" --appearance --threads 1 -q "$@" \
+  if ! "$bin/extract-features" "$seq" -o "$out/work/$side/$name" --appearance --dense --threads 1 -q "$@" \
       >"$out/logs/extract-$side-$name.txt" 2>&1; then
     cat "$out/logs/extract-$side-$name.txt" >&2
     return 1
@@ -96,13 +99,19 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
 
-echo "== 3/5 train-forest: sm (six S+M features), combined (+ appearance channels and textons, --balance sqrt)"
+echo "== 3/5 train-forest: sm (six S+M features), sm_dense (+ dense geometry), combined (+ appearance channels and textons, --balance sqrt)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
+six=fH,fC,fOx,fOy,fD,fR
+dense=fZV,fZI,fZH,fZU,fZE
+appearance=fL,fA,fB,fG0,fG1,fG2,fG3,fRow,fCol
 python3 "$summary_py" measure "$out/measure/sm.json" -- \
-  "$bin/train-forest" "${train_works[@]}" --features fH,fC,fOx,fOy,fD,fR "${common[@]}" -o "$out/forests/sm.json"
+  "$bin/train-forest" "${train_works[@]}" --features $six "${common[@]}" -o "$out/forests/sm.json"
+python3 "$summary_py" measure "$out/measure/sm_dense.json" -- \
+  "$bin/train-forest" "${train_works[@]}" --features $six,$dense "${common[@]}" -o "$out/forests/sm_dense.json"
 python3 "$summary_py" measure "$out/measure/combined.json" -- \
-  "$bin/train-forest" "${train_works[@]}" --textons --balance sqrt "${common[@]}" -o "$out/forests/combined.json"
+  "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${common[@]}" \
+  -o "$out/forests/combined.json"
 
 echo "== 4/5 auto-context: the sm and combined forests' posteriors (out of 4 folds on the training runs), second forests"
 under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-context's output folders)
@@ -128,6 +137,7 @@ mapfile -t combined_context_test < <(under "$out/context/combined-test" "${test_
 
 echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/sm_dense.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_dense"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \
   -o "$out/eval/combined_smooth"

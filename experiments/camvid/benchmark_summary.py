@@ -20,6 +20,7 @@ import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
     ("sm", "sm", ["sm"], "S+M"),
+    ("sm_dense", "sm_dense", ["sm_dense"], "S+M + dense geometry"),
     ("sm_context", "sm_context", ["sm", "sm_context"], "S+M + auto-context"),
     ("combined", "combined", ["combined"], "S+M + appearance"),
     ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),

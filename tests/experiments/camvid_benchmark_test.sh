@@ -30,7 +30,7 @@ python3 - "$tmp/out/summary.json" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
 assert s["train"] == ["train", "val"] and s["test"] == "test", s
-assert set(s["runs"]) == {"sm", "sm_context", "combined", "combined_context", "combined_smooth", "combined_context_smooth"}, s["runs"].keys()
+assert set(s["runs"]) == {"sm", "sm_dense", "sm_context", "combined", "combined_context", "combined_smooth", "combined_context_smooth"}, s["runs"].keys()
 assert s["runs"]["sm_context"]["train_seconds"] > s["runs"]["sm"]["train_seconds"], s["runs"]  # first forest + folds + second
 for name, r in s["runs"].items():
     for k in ("global_accuracy", "class_average_accuracy", "mean_iou"):

@@ -11,8 +11,8 @@ def extract_features(sequence_dir, out_dir, **options):
 
     Options (extract-features's, '-' as '_'): motion ("auto" | "stereo" | "sfm"), stereo, keypoints,
     tracker, max_keypoints, camera_height, focal, frames ("A:B"), future_frames, appearance (bool), dense
-    (bool, stereo), gravity ("level" | "estimate", stereo), force, progress (on a terminal only), n_jobs
-    (0: all cores), verbose (the solver's summaries on stderr).
+    (bool: stereo matching, or a plane sweep on SfM runs), gravity ("level" | "estimate", stereo), force,
+    progress (on a terminal only), n_jobs (0: all cores), verbose (the solver's summaries on stderr).
     """
     return _smseg.extract_features(os.fspath(sequence_dir), os.fspath(out_dir), dict(options))
 

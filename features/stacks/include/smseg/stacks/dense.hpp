@@ -1,5 +1,5 @@
 #pragma once
-// Dense geometry channels (extract-features --dense; stereo sequences; issue 14, lever 1).
+// Dense geometry channels (extract-features --dense; issue 14, lever 1).
 //
 // The six structure-and-motion features live at the tracked points only (100-300 per frame); a window
 // that holds none says nothing about the surface under it. A stereo pair gives depth almost everywhere:
@@ -16,8 +16,8 @@
 //   fZE   depth discontinuity: |log Z(x+1) - log Z(x-1)| + |log Z(y+1) - log Z(y-1)|, clamped to 1, 0
 //         where a neighbour is invalid (object outlines)
 // All of them come from the stereo geometry and the camera path, none from image appearance: they
-// count as structure and motion (issue 14). Monocular sequences have no dense depth here (plane sweep
-// from the SfM poses is not built): --dense is refused for them.
+// count as structure and motion (issue 14). Monocular runs get their depth from a plane sweep over
+// the SfM's posed neighbour frames instead (plane_sweep.hpp); the channels are the same.
 
 #include <string>
 #include <vector>

@@ -65,8 +65,8 @@ struct SweepNeighbourOptions {
   double min_baseline = 0.05;    ///< metres: nearer frames are never taken (no parallax)
 };
 
-/// Which frames a plane sweep of frame f reads. `usable[g]` says frame g has a pose of its own (not
-/// bridged, not before the reconstruction). On each side, within `reach` frames, the nearest usable
+/// Which frames a plane sweep of frame f reads. `usable[g]` says frame g has a camera pose (frames
+/// outside the reconstructed range do not). On each side, within `reach` frames, the nearest usable
 /// frame at least target_baseline from f's camera, else the widest at least min_baseline; at the
 /// ends of a sequence, the one side's choice and the next qualifying frame beyond it (else the
 /// nearest one short of it). Empty when f is not usable or
