@@ -47,6 +47,14 @@ DepthScore score(const cv::Mat& depth, const cv::Mat& truth) {
   return s;
 }
 
+// The first 13 frames of a synthetic scene (seed 1): the depth tests' input.
+Sequence thirteen_frames(const std::string& scene, const fs::path& dir) {
+  synth::SynthOptions so;
+  so.scene = scene;
+  so.frames = 13;
+  return synth::make_sequence(so, dir);
+}
+
 double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) {
   return test::raster_at(r, dense_feature_names(), name, y, x);
 }
@@ -58,10 +66,7 @@ double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) 
 TEST(DenseDepth, CorridorAndLabWithinFivePercentOnAtLeastSixtyPercentOfPixels) {
   const fs::path dir = test::temp_dir("dense_depth");
   for (const std::string scene : {"corridor", "lab"}) {
-    synth::SynthOptions so;
-    so.scene = scene;
-    so.frames = 13;
-    const Sequence seq = synth::make_sequence(so, dir / scene);
+    const Sequence seq = thirteen_frames(scene, dir / scene);
     const StereoOptions o = dense_stereo_options(StereoOptions{});
     for (int f : {0, 6, 12}) {
       const DepthScore s = score(dense_depth(seq, f, o), seq.load_gt_depth(f));
@@ -145,10 +150,7 @@ TEST(DenseChannels, ExtractWritesThemAfterTheSix) {
 TEST(PlaneSweep, CorridorAndLabFromTheirPosesAgainstTruth) {
   const fs::path dir = test::temp_dir("plane_sweep");
   for (const std::string scene : {"corridor", "lab"}) {
-    synth::SynthOptions so;
-    so.scene = scene;
-    so.frames = 13;
-    const Sequence seq = synth::make_sequence(so, dir / scene);
+    const Sequence seq = thirteen_frames(scene, dir / scene);
     const Calibration& c = seq.calibration;
     const cv::Matx33d K(*c.fx, 0, c.cx, 0, c.fy.value_or(*c.fx), c.cy, 0, 0, 1);
     PlaneSweepOptions o;
