@@ -9,6 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "camvid_setup.hpp"
+#include "smseg/frontend/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"
@@ -85,7 +86,7 @@ void BM_DelaunayOnly(benchmark::State& state) {
 BENCHMARK(BM_DelaunayOnly)->Unit(benchmark::kMillisecond);
 
 // One frame's plane sweep (val frame 60 against frames 60 - gap and 60 + gap, with the poses and focal
-// of the cached val extraction). gap 2 is what sweep_neighbours picks at 15 Hz (0.5 m, ~80 planes);
+// of the cached val extraction). gap 2 is what sweep_neighbours picks at 15 Hz (0.5 m, 90 planes);
 // gap 15 puts the neighbours ~4 m away, as at 1 Hz, where the sweep takes its cap of 256 planes.
 void BM_PlaneSweepCamVid(benchmark::State& state) {
   if (camvid_bench::unavailable()) return camvid_bench::skip(state);
@@ -93,13 +94,12 @@ void BM_PlaneSweepCamVid(benchmark::State& state) {
   const TracksFile tracks = read_tracks(camvid_bench::val_work() / "tracks.json");
   const Sequence seq = load_sequence(camvid_bench::kCache / "sequences" / camvid_bench::kValRun);
   const auto pose = [&](int g) { return tracks.result.poses.at(std::size_t(g - tracks.result.first_frame)); };
-  const double focal = tracks.result.summary.sfm.value().focal;
-  const cv::Matx33d K(focal, 0, (seq.size.width - 1) / 2.0, 0, focal, (seq.size.height - 1) / 2.0, 0, 0, 1);
+  const Calibration camera = sfm_camera(seq, tracks.result.summary.sfm.value().focal);
   const std::vector<SweepView> views{{seq.load_left_gray(f - gap), pose(f - gap)},
                                      {seq.load_left_gray(f + gap), pose(f + gap)}};
   const cv::Mat reference = seq.load_left_gray(f);
-  state.counters["planes"] = sweep_plane_count(pose(f), views, focal, PlaneSweepOptions{});
-  for (auto _ : state) benchmark::DoNotOptimize(plane_sweep_depth(reference, pose(f), views, K));
+  state.counters["planes"] = sweep_plane_count(pose(f), views, *camera.fx, PlaneSweepOptions{});
+  for (auto _ : state) benchmark::DoNotOptimize(plane_sweep_depth(reference, pose(f), views, camera));
 }
 BENCHMARK(BM_PlaneSweepCamVid)->Arg(2)->Arg(15)->Unit(benchmark::kMillisecond);
 

@@ -2,7 +2,6 @@
 // Plain Eigen / OpenCV (our own seeded RANSAC and k-means so that a seed fixes every draw); it lives
 // with the other cloud segmenters in smseg_cloud.
 #include "smseg/cloud/grabcut_sfm.hpp"
-#include "smseg/frontend/trajectory.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -15,6 +14,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "smseg/common/error.hpp"
+#include "smseg/frontend/trajectory.hpp"
 
 namespace smseg::features {
 

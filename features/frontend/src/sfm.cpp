@@ -80,6 +80,16 @@ bool triangulate(const CamPose& A, const CamPose& B, const cv::Point2f& pa, cons
 
 }  // namespace
 
+Calibration sfm_camera(const Sequence& seq, double focal) {
+  Calibration c = seq.calibration;
+  c.fx = c.fy = focal;
+  if (c.cx == 0 && c.cy == 0) {
+    c.cx = (seq.size.width - 1) / 2.0;
+    c.cy = (seq.size.height - 1) / 2.0;
+  }
+  return c;
+}
+
 FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report_out) {
   const auto wall0 = Clock::now();
   options.validate();
@@ -194,12 +204,9 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
 
   // ---- 2. focal length ----
   Intrinsics in;
-  in.cx = seq.calibration.cx;
-  in.cy = seq.calibration.cy;
-  if (in.cx == 0 && in.cy == 0) {
-    in.cx = (seq.size.width - 1) / 2.0;
-    in.cy = (seq.size.height - 1) / 2.0;
-  }
+  const Calibration camera = sfm_camera(seq, 1);
+  in.cx = camera.cx;
+  in.cy = camera.cy;
   if (o.focal) {
     in.f = *o.focal;
     rep.focal_source = FocalSource::Option;

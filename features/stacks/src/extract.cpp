@@ -9,6 +9,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for_each.h>
 
+#include "smseg/frontend/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"
@@ -201,7 +202,6 @@ namespace {
 struct SweepInputs {
   std::vector<bool> usable;
   Calibration calibration;
-  cv::Matx33d K;
 };
 
 SweepInputs sweep_inputs(const Sequence& seq, const FrontEndResult& fe) {
@@ -211,15 +211,9 @@ SweepInputs sweep_inputs(const Sequence& seq, const FrontEndResult& fe) {
     const int f = fe.first_frame + k;
     if (f >= 0 && f < seq.frame_count()) in.usable[f] = true;
   }
-  in.calibration = seq.calibration;
   const double focal = fe.summary.sfm ? fe.summary.sfm->focal : 0;
   if (!(focal > 0)) throw Error(seq.manifest.string(), "focal", "the structure from motion reported no focal length");
-  in.calibration.fx = in.calibration.fy = focal;
-  if (in.calibration.cx == 0 && in.calibration.cy == 0) {  // as the SfM takes it (sfm.cpp)
-    in.calibration.cx = (seq.size.width - 1) / 2.0;
-    in.calibration.cy = (seq.size.height - 1) / 2.0;
-  }
-  in.K = cv::Matx33d(focal, 0, in.calibration.cx, 0, focal, in.calibration.cy, 0, 0, 1);
+  in.calibration = sfm_camera(seq, focal);
   return in;
 }
 
@@ -351,7 +345,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     if (!sfm) return dense_depth(seq, f, dense_stereo);
     std::vector<SweepView> views;
     for (int g : sweep_neighbours(f, sweep.usable, video.poses)) views.push_back({seq.load_left_gray(g), video.poses[g]});
-    return plane_sweep_depth(seq.load_left_gray(f), video.poses[f], views, sweep.K, PlaneSweepOptions{});
+    return plane_sweep_depth(seq.load_left_gray(f), video.poses[f], views, sweep.calibration, PlaneSweepOptions{});
   };
   const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);

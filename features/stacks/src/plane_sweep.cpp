@@ -164,9 +164,10 @@ int sweep_plane_count(const Pose& reference_pose, const std::vector<SweepView>& 
 }
 
 cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const cv::Matx33d& K,
+                          const std::vector<SweepView>& neighbours, const Calibration& camera,
                           const PlaneSweepOptions& o) {
   o.validate();
+  if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
   if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
     throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
   for (const auto& v : neighbours)
@@ -178,12 +179,12 @@ cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_p
   const ReferenceWindows ref = reference_windows(reference_gray, o.window);
   std::vector<PreparedView> views;
   for (const auto& v : neighbours) views.push_back(prepare(v, reference_pose));
-  Eigen::Matrix3d Ke;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) Ke(r, c) = K(r, c);
+  const double fx = *camera.fx, fy = camera.fy.value_or(fx);
+  Eigen::Matrix3d K;
+  K << fx, 0, camera.cx, 0, fy, camera.cy, 0, 0, 1;
 
   const double near_inv = 1.0 / o.min_depth, far_inv = 1.0 / o.max_depth;
-  const int planes = sweep_plane_count(reference_pose, neighbours, K(0, 0), o);
+  const int planes = sweep_plane_count(reference_pose, neighbours, fx, o);
   const double step = (near_inv - far_inv) / (planes - 1);
   BestPlane best_joint(reference_gray.size());  // the mean score over the neighbours
   std::vector<BestPlane> best_own(views.size(), BestPlane(reference_gray.size()));
@@ -196,7 +197,7 @@ cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_p
     const double depth_p = 1.0 / (far_inv + p * step);
     joint.setTo(0);
     for (std::size_t n = 0; n < views.size(); ++n) {
-      plane_scores(ref, views[n], Ke, depth_p, o.window, score);
+      plane_scores(ref, views[n], K, depth_p, o.window, score);
       best_own[n].update(score, p);
       joint += score;
     }

@@ -426,3 +426,21 @@ TEST_F(SfmCorridor, ExtractFeaturesRunsMonoSequencesThroughSfmAndRecordsItsOptio
     EXPECT_EQ(e.field(), "kind");
   }
 }
+
+// The camera the SfM uses, which the plane sweep must share: the manifest's principal point, or the
+// image centre when it gives none; fx = fy = the focal.
+TEST(SfmCamera, ManifestPrincipalPointElseImageCentre) {
+  Sequence seq;
+  seq.size = cv::Size(480, 360);
+  Calibration c = sfm_camera(seq, 600);
+  EXPECT_EQ(*c.fx, 600);
+  EXPECT_EQ(*c.fy, 600);
+  EXPECT_EQ(c.cx, 239.5);
+  EXPECT_EQ(c.cy, 179.5);
+  seq.calibration.cx = 250;
+  seq.calibration.cy = 170;
+  c = sfm_camera(seq, 500);
+  EXPECT_EQ(c.cx, 250);
+  EXPECT_EQ(c.cy, 170);
+  EXPECT_EQ(*c.fx, 500);
+}

@@ -151,15 +151,13 @@ TEST(PlaneSweep, CorridorAndLabFromTheirPosesAgainstTruth) {
   const fs::path dir = test::temp_dir("plane_sweep");
   for (const std::string scene : {"corridor", "lab"}) {
     const Sequence seq = thirteen_frames(scene, dir / scene);
-    const Calibration& c = seq.calibration;
-    const cv::Matx33d K(*c.fx, 0, c.cx, 0, c.fy.value_or(*c.fx), c.cy, 0, 0, 1);
     PlaneSweepOptions o;
     o.min_depth = 0.5;  // the rooms' depths (0.5-20 m), not a road's
     o.max_depth = 20;
     const auto sweep = [&](int f, int gap) {
       const std::vector<SweepView> views{{seq.load_left_gray(f - gap), seq.gt_poses[f - gap]},
                                          {seq.load_left_gray(f + gap), seq.gt_poses[f + gap]}};
-      return score(plane_sweep_depth(seq.load_left_gray(f), seq.gt_poses[f], views, K, o), seq.load_gt_depth(f));
+      return score(plane_sweep_depth(seq.load_left_gray(f), seq.gt_poses[f], views, seq.calibration, o), seq.load_gt_depth(f));
     };
     for (int f : {3, 6, 9}) {
       const DepthScore wide = sweep(f, 3), narrow = sweep(f, 1);
@@ -179,15 +177,17 @@ TEST(PlaneSweep, StillCameraOrOneNeighbourGivesNoDepth) {
   const fs::path dir = test::temp_dir("plane_sweep_still");
   const Sequence seq = test::small_corridor(dir / "seq", 4, 2);
   const Calibration& c = seq.calibration;
-  const cv::Matx33d K(*c.fx, 0, c.cx, 0, *c.fx, c.cy, 0, 0, 1);
   const cv::Mat gray = seq.load_left_gray(1);
   const std::vector<SweepView> still{{gray, seq.gt_poses[1]}, {gray, seq.gt_poses[1]}};
-  EXPECT_EQ(cv::countNonZero(plane_sweep_depth(gray, seq.gt_poses[1], still, K)), 0);
+  EXPECT_EQ(cv::countNonZero(plane_sweep_depth(gray, seq.gt_poses[1], still, c)), 0);
   const std::vector<SweepView> one{{seq.load_left_gray(3), seq.gt_poses[3]}};
-  EXPECT_EQ(cv::countNonZero(plane_sweep_depth(gray, seq.gt_poses[1], one, K)), 0);
+  EXPECT_EQ(cv::countNonZero(plane_sweep_depth(gray, seq.gt_poses[1], one, c)), 0);
   const std::vector<SweepView> wrong_size{{cv::Mat(10, 10, CV_8UC1, cv::Scalar(0)), seq.gt_poses[0]},
                                           {seq.load_left_gray(3), seq.gt_poses[3]}};
-  EXPECT_THROW(plane_sweep_depth(gray, seq.gt_poses[1], wrong_size, K), Error);
+  EXPECT_THROW(plane_sweep_depth(gray, seq.gt_poses[1], wrong_size, c), Error);
+  Calibration no_focal = c;
+  no_focal.fx.reset();
+  EXPECT_THROW(plane_sweep_depth(gray, seq.gt_poses[1], still, no_focal), Error);
   PlaneSweepOptions bad;
   bad.window = 4;
   EXPECT_THROW(bad.validate(), Error);

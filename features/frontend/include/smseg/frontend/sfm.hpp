@@ -168,6 +168,11 @@ SfmSummary sfm_summary(const SfmReport& report);
 /// track has a 3D point, and report->init_frame_a == -1.
 FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report = nullptr);
 
+/// The pinhole camera an SfM run of `seq` uses with this focal length (pixels): fx = fy = focal, the
+/// manifest's principal point, or the image centre when the manifest gives none (cx = cy = 0). What
+/// reads the SfM's poses with the images (the plane sweep of --dense) needs the same camera.
+Calibration sfm_camera(const Sequence& seq, double focal);
+
 // ---------------------------------------------------------------------------------------------
 // Building blocks, public for tests and benchmarks.
 

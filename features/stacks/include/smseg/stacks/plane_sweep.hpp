@@ -6,18 +6,18 @@
 // For each of a set of fronto-parallel planes of the reference camera, uniform in inverse depth
 // between 1/max_depth and 1/min_depth (as many as it takes for a point to move at most max_step_px
 // between consecutive planes in the widest neighbour, f |t| (1/Z_1 - 1/Z_2), within [min_planes,
-// max_planes]: 1 Hz video needs hundreds, 15 Hz a few dozen), each neighbour image is warped onto the reference image through
-// the plane's homography H = K (R + t n^T / d) K^-1 (R, t: reference camera to neighbour camera) and
-// compared with it by zero-mean normalised cross-correlation over window x window pixels. Per pixel:
+// max_planes]: 1 Hz video needs hundreds, 15 Hz a few dozen), each neighbour image is warped onto
+// the reference image through the plane's homography H = K (R + t n^T / d) K^-1 (R, t: reference
+// camera to neighbour camera) and compared with it by zero-mean normalised cross-correlation over
+// window x window pixels. Per pixel:
 //   - the depth is the plane of the best mean score over the neighbours (a parabola through it and
 //     its two neighbouring planes refines it between planes);
 //   - it is valid only when that score is at least min_score and at least min_score_range above the
 //     worst plane's (a still camera, or a pixel at the focus of expansion, fits every plane), the
 //     reference window has texture (grey-level standard deviation >= min_texture: flat sky and road
-//     give flat costs), and the
-//     neighbours agree: each neighbour's own best plane is within `consistency_planes` planes of the
-//     joint one (a moving object, an occlusion or a repetitive pattern seen from two sides rarely
-//     gives the same wrong depth in both).
+//     give flat costs), and the neighbours agree: each neighbour's own best plane is within
+//     `consistency_planes` planes of the joint one (a moving object, an occlusion or a repetitive
+//     pattern seen from two sides rarely gives the same wrong depth in both).
 // Near the focus of expansion of a forward-moving camera the parallax vanishes and the scores are
 // flat: those pixels rarely pass the checks, which is what the validity mask is for.
 
@@ -48,15 +48,15 @@ struct SweepView {
   Pose pose;
 };
 
-/// Depth (CV_32FC1, metres along the optical axis, 0 where invalid) of the reference frame. Needs at
-/// least two neighbours for the consistency check (fewer: every pixel invalid). `K` is the pinhole
-/// matrix shared by all the frames.
 /// The number of planes the sweep uses for these neighbours (see the header comment).
 int sweep_plane_count(const Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
                       const PlaneSweepOptions& options);
 
+/// Depth (CV_32FC1, metres along the optical axis, 0 where invalid) of the reference frame. Needs at
+/// least two neighbours for the consistency check (fewer: every pixel invalid). `camera` (fx, fy,
+/// cx, cy) is shared by all the frames: for an SfM run, sfm_camera (sfm.hpp). Error without fx.
 cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const cv::Matx33d& K,
+                          const std::vector<SweepView>& neighbours, const Calibration& camera,
                           const PlaneSweepOptions& options = {});
 
 struct SweepNeighbourOptions {
