@@ -121,11 +121,14 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
 
 // Routes pixels [0, n) of the set through one tree, node by node: at a split, the node's pixels are
 // partitioned (stably) into its children's runs, which are split in turn, depth first. A node's
-// constants are read once for all its pixels, the pixels' table reads are independent of each other
-// (the processor overlaps them) and go through the tables in increasing order, and the step has no
-// branch on the test's outcome (each pixel is written to both sides and counted on one). Every
-// window of every pixel lies inside `tables` (whole frames read the padded copy): the reads are at
-// fixed offsets from the pixel's cell.
+// constants are read once for all its pixels, and the pixels' table reads go through the tables in
+// increasing order. A split is two passes: the tests first, outcomes to `goes_right`, then the
+// partition. In one pass the store to a[l] (l waits for the last test, which waits for its table
+// reads) comes before the next pixel's read of a[i]; the processor holds that read until the store's
+// address is known, so every table read waited for the one before (profiled: half of the time).
+// Apart, the tests' reads are independent of each other and overlap. Every window of every pixel
+// lies inside `tables` (whole frames read the padded copy): the reads are at fixed offsets from the
+// pixel's cell.
 void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n,
                                 std::uint32_t root, std::int32_t* leaf) const {
   if (n == 0) return;
@@ -133,10 +136,12 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
   const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
   s.routed.resize(n);
   s.right.resize(n);
+  s.goes_right.resize(n);
   for (std::size_t i = 0; i < n; ++i)
     s.routed[i] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
   Scratch::Routed* a = s.routed.data();
   Scratch::Routed* right = s.right.data();
+  std::uint8_t* goes_right = s.goes_right.data();
   s.runs.clear();
   s.runs.push_back({root, 0, static_cast<std::uint32_t>(n)});
   while (!s.runs.empty()) {
@@ -149,26 +154,29 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
       continue;
     }
     const std::uint32_t attr = c.next & 0xffu;
-    std::uint32_t l = r.b, k = 0;
-    const auto split = [&](const Scratch::Routed& p, float v) {
-      const bool left = v < c.threshold;
-      a[l] = p;
-      right[k] = p;
-      l += left ? 1u : 0u;
-      k += left ? 0u : 1u;
-    };
+    const float threshold = c.threshold;
     if (textons_ && attr >= F) {
       for (std::uint32_t i = r.b; i < r.e; ++i)
-        split(a[i], texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
-                                 static_cast<int>(attr - F)));
+        goes_right[i] = !(texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
+                                       static_cast<int>(attr - F)) < threshold);
     } else {
       const double* table = tables.at[attr];
       const std::ptrdiff_t top_a = c.y0 * S + c.x0, top_b = c.y0 * S + c.x1;
       const std::ptrdiff_t bot_a = c.y1 * S + c.x0, bot_b = c.y1 * S + c.x1;
       for (std::uint32_t i = r.b; i < r.e; ++i) {
         const double* cell = table + a[i].cell;
-        split(a[i], static_cast<float>((cell[bot_b] - cell[top_b]) - (cell[bot_a] - cell[top_a])));
+        goes_right[i] = !(static_cast<float>((cell[bot_b] - cell[top_b]) - (cell[bot_a] - cell[top_a])) < threshold);
       }
+    }
+    // The partition, with no branch on the outcome: each pixel is written to both sides, counted on one.
+    std::uint32_t l = r.b, k = 0;
+    for (std::uint32_t i = r.b; i < r.e; ++i) {
+      const Scratch::Routed p = a[i];
+      const std::uint32_t to_right = goes_right[i];
+      a[l] = p;
+      right[k] = p;
+      l += 1u - to_right;
+      k += to_right;
     }
     std::copy(right, right + k, a + l);
     const std::uint32_t left_child = c.next >> 9;

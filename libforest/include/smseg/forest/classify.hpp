@@ -74,6 +74,7 @@ class Classifier {
       std::int32_t at;     // its place in the set (s.xs[at], s.ys[at])
     };
     std::vector<Routed> routed, right;  // partition_tree's runs, and the right-hand side of a split
+    std::vector<std::uint8_t> goes_right;  // partition_tree: each pixel's test outcome at the node
     struct Run {
       std::uint32_t node;
       std::uint32_t b, e;
