@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include <oneapi/tbb/enumerable_thread_specific.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
@@ -143,8 +144,9 @@ namespace {
 // Every candidate's value at one test, into its row: window candidates from the tables (the corners
 // window_sum() reads, in its order: the classifier's sums, bit for bit), texton candidates from the
 // greyscale image. Candidates come window by window, so the clipped corners are found once per window
-// and serve its run of features.
-void fill_row(const FrameData& frame, const Corpus& corpus, const TestPoint& t, float* row) {
+// and serve its run of features. `cells`: the frame's tables interleaved (interleave_tables), or null
+// to read them as they are (one table per feature).
+void fill_row(const FrameData& frame, const double* cells, const Corpus& corpus, const TestPoint& t, float* row) {
   const int W = frame.width, H = frame.height;
   const std::size_t S = static_cast<std::size_t>(W) + 1, F = frame.sats.size();
   const Candidate* cands = corpus.candidates.data();
@@ -157,6 +159,15 @@ void fill_row(const FrameData& frame, const Corpus& corpus, const TestPoint& t, 
     const std::size_t xb = static_cast<std::size_t>(std::clamp(t.x + r.x1, 0, W));
     const std::size_t ta = static_cast<std::size_t>(std::clamp(t.y + r.y0, 0, H)) * S;
     const std::size_t tb = static_cast<std::size_t>(std::clamp(t.y + r.y1, 0, H)) * S;
+    if (cells) {  // the four corners' values of every feature, each corner in one or two cache lines
+      const double *bb = cells + (tb + xb) * F, *ab = cells + (ta + xb) * F;
+      const double *ba = cells + (tb + xa) * F, *aa = cells + (ta + xa) * F;
+      for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
+        const auto f = static_cast<std::size_t>(cands[c].feature);
+        row[c] = static_cast<float>((bb[f] - ab[f]) - (ba[f] - aa[f]));
+      }
+      continue;
+    }
     for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
       const double* sat = frame.sats[static_cast<std::size_t>(cands[c].feature)];
       row[c] = static_cast<float>((sat[tb + xb] - sat[ta + xb]) - (sat[tb + xa] - sat[ta + xa]));
@@ -167,6 +178,23 @@ void fill_row(const FrameData& frame, const Corpus& corpus, const TestPoint& t, 
     const auto f = static_cast<std::size_t>(cand.feature);
     row[c] = f < F ? static_cast<float>(window_sum(frame.sats[f], W, H, t.x, t.y, rel_rect(cand.win)))
                    : texton_value(frame.gray, W, H, t.x, t.y, cand.win.dx, cand.win.dy, static_cast<int>(f - F));
+  }
+}
+
+std::size_t table_cells(const FrameData& frame) {
+  return (static_cast<std::size_t>(frame.width) + 1) * (static_cast<std::size_t>(frame.height) + 1);
+}
+
+// The frame's tables cell by cell, features side by side: out[cell * F + f] = sats[f][cell]. A test
+// reads every feature at the same four corners; one table per feature puts those reads in 4 F cache
+// lines, this copy in 4 to 8.
+void interleave_tables(const FrameData& frame, std::vector<double>& out) {
+  const std::size_t cells = table_cells(frame), F = frame.sats.size();
+  out.resize(cells * F);
+  for (std::size_t f = 0; f < F; ++f) {
+    const double* sat = frame.sats[f];
+    double* to = out.data() + f;
+    for (std::size_t i = 0; i < cells; ++i) to[i * F] = sat[i];
   }
 }
 }  // namespace
@@ -181,13 +209,29 @@ void fill_rows(const Dataset& data, std::span<const Corpus* const> corpora, std:
     for (std::size_t t = 0; t < corpora[i]->tests.size(); ++t)
       by_frame[static_cast<std::size_t>(corpora[i]->tests[t].frame)].push_back(
           {static_cast<std::uint32_t>(i), static_cast<std::uint32_t>(t)});
+  tbb::enumerable_thread_specific<std::vector<double>> interleaved;  // one copy per thread, reused
   tbb::parallel_for(std::size_t{0}, data.frames.size(), [&](std::size_t fi) {
-    if (by_frame[fi].empty()) return;
-    for (const Ref& r : by_frame[fi]) {
-      const Corpus& c = *corpora[r.corpus];
-      fill_row(data.frames[fi], c, c.tests[r.test], rows[r.corpus] + std::size_t{r.test} * c.candidates.size());
+    std::vector<Ref>& refs = by_frame[fi];
+    if (refs.empty()) return;
+    const FrameData& frame = data.frames[fi];
+    // Tests in raster order, whichever tree they belong to: the next test's windows lie near the
+    // last one's. (Each writes its own row: the order changes no value.)
+    const auto at = [&](const Ref& r) { const TestPoint& t = corpora[r.corpus]->tests[r.test]; return std::pair(t.y, t.x); };
+    std::sort(refs.begin(), refs.end(), [&](const Ref& a, const Ref& b) { return at(a) < at(b); });
+    // The interleaved copy pays when the tests read at least as many values as it copies.
+    std::size_t reads = 0;
+    for (const Ref& r : refs) reads += corpora[r.corpus]->candidates.size() * 4;
+    const double* cells = nullptr;
+    if (!frame.sats.empty() && reads >= table_cells(frame) * frame.sats.size()) {
+      std::vector<double>& copy = interleaved.local();
+      interleave_tables(frame, copy);
+      cells = copy.data();
     }
-    release(data.frames[fi]);
+    for (const Ref& r : refs) {
+      const Corpus& c = *corpora[r.corpus];
+      fill_row(frame, cells, c, c.tests[r.test], rows[r.corpus] + std::size_t{r.test} * c.candidates.size());
+    }
+    release(frame);
   });
 }
 
@@ -197,7 +241,8 @@ MemoryPlan plan_memory(const Dataset& data, const TrainParams& params) {
   const std::size_t kt = static_cast<std::size_t>(params.kt());
   const std::size_t cells = static_cast<std::size_t>(data.width + 1) * static_cast<std::size_t>(data.height + 1);
   const std::size_t pixels = static_cast<std::size_t>(data.width) * static_cast<std::size_t>(data.height);
-  const std::size_t frame_bytes = cells * 8 * data.features.size() + 2 * pixels;
+  // A frame being read: its mapped tables and images, and the interleaved copy of its tables.
+  const std::size_t frame_bytes = 2 * cells * 8 * data.features.size() + 2 * pixels;
   const auto threads = static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   // The process itself (code, libraries, thread stacks, allocator slack), measured at ~40 MB.
   constexpr std::size_t kProcess = std::size_t{64} << 20;
