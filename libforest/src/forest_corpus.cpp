@@ -141,14 +141,41 @@ Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSam
 }
 
 namespace {
+// A frame's summed-area tables as fill_row reads them: feature f's value at cell i is
+// at[f][i * stride]. Either the tables as they are (stride 1), or a copy with the features of a cell
+// side by side (stride F, interleave_tables).
+struct TableView {
+  std::vector<const double*> at;
+  std::size_t stride = 1;
+};
+
+std::size_t table_cells(const FrameData& frame) {
+  return (static_cast<std::size_t>(frame.width) + 1) * (static_cast<std::size_t>(frame.height) + 1);
+}
+
+// The frame's tables cell by cell, features side by side: out[cell * F + f] = sats[f][cell]. A test
+// reads every feature at the same four corners; one table per feature puts those reads in 4 F cache
+// lines, this copy in 4 to 8.
+TableView interleave_tables(const FrameData& frame, std::vector<double>& out) {
+  const std::size_t cells = table_cells(frame), F = frame.sats.size();
+  out.resize(cells * F);
+  TableView view{std::vector<const double*>(F), F};
+  for (std::size_t f = 0; f < F; ++f) {
+    const double* sat = frame.sats[f];
+    double* to = out.data() + f;
+    for (std::size_t i = 0; i < cells; ++i) to[i * F] = sat[i];
+    view.at[f] = to;
+  }
+  return view;
+}
+
 // Every candidate's value at one test, into its row: window candidates from the tables (the corners
 // window_sum() reads, in its order: the classifier's sums, bit for bit), texton candidates from the
 // greyscale image. Candidates come window by window, so the clipped corners are found once per window
-// and serve its run of features. `cells`: the frame's tables interleaved (interleave_tables), or null
-// to read them as they are (one table per feature).
-void fill_row(const FrameData& frame, const double* cells, const Corpus& corpus, const TestPoint& t, float* row) {
+// and serve its run of features.
+void fill_row(const FrameData& frame, const TableView& tables, const Corpus& corpus, const TestPoint& t, float* row) {
   const int W = frame.width, H = frame.height;
-  const std::size_t S = static_cast<std::size_t>(W) + 1, F = frame.sats.size();
+  const std::size_t S = static_cast<std::size_t>(W) + 1, F = frame.sats.size(), step = tables.stride;
   const Candidate* cands = corpus.candidates.data();
   const std::size_t n = corpus.candidates.size();
   std::size_t c = 0;
@@ -159,18 +186,10 @@ void fill_row(const FrameData& frame, const double* cells, const Corpus& corpus,
     const std::size_t xb = static_cast<std::size_t>(std::clamp(t.x + r.x1, 0, W));
     const std::size_t ta = static_cast<std::size_t>(std::clamp(t.y + r.y0, 0, H)) * S;
     const std::size_t tb = static_cast<std::size_t>(std::clamp(t.y + r.y1, 0, H)) * S;
-    if (cells) {  // the four corners' values of every feature, each corner in one or two cache lines
-      const double *bb = cells + (tb + xb) * F, *ab = cells + (ta + xb) * F;
-      const double *ba = cells + (tb + xa) * F, *aa = cells + (ta + xa) * F;
-      for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
-        const auto f = static_cast<std::size_t>(cands[c].feature);
-        row[c] = static_cast<float>((bb[f] - ab[f]) - (ba[f] - aa[f]));
-      }
-      continue;
-    }
+    const std::size_t bb = (tb + xb) * step, ab = (ta + xb) * step, ba = (tb + xa) * step, aa = (ta + xa) * step;
     for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
-      const double* sat = frame.sats[static_cast<std::size_t>(cands[c].feature)];
-      row[c] = static_cast<float>((sat[tb + xb] - sat[ta + xb]) - (sat[tb + xa] - sat[ta + xa]));
+      const double* sat = tables.at[static_cast<std::size_t>(cands[c].feature)];
+      row[c] = static_cast<float>((sat[bb] - sat[ab]) - (sat[ba] - sat[aa]));
     }
   }
   for (; c < n; ++c) {
@@ -178,23 +197,6 @@ void fill_row(const FrameData& frame, const double* cells, const Corpus& corpus,
     const auto f = static_cast<std::size_t>(cand.feature);
     row[c] = f < F ? static_cast<float>(window_sum(frame.sats[f], W, H, t.x, t.y, rel_rect(cand.win)))
                    : texton_value(frame.gray, W, H, t.x, t.y, cand.win.dx, cand.win.dy, static_cast<int>(f - F));
-  }
-}
-
-std::size_t table_cells(const FrameData& frame) {
-  return (static_cast<std::size_t>(frame.width) + 1) * (static_cast<std::size_t>(frame.height) + 1);
-}
-
-// The frame's tables cell by cell, features side by side: out[cell * F + f] = sats[f][cell]. A test
-// reads every feature at the same four corners; one table per feature puts those reads in 4 F cache
-// lines, this copy in 4 to 8.
-void interleave_tables(const FrameData& frame, std::vector<double>& out) {
-  const std::size_t cells = table_cells(frame), F = frame.sats.size();
-  out.resize(cells * F);
-  for (std::size_t f = 0; f < F; ++f) {
-    const double* sat = frame.sats[f];
-    double* to = out.data() + f;
-    for (std::size_t i = 0; i < cells; ++i) to[i * F] = sat[i];
   }
 }
 }  // namespace
@@ -221,15 +223,12 @@ void fill_rows(const Dataset& data, std::span<const Corpus* const> corpora, std:
     // The interleaved copy pays when the tests read at least as many values as it copies.
     std::size_t reads = 0;
     for (const Ref& r : refs) reads += corpora[r.corpus]->candidates.size() * 4;
-    const double* cells = nullptr;
-    if (!frame.sats.empty() && reads >= table_cells(frame) * frame.sats.size()) {
-      std::vector<double>& copy = interleaved.local();
-      interleave_tables(frame, copy);
-      cells = copy.data();
-    }
+    const TableView tables = reads >= table_cells(frame) * frame.sats.size()
+                                 ? interleave_tables(frame, interleaved.local())
+                                 : TableView{frame.sats, 1};
     for (const Ref& r : refs) {
       const Corpus& c = *corpora[r.corpus];
-      fill_row(frame, cells, c, c.tests[r.test], rows[r.corpus] + std::size_t{r.test} * c.candidates.size());
+      fill_row(frame, tables, c, c.tests[r.test], rows[r.corpus] + std::size_t{r.test} * c.candidates.size());
     }
     release(frame);
   });

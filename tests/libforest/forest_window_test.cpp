@@ -91,22 +91,30 @@ TEST(Corpus, ValuesEqualBruteForceAndTestsAreLabelledNonVoid) {
   const SyntheticData s = make_synthetic(o);
   TrainParams p;
   p.K = 60;
-  p.Kt = 200;
   p.M = 3;
   p.textons = true;
   p.windows.mode = WindowSampling::Thesis;
-  const Corpus c = build_corpus(s.data, p, 2);
-  ASSERT_EQ(c.tests.size(), 200u);
-  ASSERT_EQ(c.candidates.size(), 60u * (3 + 4));
-  const WindowBounds b = WindowBounds::for_image(48, 40);
-  for (const Candidate& cand : c.candidates) EXPECT_TRUE(b.contains(cand.win));
-  for (std::size_t t = 0; t < c.tests.size(); ++t) {
-    const TestPoint& tp = c.tests[t];
-    EXPECT_EQ(tp.label, s.labels[static_cast<std::size_t>(tp.frame)][static_cast<std::size_t>(tp.y) * 48 + tp.x]);
-    EXPECT_NE(tp.label, kVoidLabel);
-    for (std::size_t k = 0; k < c.candidates.size(); k += 7)
-      ASSERT_EQ(c.values[k * c.tests.size() + t], brute_value(s, tp.frame, c.candidates[k].feature, c.candidates[k].win, tp.x, tp.y));
+  // Kt = 200 (50 tests a frame) reads the frames' tables through their interleaved copy, Kt = 8 (2 a
+  // frame) reads them as they are (fill_rows makes the copy when the tests read more values than it
+  // copies: 50 x 420 x 4 against 49 x 41 x 3 cells here).
+  for (const int kt : {200, 8}) {
+    p.Kt = kt;
+    const Corpus c = build_corpus(s.data, p, 2);
+    ASSERT_EQ(c.tests.size(), static_cast<std::size_t>(kt));
+    ASSERT_EQ(c.candidates.size(), 60u * (3 + 4));
+    const WindowBounds b = WindowBounds::for_image(48, 40);
+    for (const Candidate& cand : c.candidates) EXPECT_TRUE(b.contains(cand.win));
+    for (std::size_t t = 0; t < c.tests.size(); ++t) {
+      const TestPoint& tp = c.tests[t];
+      EXPECT_EQ(tp.label, s.labels[static_cast<std::size_t>(tp.frame)][static_cast<std::size_t>(tp.y) * 48 + tp.x]);
+      EXPECT_NE(tp.label, kVoidLabel);
+      for (std::size_t k = 0; k < c.candidates.size(); k += 7)
+        ASSERT_EQ(c.values[k * c.tests.size() + t], brute_value(s, tp.frame, c.candidates[k].feature, c.candidates[k].win, tp.x, tp.y))
+            << "Kt " << kt;
+    }
   }
+  p.Kt = 200;
+  const Corpus c = build_corpus(s.data, p, 2);
   // Same seed and tree: same corpus; another tree: another corpus.
   const Corpus again = build_corpus(s.data, p, 2);
   EXPECT_EQ(again.values, c.values);
