@@ -204,7 +204,7 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
 
   // ---- 2. focal length ----
   Intrinsics in;
-  const Calibration camera = sfm_camera(seq, 1);
+  const Calibration camera = sfm_camera(seq, 1);  // its principal point; the focal is found below
   in.cx = camera.cx;
   in.cy = camera.cy;
   if (o.focal) {
