@@ -101,6 +101,53 @@ std::vector<cv::DMatch> match_gated(const cv::Mat& da, const std::vector<cv::Poi
   return out;
 }
 
+std::vector<cv::DMatch> match_epipolar(const cv::Mat& da, const std::vector<cv::Point2f>& pa, const cv::Mat& db,
+                                       const std::vector<cv::Point2f>& pb, const cv::Matx33d& F, int norm,
+                                       double band_px, double ratio) {
+  constexpr float kNone = std::numeric_limits<float>::max();
+  const int na = da.rows, nb = db.rows;
+  std::vector<cv::DMatch> out;
+  if (na == 0 || nb == 0) return out;
+  // Epipolar lines, normalised so that l . (x, y, 1) is a distance in pixels.
+  auto normalised = [](const cv::Vec3d& l) {
+    const double s = std::hypot(l[0], l[1]);
+    return s > 0 ? l / s : cv::Vec3d(0, 0, 0);
+  };
+  std::vector<cv::Vec3d> line_in_b(na), line_in_a(nb);
+  for (int i = 0; i < na; ++i) line_in_b[i] = normalised(F * cv::Vec3d(pa[i].x, pa[i].y, 1));
+  for (int j = 0; j < nb; ++j) line_in_a[j] = normalised(F.t() * cv::Vec3d(pb[j].x, pb[j].y, 1));
+  std::vector<int> best_ab(na, -1), best_ba(nb, -1);
+  std::vector<float> d1a(na, kNone), d2a(na, kNone), d1b(nb, kNone), d2b(nb, kNone);
+  auto offer = [](float d, int who, int& best, float& d1, float& d2) {
+    if (d < d1 || (d == d1 && who < best)) {
+      d2 = d1;
+      d1 = d;
+      best = who;
+    } else if (d < d2) {
+      d2 = d;
+    }
+  };
+  for (int i = 0; i < na; ++i) {
+    const cv::Vec3d& l = line_in_b[i];
+    for (int j = 0; j < nb; ++j) {
+      if (std::abs(l[0] * pb[j].x + l[1] * pb[j].y + l[2]) > band_px) continue;
+      const cv::Vec3d& m = line_in_a[j];
+      if (std::abs(m[0] * pa[i].x + m[1] * pa[i].y + m[2]) > band_px) continue;
+      const float d = static_cast<float>(cv::norm(da.row(i), db.row(j), norm));
+      offer(d, j, best_ab[i], d1a[i], d2a[i]);
+      offer(d, i, best_ba[j], d1b[j], d2b[j]);
+    }
+  }
+  for (int i = 0; i < na; ++i) {
+    const int j = best_ab[i];
+    if (j < 0 || best_ba[j] != i) continue;
+    if (d2a[i] != kNone && !(d1a[i] < ratio * d2a[i])) continue;
+    if (d2b[j] != kNone && !(d1b[j] < ratio * d2b[j])) continue;
+    out.emplace_back(i, j, d1a[i]);
+  }
+  return out;
+}
+
 PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>& pa, const std::vector<cv::Point2f>& pb,
                      const SfmOptions& o) {
   PairInfo info;

@@ -62,6 +62,7 @@ Json sfm_options_to_json(const SfmOptions& o) {
          {"filters", {{"min_frames", o.filters.min_frames}, {"require_label", o.filters.require_label}}},
          {"match_radius_px", o.match_radius_px},
          {"lowe_ratio", o.lowe_ratio},
+         {"epipolar_ratio", o.epipolar_ratio},
          {"fundamental_threshold_px", o.fundamental_threshold_px},
          {"still_motion_px", o.still_motion_px},
          {"init_motion_px", o.init_motion_px},
@@ -70,6 +71,7 @@ Json sfm_options_to_json(const SfmOptions& o) {
          {"min_triangulation_angle_deg", o.min_triangulation_angle_deg},
          {"reprojection_threshold_px", o.reprojection_threshold_px},
          {"min_pnp_points", o.min_pnp_points},
+         {"map_window", o.map_window},
          {"ba_window", o.ba_window},
          {"ba_iterations", o.ba_iterations},
          {"final_ba", o.final_ba},
@@ -100,6 +102,7 @@ SfmSummary sfm_summary(const SfmReport& r) {
   s.still_frames = r.still_frames;
   s.bridged_frames = r.bridged_frames;
   s.points_3d = r.points_3d;
+  s.map_joins = r.map_joins;
   s.observations = r.observations;
   s.reprojection_rms_px = r.reprojection_rms_px;
   s.scale = r.scale;
@@ -124,6 +127,7 @@ void SfmOptions::validate() const {
   klt.validate("sfm");
   if (!(match_radius_px >= 0)) throw Error("", "sfm.match_radius_px", "must be >= 0 (0 = whole image)");
   if (!(lowe_ratio >= 0 && lowe_ratio < 1)) throw Error("", "sfm.lowe_ratio", "must be in [0, 1) (0 = off)");
+  if (!(epipolar_ratio >= 0 && epipolar_ratio < 1)) throw Error("", "sfm.epipolar_ratio", "must be in [0, 1) (0 = off)");
   positive(fundamental_threshold_px, "fundamental_threshold_px");
   if (!(still_motion_px >= 0)) throw Error("", "sfm.still_motion_px", "must be >= 0");
   positive(init_motion_px, "init_motion_px");
@@ -134,6 +138,7 @@ void SfmOptions::validate() const {
     throw Error("", "sfm.min_triangulation_angle_deg", "must be in [0, 45)");
   positive(reprojection_threshold_px, "reprojection_threshold_px");
   if (min_pnp_points < 6) throw Error("", "sfm.min_pnp_points", "must be >= 6");
+  if (map_window < 0 || map_window > 30) throw Error("", "sfm.map_window", "must be in [0, 30] (0 = off)");
   if (ba_window < 3) throw Error("", "sfm.ba_window", "must be >= 3");
   if (ba_iterations < 0) throw Error("", "sfm.ba_iterations", "must be >= 0");
   if (final_ba_iterations < 0) throw Error("", "sfm.final_ba_iterations", "must be >= 0");

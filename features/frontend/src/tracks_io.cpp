@@ -170,6 +170,7 @@ Json summary_to_json(const FrontEndSummary& s) {
                   {"still_frames", m.still_frames},
                   {"bridged_frames", m.bridged_frames},
                   {"points_3d", m.points_3d},
+                  {"map_joins", m.map_joins},
                   {"observations", m.observations},
                   {"reprojection_rms_px", m.reprojection_rms_px},
                   {"scale_m_per_unit", m.scale},
@@ -245,6 +246,7 @@ FrontEndSummary summary_from_json(const JsonView& j) {
     f.still_frames = static_cast<int>(m->integer("still_frames"));
     f.bridged_frames = static_cast<int>(m->integer("bridged_frames"));
     f.points_3d = m->integer("points_3d");
+    f.map_joins = m->has("map_joins") ? m->integer("map_joins") : 0;  // files before local-map matching
     f.observations = m->integer("observations");
     f.reprojection_rms_px = m->num("reprojection_rms_px");
     f.scale = m->num("scale_m_per_unit");

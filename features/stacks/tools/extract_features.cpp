@@ -89,6 +89,14 @@ int main(int argc, char** argv) {
   app.add_option("--lowe-ratio", opt.sfm.lowe_ratio,
                  "sfm, descriptors: Lowe's ratio test, e.g. 0.8 for wide baselines; 0 = off")
       ->capture_default_str();
+  app.add_option("--epipolar-ratio", opt.sfm.epipolar_ratio,
+                 "sfm, descriptors: match each verified pair again along its epipolar lines, with this ratio test;\n"
+                 "0 = off")
+      ->capture_default_str();
+  app.add_option("--map-window", opt.sfm.map_window,
+                 "sfm, descriptors: also match each frame's keypoints to the 3D points of this many frames before\n"
+                 "it (joins tracks broken by a missed match); 0 = off")
+      ->capture_default_str();
   app.add_option("--reprojection-threshold", opt.sfm.reprojection_threshold_px,
                  "sfm: inlier threshold of PnP, triangulation and the final filter, pixels")
       ->capture_default_str();
@@ -152,6 +160,7 @@ int main(int argc, char** argv) {
         {"sfm.match_radius_px", "--match-radius"},       {"sfm.lowe_ratio", "--lowe-ratio"},
         {"sfm.reprojection_threshold_px", "--reprojection-threshold"},
         {"sfm.keyframe_motion_px", "--keyframe-motion"}, {"sfm.ba_window", "--ba-window"},
+        {"sfm.map_window", "--map-window"},              {"sfm.epipolar_ratio", "--epipolar-ratio"},
         {"sfm.focal", "--focal"},                        {"sfm.camera_height", "--camera-height"}};
     validate_options(kOptionOf, [&] {
       opt.front_end.validate();

@@ -195,6 +195,7 @@ struct SfmSummary {
   int still_frames = 0;          ///< reused the previous pose (camera standing still)
   int bridged_frames = 0;        ///< essential-matrix fallback, or no pose at all
   long points_3d = 0;            ///< tracks with a 3D point
+  long map_joins = 0;            ///< tracks joined to a map point by local-map matching
   long observations = 0;         ///< kept observations (the RMS is over these)
   double reprojection_rms_px = 0;
   double scale = 0;              ///< metres per reconstruction unit (from the camera height)

@@ -7,9 +7,9 @@
 //      neighbour matches between consecutive frames, gated to candidates within match_radius_px (the
 //      gate removes most ambiguity of repetitive texture; 0 = whole image, match_symmetric, for wide
 //      baselines such as CamVid's 1 Hz runs, optionally with Lowe's ratio test), each pair verified
-//      geometrically by a
-//      fundamental-matrix RANSAC (seeded, focal independent). Chains of matches are tracks
-//      (chain_matches).
+//      geometrically by a fundamental-matrix RANSAC (seeded, focal independent); with the descriptor
+//      tracker the pair is then matched again along its epipolar lines (epipolar_ratio;
+//      sfm_matching.hpp, match_epipolar) and verified again. Chains of matches are tracks (chain_matches).
 //   2. Focal length: the option if given, else the manifest's fx, else estimated from the sequence by
 //      Mendonca & Cipolla's self-calibration (1999): with the principal point at the image centre,
 //      square pixels and zero skew, E = K^T F K must have two equal singular values; the focal that
@@ -23,10 +23,13 @@
 //      at least init_motion_px; relative pose from the essential matrix (findEssentialMat RANSAC +
 //      recoverPose), triangulation of the common tracks, accepted when the median triangulation angle is
 //      at least init_min_angle_deg (else the next frame is tried).
-//   5. Every later frame: pose from 2D-3D matches (solvePnPRansac, EPnP inside; of its pose and the
-//      Levenberg-Marquardt refinements on the inliers started from it and from the previous frame's
-//      pose, the one explaining most inliers: OpenCV's final EPnP on all inliers can come out mirrored
-//      with many far points, as on CamVid). A frame becomes a key frame when the median motion of its tracks since
+//   5. Every later frame: pose from 2D-3D matches (its tracks with a 3D point; when they cannot pose
+//      it, with the descriptor tracker, also its other keypoints matched to the 3D points of the last
+//      map_window frames, sfm_map.hpp; the matches the pose confirms join those points' tracks either
+//      way), by solvePnPRansac (EPnP inside; of its pose and the Levenberg-Marquardt refinements on
+//      the inliers started from it and from the previous frame's pose, the one explaining most
+//      inliers: OpenCV's final EPnP on all inliers can come out mirrored with many far points, as on
+//      CamVid). A frame becomes a key frame when the median motion of its tracks since
 //      the last key frame exceeds keyframe_motion_px; at key frames new tracks are triangulated between
 //      their first posed observation and the key frame (angle >= min_triangulation_angle_deg, positive
 //      depth, reprojection error below reprojection_threshold_px in both views) and a local bundle
@@ -98,6 +101,10 @@ struct SfmOptions {
   /// neighbour inside the gate); 0 = over the whole image (match_symmetric, for wide baselines).
   double match_radius_px = 40;
   double lowe_ratio = 0;                ///< (0, 1): also require best < ratio * second best (wide baseline); 0 = off
+  /// Descriptor tracker: once a pair's fundamental matrix is known, its keypoints are matched again among
+  /// the candidates within fundamental_threshold_px of their epipolar lines, with this ratio test
+  /// (sfm_matching.hpp, match_epipolar); 0 = off (the first matches only).
+  double epipolar_ratio = 0.9;
   double fundamental_threshold_px = 1.5;  ///< matches farther from their epipolar line are dropped
   double still_motion_px = 0.5;         ///< median keypoint motion below this: the camera stands still
   double init_motion_px = 12;           ///< median motion needed for the initial pair
@@ -106,6 +113,10 @@ struct SfmOptions {
   double min_triangulation_angle_deg = 1.0;  ///< new points need at least this angle between their rays
   double reprojection_threshold_px = 2.0;    ///< inlier threshold of PnP, triangulation and the final filter
   int min_pnp_points = 12;              ///< fewer 2D-3D inliers: the frame is bridged
+  /// Descriptor tracker: each frame's keypoints without a 3D point are also matched (Lowe's ratio, the
+  /// option's or 0.8) to the 3D points seen in this many frames before it; the matches PnP confirms join
+  /// their point's track. 0 = off (only consecutive matches make tracks).
+  int map_window = 3;
   int ba_window = 8;                    ///< key frames refined by the local bundle adjustment (>= 3)
   int ba_iterations = 10;               ///< Levenberg-Marquardt iterations per local adjustment
   bool final_ba = true;                 ///< global adjustment over every key frame at the end
@@ -137,6 +148,7 @@ struct SfmReport {
   int keyframes = 0;
   int still_frames = 0;             ///< frames that reused the previous pose
   int pnp_frames = 0;               ///< frames posed by PnP (the initial pair not included)
+  long map_joins = 0;               ///< tracks joined to a map point by local-map matching (map_window)
   int bridged_frames = 0;           ///< frames posed by the essential-matrix fallback or not at all
   long points_3d = 0;               ///< tracks with a 3D point
   double reprojection_rms_px = 0;   ///< over every kept observation, after the final filter
