@@ -700,7 +700,7 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
                                             o.ground_iterations, o.seed);
     Eigen::Vector3d n_up = up;
     double d = 0;
-    if (plane.ok) {
+    if (plane.ok && plane.inliers >= o.ground_min_inliers) {
       n_up = plane.normal;
       d = plane.d;
       rep.ground_inliers = plane.inliers;
@@ -709,8 +709,13 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
         if (status[t] != FrameStatus::None) hs.push_back(n_up.dot(pose[t].centre()) + d);
       const double h = median(hs);
       if (h > 0) scale = *height / h;
+    } else if (cand.size() >= 5 && h_typ > 0) {
+      // No plane to trust: the candidates' median depth below the cameras stands for the camera height.
+      d = -n_up.dot(pose[0].centre()) + h_typ;
+      scale = *height / h_typ;
     } else {
-      // No plane: keep the reconstruction's scale, put the ground camera_height below the first camera.
+      // Nothing below the cameras: keep the reconstruction's scale, the ground one unit below the first
+      // camera.
       d = -n_up.dot(pose[0].centre()) + 1.0;
       scale = *height;
     }

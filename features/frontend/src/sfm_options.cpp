@@ -81,6 +81,7 @@ Json sfm_options_to_json(const SfmOptions& o) {
          {"ground_threshold", o.ground_threshold},
          {"ground_max_tilt_deg", o.ground_max_tilt_deg},
          {"ground_iterations", o.ground_iterations},
+         {"ground_min_inliers", o.ground_min_inliers},
          {"seed", o.seed},
          {"first_frame", o.first_frame},
          {"last_frame", o.last_frame}};
@@ -150,6 +151,7 @@ void SfmOptions::validate() const {
   if (!(ground_max_tilt_deg > 0 && ground_max_tilt_deg <= 90))
     throw Error("", "sfm.ground_max_tilt_deg", "must be in (0, 90]");
   if (ground_iterations < 1) throw Error("", "sfm.ground_iterations", "must be >= 1");
+  if (ground_min_inliers < 3) throw Error("", "sfm.ground_min_inliers", "must be >= 3 (a plane needs three points)");
 }
 
 }  // namespace smseg::features

@@ -43,8 +43,9 @@
 //      worse than reprojection_threshold_px are dropped.
 //   7. Scale and world frame: a plane is fitted by RANSAC (seeded) to the points below the cameras
 //      (in the lower part of the image, below the optical centre), its normal within
-//      ground_max_tilt_deg of the mean camera "up"; the reconstruction is scaled so that the median
-//      camera height above the plane is camera_height, and rotated so that the plane normal is world
+//      ground_max_tilt_deg of the mean camera "up", with at least ground_min_inliers inliers; the
+//      reconstruction is scaled so that the median camera height above the plane is camera_height
+//      (without a plane: the median height of the cameras over the candidates, along the mean "up"), and rotated so that the plane normal is world
 //      +Y, the first camera's optical axis projected on the plane is world +Z, and the origin is the
 //      first camera centre's foot on the plane (DESIGN 3.2).
 //
@@ -126,6 +127,9 @@ struct SfmOptions {
   double ground_threshold = 0.08;       ///< ground-plane RANSAC inlier distance, as a share of camera_height
   double ground_max_tilt_deg = 10;      ///< the plane normal must be this close to the cameras' mean "up"
   int ground_iterations = 500;          ///< RANSAC samples for the ground plane
+  /// A plane with fewer inliers is no evidence (three points always fit one): the scale then comes from
+  /// the median height of the cameras over the ground candidates, or stays arbitrary without candidates.
+  int ground_min_inliers = 10;
   std::uint64_t seed = 1;               ///< RANSAC seeds derive from (seed, frame)
   bool progress = true;                 ///< smseg::Progress on stderr
   /// Throws Error("", "sfm.<field>", reason) for an out-of-range value.
