@@ -17,6 +17,22 @@ double median(std::vector<double> v) {
   return *mid;
 }
 
+namespace {
+
+/// Offers candidate `who` at descriptor distance d to a keypoint's running nearest (best, d1) and
+/// second-nearest distance (d2); ties go to the lower index, so the result does not depend on order.
+void offer(float d, int who, int& best, float& d1, float& d2) {
+  if (d < d1 || (d == d1 && who < best)) {
+    d2 = d1;
+    d1 = d;
+    best = who;
+  } else if (d < d2) {
+    d2 = d;
+  }
+}
+
+}  // namespace
+
 /// Symmetric matches that also pass Lowe's ratio test in both directions.
 std::vector<cv::DMatch> match_ratio(const cv::Mat& a, const cv::Mat& b, int norm, double ratio) {
   std::vector<cv::DMatch> out;
@@ -72,20 +88,8 @@ std::vector<cv::DMatch> match_gated(const cv::Mat& da, const std::vector<cv::Poi
           const cv::Point2f v = pb[j] - pa[i];
           if (v.x * v.x + v.y * v.y > r2) continue;
           const float d = static_cast<float>(cv::norm(da.row(i), db.row(j), norm));
-          if (d < d1 || (d == d1 && j < b1)) {
-            d2 = d1;
-            d1 = d;
-            b1 = j;
-          } else if (d < d2) {
-            d2 = d;
-          }
-          if (d < dist_ba[j] || (d == dist_ba[j] && i < best_ba[j])) {
-            second_ba[j] = dist_ba[j];
-            dist_ba[j] = d;
-            best_ba[j] = i;
-          } else if (d < second_ba[j]) {
-            second_ba[j] = d;
-          }
+          offer(d, j, b1, d1, d2);
+          offer(d, i, best_ba[j], dist_ba[j], second_ba[j]);
         }
       }
     best_ab[i] = b1;
@@ -118,15 +122,6 @@ std::vector<cv::DMatch> match_epipolar(const cv::Mat& da, const std::vector<cv::
   for (int j = 0; j < nb; ++j) line_in_a[j] = normalised(F.t() * cv::Vec3d(pb[j].x, pb[j].y, 1));
   std::vector<int> best_ab(na, -1), best_ba(nb, -1);
   std::vector<float> d1a(na, kNone), d2a(na, kNone), d1b(nb, kNone), d2b(nb, kNone);
-  auto offer = [](float d, int who, int& best, float& d1, float& d2) {
-    if (d < d1 || (d == d1 && who < best)) {
-      d2 = d1;
-      d1 = d;
-      best = who;
-    } else if (d < d2) {
-      d2 = d;
-    }
-  };
   for (int i = 0; i < na; ++i) {
     const cv::Vec3d& l = line_in_b[i];
     for (int j = 0; j < nb; ++j) {

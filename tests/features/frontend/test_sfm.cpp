@@ -16,6 +16,8 @@
 #include "smseg/synth/synth.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
+#include "front_end_equal.hpp"
+
 using namespace smseg;
 using namespace smseg::features;
 
@@ -356,16 +358,7 @@ TEST_F(SfmCorridor, OutputDoesNotDependOnTheThreadCount) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
     one = run_mono_front_end(s, options());
   }
-  ASSERT_EQ(one.poses.size(), many.poses.size());
-  for (std::size_t i = 0; i < one.poses.size(); ++i) {
-    EXPECT_EQ(one.poses[i].R, many.poses[i].R) << i;
-    EXPECT_EQ(one.poses[i].t, many.poses[i].t) << i;
-  }
-  ASSERT_EQ(one.tracks.size(), many.tracks.size());
-  for (std::size_t k = 0; k < one.tracks.size(); ++k) {
-    EXPECT_EQ(one.tracks[k].frames, many.tracks[k].frames);
-    EXPECT_EQ(one.tracks[k].points, many.tracks[k].points);
-  }
+  expect_same_front_end(one, many);
 }
 
 TEST_F(SfmCorridor, TexturelessFramesAreBridgedAndAllTexturelessGivesTheDocumentedDegradedResult) {

@@ -10,6 +10,7 @@
 #include "smseg/frontend/sfm.hpp"
 #include "smseg/sequence/camvid.hpp"
 #include "temp_dir.hpp"
+#include "front_end_equal.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg;
@@ -85,14 +86,5 @@ TEST_F(SfmCamVid1Hz, OutputDoesNotDependOnTheThreadCount) {
     tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
     one = run_mono_front_end(*seq_, options());
   }
-  ASSERT_EQ(one.poses.size(), many.poses.size());
-  for (std::size_t i = 0; i < one.poses.size(); ++i) {
-    EXPECT_EQ(one.poses[i].R, many.poses[i].R) << i;
-    EXPECT_EQ(one.poses[i].t, many.poses[i].t) << i;
-  }
-  ASSERT_EQ(one.tracks.size(), many.tracks.size());
-  for (std::size_t k = 0; k < one.tracks.size(); ++k) {
-    EXPECT_EQ(one.tracks[k].frames, many.tracks[k].frames);
-    EXPECT_EQ(one.tracks[k].points, many.tracks[k].points);
-  }
+  expect_same_front_end(one, many);
 }
