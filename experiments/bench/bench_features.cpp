@@ -9,7 +9,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "camvid_setup.hpp"
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"

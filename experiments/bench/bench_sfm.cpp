@@ -12,7 +12,7 @@
 
 #include <Eigen/Geometry>
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/synth/synth.hpp"
 
 namespace fs = std::filesystem;

@@ -14,7 +14,7 @@
 
 #include "smseg/eval/sweep.hpp"
 #include "smseg/stacks/extract.hpp"
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/io.hpp"

@@ -37,7 +37,7 @@ def is_module(layer):
 
 
 def header_owners(layers):
-    """'smseg/frontend/sfm.hpp' -> 'frontend', from every module's include/ folder."""
+    """'smseg/frontend/stereo.hpp' -> 'frontend', from every module's include/ folder."""
     owners = {}
     for layer in layers.values():
         if not is_module(layer):

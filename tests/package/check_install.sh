@@ -16,7 +16,7 @@ for f in lib/cmake/smseg/smsegConfig.cmake lib/cmake/smseg/smsegConfigVersion.cm
   [[ -e "$tmp/prefix/$f" ]] || { echo "not installed: $f"; exit 1; }
 done
 # Only the public headers: nothing of a module's src/ folder.
-if [[ -e "$tmp/prefix/include/smseg/frontend/sfm_matching.hpp" || -e "$tmp/prefix/include/sfm_matching.hpp" ]]; then
+if [[ -e "$tmp/prefix/include/smseg/sfm/sfm_matching.hpp" || -e "$tmp/prefix/include/sfm_matching.hpp" ]]; then
   echo "a private header was installed"; exit 1
 fi
 

@@ -8,7 +8,6 @@
 #include <Eigen/Geometry>
 
 #include "smseg/common/error.hpp"
-#include "smseg/frontend/sfm.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
 namespace smseg::features {

@@ -9,7 +9,7 @@
 #include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for_each.h>
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"

@@ -16,7 +16,7 @@
 //    the camera hardly moves, the cameras' mean up axis;
 // 2. the ground plane: RANSAC over the tracks' 3D points well below the cameras (one point per track),
 //    hypotheses restricted to normals within max_tilt_deg of the prior, the best refitted by least
-//    squares (fit_ground_plane, the SfM's). Unless the path was planar, its normal is the up direction
+//    squares (fit_ground_plane, also the SfM's). Unless the path was planar, its normal is the up direction
 //    when it has at least min_inliers inliers (a line leaves the roll about the motion to the plane);
 //    otherwise the prior is. A planar path wins over the plane because the plane's least-squares
 //    normal tilts with the stereo depth noise (on the tabletop, 150 frames: the path's up within 0.6
@@ -36,6 +36,19 @@
 #include "smseg/sequence/sequence.hpp"
 
 namespace smseg::features {
+
+/// A plane fitted by fit_ground_plane.
+struct PlaneFit {
+  Eigen::Vector3d normal{0, 1, 0};  ///< unit
+  double d = 0;                     ///< plane: normal . x + d = 0
+  int inliers = 0;
+  bool ok = false;
+};
+
+/// RANSAC plane through points (3-point samples, deterministic for a seed), its normal within
+/// max_tilt_deg of `up` (sign chosen to agree with up), refit by least squares on the inliers.
+PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& up, double threshold,
+                          double max_tilt_deg, int iterations, std::uint64_t seed);
 
 enum class GravityMethod {
   Level,    ///< the first camera is level (the thesis's assumption, world Y = its up axis)

@@ -13,7 +13,7 @@
 #include "smseg/stacks/track_cloud.hpp"
 #include "smseg/frontend/motion.hpp"
 #include "smseg/stacks/point_features.hpp"
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/stack.hpp"
 
 namespace smseg::features {

@@ -7,7 +7,7 @@
 
 #include <tbb/global_control.h>
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/sequence/camvid.hpp"
 #include "temp_dir.hpp"
 #include "front_end_equal.hpp"

@@ -19,7 +19,7 @@
 #include <glog/logging.h>
 #include <suitesparse/SuiteSparse_config.h>
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 
 namespace smseg::features {
 

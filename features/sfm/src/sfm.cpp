@@ -1,6 +1,6 @@
 // The monocular SfM front end (see sfm.hpp for the pipeline and its decisions).
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 
 #include <algorithm>
 #include <atomic>

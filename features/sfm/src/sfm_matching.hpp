@@ -6,7 +6,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/features2d.hpp>
 
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 
 namespace smseg::features::sfm_matching {
 

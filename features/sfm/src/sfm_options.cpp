@@ -1,5 +1,5 @@
 // The monocular SfM's options and summaries: names, JSON, validation (see sfm.hpp).
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 
 #include "sfm_matching.hpp"
 

@@ -67,6 +67,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "smseg/frontend/gravity.hpp"  // fit_ground_plane
 #include "smseg/frontend/motion.hpp"
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
@@ -233,17 +234,5 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
 /// (Ceres's brief report).
 void set_solver_verbose(bool verbose);
 bool solver_verbose();
-
-struct PlaneFit {
-  Eigen::Vector3d normal{0, 1, 0};  ///< unit
-  double d = 0;                     ///< plane: normal . x + d = 0
-  int inliers = 0;
-  bool ok = false;
-};
-
-/// RANSAC plane through points (3-point samples, deterministic for a seed), its normal within
-/// max_tilt_deg of `up` (sign chosen to agree with up), refit by least squares on the inliers.
-PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& up, double threshold,
-                          double max_tilt_deg, int iterations, std::uint64_t seed);
 
 }  // namespace smseg::features

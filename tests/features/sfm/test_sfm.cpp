@@ -11,7 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "smseg/stacks/extract.hpp"
-#include "smseg/frontend/sfm.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/synth/synth.hpp"
 #include "smseg/frontend/trajectory.hpp"
