@@ -115,8 +115,8 @@ GravityEstimate estimate_gravity(const std::vector<Pose>& poses, int first_frame
       ground_candidates(poses, first_frame, tracks, g.path_up, o.min_below * camera_height);
   g.candidates = static_cast<int>(cand.size());
   const PlaneFit plane = fit_ground_plane(cand, g.path_up, o.plane_threshold * camera_height, o.max_tilt_deg,
-                                          o.iterations, o.seed);
-  if (plane.ok && plane.inliers >= o.min_inliers) {
+                                          o.iterations, o.seed, o.min_inliers);
+  if (plane.ok) {
     g.inliers = plane.inliers;
     g.plane_below_first_camera = plane.normal.dot(pose_centre(poses.front())) + plane.d;
     // A planar path's normal wins: it rests on every camera centre, while the plane's least-squares

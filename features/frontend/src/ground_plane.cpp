@@ -1,5 +1,6 @@
 // The ground-plane RANSAC shared by the monocular SfM's scale and the stereo path's gravity (gravity.hpp).
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -22,7 +23,8 @@ std::uint64_t mix(std::uint64_t x) {
 }  // namespace
 
 PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& pts, const Eigen::Vector3d& up_in, double threshold,
-                          double max_tilt_deg, int iterations, std::uint64_t seed) {
+                          double max_tilt_deg, int iterations, std::uint64_t seed, int min_inliers) {
+  min_inliers = std::max(3, min_inliers);
   PlaneFit best;
   const int n = static_cast<int>(pts.size());
   if (n < 3 || !(up_in.norm() > 0)) return best;
@@ -52,7 +54,7 @@ PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& pts, const Eigen::
       best.ok = true;
     }
   }
-  if (!best.ok || best.inliers < 3) return PlaneFit{};
+  if (!best.ok || best.inliers < min_inliers) return PlaneFit{};
   // Least-squares refit on the inliers (twice: the inlier set may grow).
   for (int round = 0; round < 2; ++round) {
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
@@ -75,7 +77,7 @@ PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& pts, const Eigen::
     best.d = -nrm.dot(mean);
     best.inliers = count(best.normal, best.d);
   }
-  return best;
+  return best.inliers >= min_inliers ? best : PlaneFit{};
 }
 
 }  // namespace smseg::features

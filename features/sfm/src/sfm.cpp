@@ -697,10 +697,10 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
     rep.ground_candidates = static_cast<int>(cand.size());
     const double h_typ = median(below);
     const PlaneFit plane = fit_ground_plane(cand, up, o.ground_threshold * h_typ, o.ground_max_tilt_deg,
-                                            o.ground_iterations, o.seed);
+                                            o.ground_iterations, o.seed, o.ground_min_inliers);
     Eigen::Vector3d n_up = up;
     double d = 0;
-    if (plane.ok && plane.inliers >= o.ground_min_inliers) {
+    if (plane.ok) {
       n_up = plane.normal;
       d = plane.d;
       rep.ground_inliers = plane.inliers;

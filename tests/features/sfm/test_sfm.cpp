@@ -197,6 +197,9 @@ TEST(Sfm, GroundPlaneIgnoresWallsAndOutliers) {
   const PlaneFit q = fit_ground_plane(pts, Eigen::Vector3d::UnitY(), 0.02, 25, 300, 1);
   EXPECT_EQ(q.inliers, p.inliers);
   EXPECT_EQ(q.d, p.d);
+  // Asked for more inliers than the ground has: no plane.
+  EXPECT_TRUE(fit_ground_plane(pts, Eigen::Vector3d::UnitY(), 0.02, 25, 300, 1, p.inliers).ok);
+  EXPECT_FALSE(fit_ground_plane(pts, Eigen::Vector3d::UnitY(), 0.02, 25, 300, 1, p.inliers + 1).ok);
 }
 
 TEST(Sfm, OptionsAreValidatedWithTheirNames) {

@@ -46,9 +46,10 @@ struct PlaneFit {
 };
 
 /// RANSAC plane through points (3-point samples, deterministic for a seed), its normal within
-/// max_tilt_deg of `up` (sign chosen to agree with up), refit by least squares on the inliers.
+/// max_tilt_deg of `up` (sign chosen to agree with up), refit by least squares on the inliers. A plane
+/// with fewer than min_inliers inliers (at least 3) is none (ok = false): three points always fit one.
 PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& points, const Eigen::Vector3d& up, double threshold,
-                          double max_tilt_deg, int iterations, std::uint64_t seed);
+                          double max_tilt_deg, int iterations, std::uint64_t seed, int min_inliers = 3);
 
 enum class GravityMethod {
   Level,    ///< the first camera is level (the thesis's assumption, world Y = its up axis)
