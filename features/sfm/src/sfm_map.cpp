@@ -38,9 +38,8 @@ std::vector<MapCandidate> match_local_map(int t, const std::vector<int>& window,
   std::vector<std::pair<int, int>> map_obs;
   std::vector<char> taken(tracks.tobs.size(), 0);
   for (int i = 0; i < static_cast<int>(tracks.tid[t].size()); ++i) taken[tracks.tid[t][i]] = 1;  // already in t
-  std::vector<int> frames = window;
-  std::sort(frames.rbegin(), frames.rend());  // latest first: its observation is the one kept
-  for (int f : frames) {
+  for (auto it = window.rbegin(); it != window.rend(); ++it) {  // latest first: its observation is kept
+    const int f = *it;
     if (descriptors[f].empty()) continue;
     for (int k = 0; k < static_cast<int>(tracks.tid[f].size()); ++k) {
       const int tr = tracks.tid[f][k];

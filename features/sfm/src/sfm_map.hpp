@@ -32,7 +32,8 @@ struct MapCandidate {
 };
 
 /// Candidates for frame t: its keypoints whose track has no 3D point, matched by descriptor to the
-/// tracks with a 3D point (has_point) that are observed in the `window` frames and not in frame t. A
+/// tracks with a 3D point (has_point) that are observed in the `window` frames (ascending) and not in
+/// frame t. A
 /// map track's descriptor is that of its latest observation in the window. A match must pass Lowe's
 /// ratio test, and a map track goes to one keypoint at most (the nearest). Geometry is not checked here:
 /// the caller keeps the candidates that PnP confirms.
