@@ -6,7 +6,9 @@
 #include <cstdio>
 
 #include <opencv2/ximgproc/slic.hpp>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "smseg/eval/render.hpp"
 #include "smseg/forest/classify.hpp"
@@ -287,6 +289,28 @@ std::string check_points(const features::StackSet& set) {
   return which;
 }
 
+/// How many frames evaluate() labels at once. With --smooth, one per thread: a frame's classification
+/// is parallel but its smoothing runs on one thread, so one frame at a time leaves the other cores idle
+/// for most of the frame. Otherwise one (classification alone keeps every core busy).
+std::size_t frames_in_flight(const EvalOptions& opt) {
+  if (!opt.smooth.enabled()) return 1;
+  const std::size_t allowed = tbb::global_control::active_value(tbb::global_control::max_allowed_parallelism);
+  return std::max<std::size_t>(1, std::min(allowed, static_cast<std::size_t>(tbb::this_task_arena::max_concurrency())));
+}
+
+/// Labels frames [first, first + count) of the set (fewer at the end), in parallel: labels[k] and
+/// times[k] for frame first + k. Each frame's labels are what label_frame gives it alone.
+void label_batch(const forest::Classifier& classifier, const features::StackSet& set, const EvalOptions& opt,
+                 std::size_t first, std::size_t count, std::vector<cv::Mat>& labels, std::vector<LabelTimes>& times) {
+  const std::size_t n = std::min(count, set.stacks.size() - first);
+  labels.assign(n, cv::Mat());
+  times.assign(n, LabelTimes{});
+  for (std::size_t k = 0; k < n; ++k) prefault(set.dataset.frames[first + k]);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t k) {
+    labels[k] = label_frame(classifier, set.dataset.frames[first + k], opt, set.origin[first + k].second, &times[k]);
+  });
+}
+
 }  // namespace
 
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
@@ -315,12 +339,16 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
   result.confusion = Confusion(C);
   Progress progress("eval-forest", static_cast<long>(set.stacks.size()), opt.progress);
   double total_seconds = 0, total_regions = 0, total_smooth = 0;
+  const std::size_t in_flight = frames_in_flight(opt);
+  std::vector<cv::Mat> batch_labels;
+  std::vector<LabelTimes> batch_times;
+  const auto start = std::chrono::steady_clock::now();
   for (std::size_t i = 0; i < set.stacks.size(); ++i) {
     const auto [work_index, frame] = set.origin[i];
     const forest::FrameData& data = set.dataset.frames[i];
-    prefault(data);
-    LabelTimes times;
-    const cv::Mat predicted = label_frame(classifier, data, opt, frame, &times);
+    if (i % in_flight == 0) label_batch(classifier, set, opt, i, in_flight, batch_labels, batch_times);
+    const LabelTimes& times = batch_times[i % in_flight];
+    const cv::Mat& predicted = batch_labels[i % in_flight];
     const cv::Mat truth(data.height, data.width, CV_8UC1, const_cast<std::uint8_t*>(data.labels));
     FrameResult fr;
     fr.work = works[work_index].string();
@@ -355,6 +383,8 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
     progress.tick();
   }
   progress.finish();
+  result.frames_in_flight = static_cast<int>(in_flight);
+  result.wall_seconds_per_frame = seconds_since(start) / double(set.stacks.size());
   result.seconds_per_frame = total_seconds / double(set.stacks.size());
   result.superpixel_seconds_per_frame = total_regions / double(set.stacks.size());
   result.smooth_seconds_per_frame = total_smooth / double(set.stacks.size());
@@ -429,6 +459,8 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
             {"seconds_per_frame", seconds_per_frame},
             {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
             {"smooth_seconds_per_frame", smooth_seconds_per_frame},
+            {"wall_seconds_per_frame", wall_seconds_per_frame},
+            {"frames_in_flight", frames_in_flight},
             {"boundary_f1", num(boundary.f1())},
             {"boundary_precision", num(boundary.precision())},
             {"boundary_recall", num(boundary.recall())},

@@ -170,6 +170,11 @@ int main(int argc, char** argv) {
       std::snprintf(buf, sizeof buf, " + %.2f ms smoothing", 1000 * r.smooth_seconds_per_frame);
       line += buf;
     }
+    if (r.frames_in_flight > 1) {
+      std::snprintf(buf, sizeof buf, "; %d frames at a time, %.2f ms per frame in all", r.frames_in_flight,
+                    1000 * r.wall_seconds_per_frame);
+      line += buf;
+    }
     std::cout << line << " (" << mode_text(opt) << ")\n";
     if (!quiet) {
       std::vector<double> accs;

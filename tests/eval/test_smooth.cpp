@@ -5,6 +5,9 @@
 
 #include <random>
 
+#include <tbb/global_control.h>
+#include <tbb/task_arena.h>
+
 #include "eval_fixture.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/eval/evaluate.hpp"
@@ -153,5 +156,31 @@ TEST(Smooth, EvaluateReportsSmoothingApart) {
   EXPECT_GT(j["smooth_seconds_per_frame"].get<double>(), 0);
   opt.grid = 10;
   EXPECT_THROW(eval::evaluate(forest, {work}, opt), Error);
+  fs::remove_all(work);
+}
+
+TEST(Smooth, FramesSmoothedTogetherGetTheLabelsTheyGetOneByOne) {
+  // With --smooth, evaluate() labels one frame per thread at once; three frames on two threads make a
+  // batch of two and one of one. Each frame must get the labels (so the confusion) it gets alone.
+  const fs::path work = eval_test::make_work("smooth-batch", 8);
+  const forest::Forest forest = eval_test::train(work, 5, 2);
+  eval::EvalOptions opt;
+  opt.frames = features::FrameRange{5, 8};
+  opt.smooth.method = eval::SmoothMethod::GraphCut;
+  opt.smooth.lambda = 1;
+  auto run = [&](std::size_t threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    return eval::evaluate(forest, {work}, opt);
+  };
+  const eval::EvalResult one = run(1), two = run(2);
+  EXPECT_EQ(one.frames_in_flight, 1);
+  EXPECT_EQ(two.frames_in_flight, std::min(2, tbb::this_task_arena::max_concurrency()));
+  ASSERT_EQ(one.frames.size(), 3u);
+  ASSERT_EQ(two.frames.size(), 3u);
+  for (std::size_t i = 0; i < 3; ++i) {
+    EXPECT_EQ(one.frames[i].frame, two.frames[i].frame);
+    EXPECT_EQ(one.frames[i].confusion.counts_json(), two.frames[i].confusion.counts_json()) << "frame " << i;
+  }
+  EXPECT_GT(two.wall_seconds_per_frame, 0);
   fs::remove_all(work);
 }

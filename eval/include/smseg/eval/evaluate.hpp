@@ -87,6 +87,11 @@ struct EvalResult {
   double seconds_per_frame = 0;             ///< classification only (as the thesis times it)
   double superpixel_seconds_per_frame = 0;  ///< superpixel segmentation, apart
   double smooth_seconds_per_frame = 0;      ///< graph-cut smoothing, apart
+  /// The whole evaluation loop's wall time per frame (labelling, scoring, pictures), with
+  /// frames_in_flight frames labelled at once (--smooth: one per thread, so each frame's own times
+  /// above include sharing the cores with the others).
+  double wall_seconds_per_frame = 0;
+  int frames_in_flight = 1;
   BoundaryCounts boundary;                  ///< summed over the frames
   /// Which test frames hold no tracked point (labelled from the class prior alone), for the user; empty
   /// when all have points (evaluate stops when none has).
