@@ -67,7 +67,7 @@ cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& options
 }
 
 void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
-                          std::vector<cv::Mat>& out) {
+                          std::vector<cv::Mat>& out, double height_shift) {
   if (depth.empty() || depth.type() != CV_32FC1) throw Error("", "depth", "expected a non-empty CV_32FC1 depth map");
   if (!calibration.fx) throw Error("", "calibration", "dense channels need the focal length");
   const cv::Mat pts = camera_points(depth, calibration);
@@ -84,7 +84,7 @@ void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, 
       if (!(z(x, y) > 0)) continue;
       valid.at<double>(y, x) = 1;
       inv.at<double>(y, x) = 1.0 / z(x, y);
-      height.at<double>(y, x) = (R * eig(pts.at<cv::Vec3d>(y, x)) + centre).y();
+      height.at<double>(y, x) = (R * eig(pts.at<cv::Vec3d>(y, x)) + centre).y() + height_shift;
       const int s = kNormalStep;
       if (x >= s && x + s < W && y >= s && y + s < H && z(x - s, y) > 0 && z(x + s, y) > 0 && z(x, y - s) > 0 &&
           z(x, y + s) > 0) {

@@ -37,6 +37,16 @@ SfmOptions effective_sfm(const ExtractOptions& o) {
   return s;
 }
 
+// The feature options as run: heights from the ground under each camera for monocular SfM (a long
+// monocular drive's camera path drifts up and down against its one ground plane: docs/camvid.md,
+// "Heights from the ground under the camera"), from the ground plane for stereo.
+FeatureOptions effective_features(const Sequence& seq, const ExtractOptions& o) {
+  FeatureOptions f = o.features;
+  if (f.height_reference == HeightReference::Auto)
+    f.height_reference = uses_sfm(seq, o) ? HeightReference::Camera : HeightReference::Plane;
+  return f;
+}
+
 // FNV-1a (64 bits) of the sequence's manifest: its frames, calibration and classes, what the stacks are
 // made of besides the options. Recorded in stacks.json so that a resume reuses only stacks of this input.
 std::string sequence_digest(const Sequence& seq) {
@@ -63,7 +73,7 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
   }
   if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
   return {{"front_end", fe},
-          {"features", feature_options_json(o.features)},
+          {"features", feature_options_json(effective_features(seq, o))},
           {"input", {{"sequence_json_fnv1a64", sequence_digest(seq)}}}};
 }
 
@@ -164,6 +174,7 @@ Json feature_options_json(const FeatureOptions& o) {
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
   if (o.appearance) j["appearance"] = true;  // only when on: work folders from before keep their options
   if (o.dense) j["dense"] = true;            // the same
+  if (o.height_reference == HeightReference::Camera) j["height_reference"] = "camera";  // the same
   return j;
 }
 
@@ -316,7 +327,9 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
   const int min_frames = sfm ? effective_sfm(opt).filters.min_frames : opt.front_end.filters.min_frames;
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
-  const PointAttributes attrs = compute_point_attributes(video, opt.features);
+  const FeatureOptions features = effective_features(seq, opt);
+  const PointAttributes attrs = compute_point_attributes(video, features);
+  const std::optional<double> camera_height = reference_camera_height(features, video.poses);
   report.cloud = track_cloud(fe, video, attrs);
   {
     std::vector<Pose> gt;
@@ -350,7 +363,8 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
     if (opt.features.dense)
-      append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters);
+      append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters,
+                           camera_height ? *camera_height - video.poses[f].t[1] : 0.0);
   };
   Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
   struct Buffers {

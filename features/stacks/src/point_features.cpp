@@ -55,6 +55,37 @@ const std::vector<std::string>& structure_feature_names() {
   return names;
 }
 
+std::string to_string(HeightReference h) {
+  switch (h) {
+    case HeightReference::Auto: return "auto";
+    case HeightReference::Plane: return "plane";
+    case HeightReference::Camera: return "camera";
+  }
+  return "?";
+}
+
+HeightReference height_reference_from_string(const std::string& s, const std::string& option) {
+  if (s == "auto") return HeightReference::Auto;
+  if (s == "plane") return HeightReference::Plane;
+  if (s == "camera") return HeightReference::Camera;
+  throw Error("", option, "\"" + s + "\" is not a height reference (auto, plane or camera)");
+}
+
+double median_camera_height(const std::vector<Pose>& poses) {
+  if (poses.empty()) return 0;
+  std::vector<double> ys;
+  ys.reserve(poses.size());
+  for (const Pose& p : poses) ys.push_back(centre(p).y());
+  const auto mid = ys.begin() + static_cast<std::ptrdiff_t>(ys.size() / 2);
+  std::nth_element(ys.begin(), mid, ys.end());
+  return *mid;
+}
+
+std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<Pose>& poses) {
+  if (opt.height_reference != HeightReference::Camera) return std::nullopt;
+  return median_camera_height(poses);
+}
+
 void FeatureOptions::validate() const {
   if (future_frames < 0 || future_frames > 100000)
     throw Error("", "--future-frames", "must be in 0..100000 (got " + std::to_string(future_frames) + ")");
@@ -70,7 +101,7 @@ void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observ
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const Eigen::Vector3d w = R * obs[i].cam + C;
     out.world[i] = w;
-    out.fH[i] = w.y();
+    out.fH[i] = camera_height_ ? w.y() - C.y() + *camera_height_ : w.y();
     TrackState& t = tracks_[obs[i].track];
     out.fR[i] = t.last_frame >= 0 ? (w - t.last_world).norm() : 0.0;
     t.running_min = std::min(t.running_min, (w - C).norm());
@@ -101,7 +132,7 @@ PointAttributes compute_point_attributes(const PointCloudVideo& video, const Fea
   a.fH.resize(n);
   a.fC.resize(n);
   a.fR.resize(n);
-  CausalPointAttributes causal;
+  CausalPointAttributes causal(reference_camera_height(opt, video.poses));
   std::unordered_map<int, std::vector<std::pair<int, int>>> seen;  // per track: (frame, index in that frame)
   for (int f = 0; f < n; ++f) {
     FrameAttributes fa;

@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
       "every stack on disk made with the same options from the same sequence (the front end runs again).",
       "extract-features"};
   std::string seq_dir, work, frames = "0:", stereo = "bm", detector = "sift", preview, motion = "auto",
-      tracker = "auto";
+      tracker = "auto", height_reference = "auto";
   ExtractOptions opt;
   int threads = 0;
   double camera_height = 0, focal = 0;
@@ -119,6 +119,12 @@ int main(int argc, char** argv) {
                "fZU (surface facing up), fZE (depth edges), from semi-global matching (stereo) or a plane sweep\n"
                "over the SfM's posed neighbour frames (mono); structure and motion, not appearance\n"
                "(docs/stereo.md, docs/sfm.md)");
+  app.add_option("--height-reference", height_reference,
+                 "what fH and fZH measure heights from: plane (the run's ground plane, world Y), camera (the\n"
+                 "ground under each frame's camera: its height relative to the camera plus the cameras' median\n"
+                 "height, so a drifting monocular camera path does not shift them) or auto (camera for\n"
+                 "structure from motion, plane for stereo)")
+      ->capture_default_str();
   app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");
@@ -147,6 +153,8 @@ int main(int argc, char** argv) {
       if (!(focal > 0)) throw UsageError("", "--focal", "must be positive (pixels)");
       opt.sfm.focal = focal;
     }
+    opt.features.height_reference =
+        as_usage([&] { return height_reference_from_string(height_reference, "--height-reference"); });
     opt.frames = as_usage([&] { return FrameRange::parse(frames, "--frames"); });
     std::stringstream ss(preview);
     for (std::string item; std::getline(ss, item, ',');)

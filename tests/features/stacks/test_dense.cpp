@@ -114,6 +114,14 @@ TEST(DenseChannels, FloorFacesUpWallDoesNotAndTheStepIsAnEdge) {
   double step = 0;
   for (int y = 100; y < 115; ++y) step = std::max(step, at(r, "fZE", y, 80));
   EXPECT_GT(step, 0.01);
+  // Heights from the ground under the camera: the shift moves fZH only (a camera 0.25 m above its
+  // reference height sees the floor 0.25 m higher than world Y says).
+  std::vector<cv::Mat> shifted;
+  append_dense_rasters(depth, c, level, shifted, 0.25);
+  EXPECT_NEAR(at(shifted, "fZH", 116, 80), 0.25, 1e-5);
+  EXPECT_NEAR(at(shifted, "fZH", 30, 80), at(r, "fZH", 30, 80) + 0.25, 1e-9);
+  EXPECT_EQ(at(shifted, "fZH", 5, 5), 0);  // invalid stays 0
+  for (const char* other : {"fZV", "fZI", "fZU", "fZE"}) EXPECT_EQ(at(shifted, other, 116, 80), at(r, other, 116, 80));
   std::vector<cv::Mat> none;
   EXPECT_THROW(append_dense_rasters(cv::Mat(), c, level, none), Error);
 }
@@ -128,6 +136,7 @@ TEST(DenseChannels, ExtractWritesThemAfterTheSix) {
   ASSERT_EQ(m.features.size(), 6 + dense_feature_names().size());
   EXPECT_TRUE(std::equal(dense_feature_names().begin(), dense_feature_names().end(), m.features.begin() + 6));
   EXPECT_EQ(m.options["features"]["dense"], true);
+  EXPECT_FALSE(m.options["features"].contains("height_reference"));  // stereo: auto is the ground plane
   const int f = m.frames.at(2);
   const FrameStack stack = FrameStack::open(m, f, false);
   std::vector<cv::Mat> want;
@@ -226,6 +235,7 @@ TEST(PlaneSweep, MonocularExtractionWritesDenseChannelsAtTheSceneScale) {
   const StackManifest m = load_stack_manifest(dir / "work");
   ASSERT_EQ(m.features.size(), 6 + dense_feature_names().size());
   EXPECT_TRUE(std::equal(dense_feature_names().begin(), dense_feature_names().end(), m.features.begin() + 6));
+  EXPECT_EQ(m.options["features"]["height_reference"], "camera");  // monocular: auto is the camera's ground
   const int W = seq.size.width, H = seq.size.height;
   // One pixel of a stored summed-area table.
   const auto pixel = [&](const FrameStack& st, int k, int y, int x) {

@@ -189,6 +189,40 @@ TEST(SummedAreaTables, RectangleSumsEqualBruteForceIncludingClippedOnes) {
   EXPECT_NEAR(rect_sum(sat, -5, -5, 100, 100), cv::sum(raster)[0], 1e-9);
 }
 
+TEST(PointFeatures, HeightsFromTheCameraFollowAPathThatDrifts) {
+  // A camera path whose height drifts from 1 m to 3 m (a monocular reconstruction's drift), each frame
+  // seeing points 1.2 m below its own camera (the road under the car) and 0.5 m above it. From the
+  // ground plane their fH follows the drift; from the camera it is the cameras' median height (2 m)
+  // minus 1.2 (or plus 0.5) in every frame. On a level path both references agree.
+  const int frames = 5;
+  PointCloudVideo v;
+  for (int f = 0; f < frames; ++f) v.poses.push_back(camera_at({0, 1.0 + 0.5 * f, -1.0 * f}));
+  v.observations.resize(frames);
+  for (int f = 0; f < frames; ++f) {
+    const double cy = v.poses[f].t[1], cz = v.poses[f].t[2];
+    ASSERT_TRUE(observe(v, f, 2 * f, {0.3, cy - 1.2, cz - 4}));
+    ASSERT_TRUE(observe(v, f, 2 * f + 1, {-0.3, cy + 0.5, cz - 6}));
+  }
+  FeatureOptions camera;
+  camera.height_reference = HeightReference::Camera;
+  const auto from_plane = compute_point_attributes(v, {});
+  const auto from_camera = compute_point_attributes(v, camera);
+  for (int f = 0; f < frames; ++f) {
+    EXPECT_NEAR(from_plane.fH[f][0], 1.0 + 0.5 * f - 1.2, 1e-9);
+    EXPECT_NEAR(from_camera.fH[f][0], 2.0 - 1.2, 1e-9) << "frame " << f;
+    EXPECT_NEAR(from_camera.fH[f][1], 2.0 + 0.5, 1e-9) << "frame " << f;
+    EXPECT_EQ(from_camera.fC[f], from_plane.fC[f]);  // only heights change
+    EXPECT_EQ(from_camera.fR[f], from_plane.fR[f]);
+  }
+  PointCloudVideo level = still_camera(3);
+  for (int f = 0; f < 3; ++f) ASSERT_TRUE(observe(level, f, f, {0.2 * f, 0.35, -3}));
+  const auto a = compute_point_attributes(level, {}), b = compute_point_attributes(level, camera);
+  for (int f = 0; f < 3; ++f) EXPECT_NEAR(a.fH[f][0], b.fH[f][0], 1e-12);
+  EXPECT_EQ(height_reference_from_string("camera", "--height-reference"), HeightReference::Camera);
+  EXPECT_EQ(to_string(HeightReference::Plane), "plane");
+  EXPECT_THROW(height_reference_from_string("sky", "--height-reference"), smseg::Error);
+}
+
 TEST(PointFeatures, BadOptionsAreRefused) {
   FeatureOptions o;
   o.future_frames = -1;

@@ -10,7 +10,8 @@
 //         channels' window sums divided by this one's are means over the valid pixels
 //   fZI   inverse depth 1 / Z (1/m), 0 where invalid: near things stand out, far ones fade smoothly
 //   fZH   height of the pixel's 3D point above the ground (world Y, metres; the world of the camera path,
-//         levelled by --gravity estimate or by the level-first-camera assumption), 0 where invalid
+//         levelled by --gravity estimate or by the level-first-camera assumption; with
+//         --height-reference camera, above the ground under the frame's camera), 0 where invalid
 //   fZU   how much the surface faces up: n . up of its normal (from the 3D points 2 pixels either side,
 //         in the world), 1 floor, 0 wall, -1 ceiling; 0 where the normal is unknown
 //   fZE   depth discontinuity: |log Z(x+1) - log Z(x-1)| + |log Z(y+1) - log Z(y-1)|, clamped to 1, 0
@@ -41,8 +42,9 @@ StereoOptions dense_stereo_options(const StereoOptions& front_end);
 cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& dense_options);
 
 /// Appends the dense rasters of a depth map (dense_depth) seen from `pose` (camera-to-world) to `out`,
-/// in dense_feature_names() order, each CV_64FC1 of the depth's size.
+/// in dense_feature_names() order, each CV_64FC1 of the depth's size. height_shift is added to every
+/// fZH (world Y): HeightReference::Camera's reference height minus the camera's own, else 0.
 void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
-                          std::vector<cv::Mat>& out);
+                          std::vector<cv::Mat>& out, double height_shift = 0);
 
 }  // namespace smseg::features

@@ -1,7 +1,8 @@
 #pragma once
 // The structure-and-motion features of thesis 2.3.2 / 3.2.3 (DESIGN section 4, "Features"), rasters of
 // the image size that are then turned into summed-area tables:
-//   fH  height of the point above the ground (world Y), at the point's pixel
+//   fH  height of the point above the ground (world Y), at the point's pixel; with
+//       HeightReference::Camera above the ground under the frame's camera (see HeightReference)
 //   fC  closest approach of the point to the camera path: over the frames it is seen in plus the next
 //       `future_frames` frames of camera motion applied to its last position (causal: only frames up to
 //       the current one)
@@ -14,6 +15,7 @@
 //       frame)
 // Point features are added at the point's (rounded) pixel, so two points on one pixel add up.
 
+#include <optional>
 #include <limits>
 #include <string>
 #include <unordered_map>
@@ -43,8 +45,20 @@ struct PointCloudVideo {
 /// The feature names in stack order.
 const std::vector<std::string>& structure_feature_names();  // {"fH","fC","fOx","fOy","fD","fR"}
 
+/// What fH (and the dense fZH) measure heights from.
+enum class HeightReference {
+  Auto,    ///< extract-features: Camera for monocular SfM runs, Plane for stereo; elsewhere Plane
+  Plane,   ///< the run's ground plane: world Y (the thesis)
+  Camera,  ///< the ground under each frame's camera: the point's height relative to the camera plus the
+           ///< cameras' median height over the run, so a camera path that drifts up or down (a long
+           ///< monocular drive) does not shift every height of its frames
+};
+std::string to_string(HeightReference h);
+HeightReference height_reference_from_string(const std::string& s, const std::string& option);
+
 struct FeatureOptions {
   bool causal = false;      ///< fC from the camera path up to the current frame only (on-line use)
+  HeightReference height_reference = HeightReference::Auto;
   int future_frames = 100;  ///< frames of camera motion applied to a point's last position (thesis: 100)
   bool appearance = false;  ///< also the image's own channels (appearance.hpp: colour, oriented gradients, position)
   bool dense = false;       ///< stereo: also the dense geometry channels (dense.hpp: depth, height, facing, edges)
@@ -60,6 +74,13 @@ struct PointAttributes {
 
 PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt);
 
+/// The cameras' median height (world Y of their centres) over the video's frames: the ground under
+/// each camera for HeightReference::Camera.
+double median_camera_height(const std::vector<Pose>& poses);
+/// The reference camera height of HeightReference::Camera for these options and poses (none for Plane;
+/// Auto counts as Plane here: extract resolves it per run).
+std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<Pose>& poses);
+
 /// One frame's share of PointAttributes.
 struct FrameAttributes {
   std::vector<Eigen::Vector3d> world;
@@ -71,6 +92,10 @@ struct FrameAttributes {
 /// track's previous observation, fC as the closest approach to the camera path so far.
 class CausalPointAttributes {
  public:
+  CausalPointAttributes() = default;
+  /// camera_height: fH is the point's height relative to the frame's camera plus camera_height
+  /// (HeightReference::Camera) instead of world Y.
+  explicit CausalPointAttributes(std::optional<double> camera_height) : camera_height_(camera_height) {}
   /// The next frame's attributes (frames are counted from 0 in the order they are added).
   void add_frame(const Pose& pose, const std::vector<Observation>& observations, FrameAttributes& out);
   /// Forgets the tracks not in `live_tracks` (ascending ids): a stream's tracks that have ended.
@@ -86,6 +111,7 @@ class CausalPointAttributes {
  private:
   std::unordered_map<int, TrackState> tracks_;
   int frame_ = 0;
+  std::optional<double> camera_height_;
 };
 
 /// The six rasters (CV_64FC1, `size`) of one frame, in structure_feature_names() order.
