@@ -460,7 +460,6 @@ nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptio
             {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
             {"smooth_seconds_per_frame", smooth_seconds_per_frame},
             {"wall_seconds_per_frame", wall_seconds_per_frame},
-            {"frames_in_flight", frames_in_flight},
             {"boundary_f1", num(boundary.f1())},
             {"boundary_precision", num(boundary.precision())},
             {"boundary_recall", num(boundary.recall())},

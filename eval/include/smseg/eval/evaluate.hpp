@@ -91,6 +91,7 @@ struct EvalResult {
   /// frames_in_flight frames labelled at once (--smooth: one per thread, so each frame's own times
   /// above include sharing the cores with the others).
   double wall_seconds_per_frame = 0;
+  /// Not in results.json, which must not depend on the thread count (timings aside).
   int frames_in_flight = 1;
   BoundaryCounts boundary;                  ///< summed over the frames
   /// Which test frames hold no tracked point (labelled from the class prior alone), for the user; empty
