@@ -127,7 +127,7 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
       // requests and pay for them (synthetic 320x240 grid: ~1.4x slower), so they are not asked for.
       if (!prefetch) continue;
       CompactNode d = nodes[node[g]];
-      if ((d.next & 0xffu) >= F || (d.next & kLeafBit) != 0) d = CompactNode{0, 0, 0, 0, 0.0f, 0u};
+      if ((d.next & 0xffu) >= F) d = CompactNode{0, 0, 0, 0, 0.0f, 0u};  // a leaf's window is already empty
       const std::size_t np = std::min(pixel[g], last);
       if constexpr (kClamp) {
         const double* sat = sats[d.next & 0xffu];

@@ -364,7 +364,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
     if (opt.features.dense)
       append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters,
-                           camera_height ? *camera_height - video.poses[f].t[1] : 0.0);
+                           height_shift(camera_height, video.poses[f]));
   };
   Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
   struct Buffers {

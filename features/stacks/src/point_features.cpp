@@ -71,7 +71,9 @@ HeightReference height_reference_from_string(const std::string& s, const std::st
   throw Error("", option, "\"" + s + "\" is not a height reference (auto, plane or camera)");
 }
 
-double median_camera_height(const std::vector<Pose>& poses) {
+// The cameras' median height (world Y of their centres) over the frames: HeightReference::Camera's
+// reference, the camera height the SfM scaled its run to.
+static double median_camera_height(const std::vector<Pose>& poses) {
   if (poses.empty()) return 0;
   std::vector<double> ys;
   ys.reserve(poses.size());
@@ -86,6 +88,10 @@ std::optional<double> reference_camera_height(const FeatureOptions& opt, const s
   return median_camera_height(poses);
 }
 
+double height_shift(std::optional<double> camera_height, const Pose& pose) {
+  return camera_height ? *camera_height - centre(pose).y() : 0.0;
+}
+
 void FeatureOptions::validate() const {
   if (future_frames < 0 || future_frames > 100000)
     throw Error("", "--future-frames", "must be in 0..100000 (got " + std::to_string(future_frames) + ")");
@@ -94,6 +100,7 @@ void FeatureOptions::validate() const {
 void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {
   const Eigen::Matrix3d R = rotation(pose);
   const Eigen::Vector3d C = centre(pose);
+  const double shift = height_shift(camera_height_, pose);
   out.world.resize(obs.size());
   out.fH.resize(obs.size());
   out.fC.resize(obs.size());
@@ -101,7 +108,7 @@ void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observ
   for (std::size_t i = 0; i < obs.size(); ++i) {
     const Eigen::Vector3d w = R * obs[i].cam + C;
     out.world[i] = w;
-    out.fH[i] = camera_height_ ? w.y() - C.y() + *camera_height_ : w.y();
+    out.fH[i] = w.y() + shift;
     TrackState& t = tracks_[obs[i].track];
     out.fR[i] = t.last_frame >= 0 ? (w - t.last_world).norm() : 0.0;
     t.running_min = std::min(t.running_min, (w - C).norm());

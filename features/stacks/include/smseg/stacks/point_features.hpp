@@ -74,12 +74,10 @@ struct PointAttributes {
 
 PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt);
 
-/// The cameras' median height (world Y of their centres) over the video's frames: the ground under
-/// each camera for HeightReference::Camera.
-double median_camera_height(const std::vector<Pose>& poses);
-/// The reference camera height of HeightReference::Camera for these options and poses (none for Plane;
-/// Auto counts as Plane here: extract resolves it per run).
 std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<Pose>& poses);
+/// What heights seen from `pose` gain over world Y: camera_height minus the camera's own world Y (the
+/// ground under the camera), 0 without a reference height (the ground plane). fH and fZH both add it.
+double height_shift(std::optional<double> camera_height, const Pose& pose);
 
 /// One frame's share of PointAttributes.
 struct FrameAttributes {
