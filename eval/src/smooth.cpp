@@ -5,6 +5,8 @@
 #include <chrono>
 #include <cmath>
 
+#include <opencv2/imgproc.hpp>
+
 #include "smseg/common/error.hpp"
 #include "smseg/graphcut/graphcut.hpp"
 
@@ -61,6 +63,7 @@ void SmoothOptions::validate() const {
   if (connectivity != 4 && connectivity != 8) throw Error("", "--connectivity", "must be 4 or 8");
   if (cycles < 1 || cycles > 100) throw Error("", "--smooth-cycles", "must be 1..100");
   if (!(p_min > 0 && p_min < 1)) throw Error("", "p_min", "must be in (0, 1)");
+  if (label_window < 0 || label_window > 1000) throw Error("", "--smooth-window", "must be 0..1000 pixels");
 }
 
 nlohmann::json SmoothOptions::to_json() const {
@@ -69,7 +72,8 @@ nlohmann::json SmoothOptions::to_json() const {
           {"lambda", lambda},
           {"connectivity", connectivity},
           {"cycles", cycles},
-          {"p_min", p_min}};
+          {"p_min", p_min},
+          {"label_window", label_window}};
 }
 
 double contrast_beta(const cv::Mat& image, int connectivity) {
@@ -96,13 +100,14 @@ std::array<double, 256> grey_contrast_table(double beta) {
   return t;
 }
 
-/// The contrast-sensitive Potts edges of the image grid, each unordered neighbour pair once.
-void add_contrast_edges(const cv::Mat& image, const SmoothOptions& opt, double beta, features::PottsEnergy& e) {
+/// Calls f(i, j, weight) for every edge of the image grid (each unordered neighbour pair once, i < j):
+/// the contrast-sensitive Potts weight lambda exp(-beta (I_i - I_j)^2) / dist(i, j).
+template <class F>
+void for_each_contrast_edge(const cv::Mat& image, const SmoothOptions& opt, double beta, F&& f) {
   const int W = image.cols, H = image.rows;
   const auto offs = offsets(opt.connectivity);
   const bool grey = image.type() == CV_8UC1;
   const std::array<double, 256> table = grey_contrast_table(beta);
-  e.edges.reserve(std::size_t(W) * std::size_t(H) * offs.size());
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x)
       for (const Offset& o : offs) {
@@ -111,8 +116,166 @@ void add_contrast_edges(const cv::Mat& image, const SmoothOptions& opt, double b
         const double contrast =
             grey ? table[std::size_t(std::abs(int(image.at<std::uint8_t>(y, x)) - int(image.at<std::uint8_t>(y1, x1))))]
                  : std::exp(-beta * squared_difference(image, y, x, y1, x1));
-        e.edges.push_back({y * W + x, y1 * W + x1, opt.lambda * o.inv_dist * contrast});
+        f(y * W + x, y1 * W + x1, opt.lambda * o.inv_dist * contrast);
       }
+}
+
+/// A pixel's distribution values d (C of them), checked: Error naming the pixel (index i) on a negative
+/// or non-finite value. Returns their sum.
+double checked_sum(const float* d, std::size_t C, std::size_t i) {
+  double s = 0;
+  for (std::size_t c = 0; c < C; ++c) {
+    if (!(d[c] >= 0) || !std::isfinite(d[c]))
+      throw Error("", "distributions", "pixel " + std::to_string(i) + " has a negative or non-finite value");
+    s += d[c];
+  }
+  return s;
+}
+
+/// The capped unary cost of value v of a pixel whose values sum to s (an all-zero pixel is uniform).
+double unary_cost(float v, double s, std::size_t C, double p_min, double cap) {
+  return s > 0 ? capped_cost(double(v) / s, p_min, cap) : -std::log(1.0 / double(C));
+}
+
+/// The capped unary costs (out[0..C)) of pixel i from its C distribution values d.
+void pixel_costs(const float* d, std::size_t C, std::size_t i, double p_min, double cap, double* out) {
+  const double s = checked_sum(d, C, i);
+  for (std::size_t c = 0; c < C; ++c) out[c] = unary_cost(d[c], s, C, p_min, cap);
+}
+
+// Working memory kept per thread from frame to frame (the energy's arrays and the max-flow graph):
+// fresh multi-megabyte buffers per frame cost more in page faults than the cuts themselves.
+struct SmoothCache {
+  features::PottsEnergy e;
+  features::ExpansionSolver solver;
+  std::vector<int> labelling;
+  // Label window only: per pixel, the MAP label and its cost and the energy node (-1: held at its MAP
+  // label); per node, the pixel and the weight of its edges to other nodes.
+  std::vector<std::uint8_t> map;
+  std::vector<double> map_cost;
+  std::vector<int> node_of, pixel_of;
+  std::vector<double> incident;
+};
+
+/// The whole frame's energy: a node per pixel, an edge per neighbour pair.
+void fill_pixel_energy(std::span<const float> dists, std::size_t C, const cv::Mat& image, const SmoothOptions& opt,
+                       double beta, features::PottsEnergy& e) {
+  const std::size_t n = image.total();
+  const double cap = -std::log(opt.p_min);
+  e.nodes = static_cast<int>(n);
+  e.labels = static_cast<int>(C);
+  e.unary.resize(n * C);
+  e.edges.clear();
+  for (std::size_t i = 0; i < n; ++i) pixel_costs(dists.data() + i * C, C, i, opt.p_min, cap, e.unary.data() + i * C);
+  if (opt.lambda > 0) {
+    e.edges.reserve(n * offsets(opt.connectivity).size());
+    for_each_contrast_edge(image, opt, beta, [&](int i, int j, double w) { e.edges.push_back({i, j, w}); });
+  }
+}
+
+/// Which labels each pixel may take under the label window: near[c] is non-zero within `radius` pixels
+/// (Chebyshev distance) of a pixel whose MAP label is c.
+std::vector<cv::Mat> labels_near(const std::vector<std::uint8_t>& map, std::size_t C, int W, int H, int radius) {
+  std::vector<cv::Mat> near(C);
+  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * radius + 1, 2 * radius + 1));
+  cv::Mat is_map(H, W, CV_8UC1);
+  for (std::size_t c = 0; c < C; ++c) {
+    for (std::size_t i = 0; i < map.size(); ++i) is_map.data[i] = map[i] == c ? 1 : 0;
+    cv::dilate(is_map, near[c], box, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+  }
+  return near;
+}
+
+/// The label window's energy: a node per pixel that may take more than one label (the others are held
+/// at their MAP label, so their edges to nodes become unary costs of the nodes, and the rest of their
+/// energy a constant), an edge per neighbour pair of nodes. A label outside a node's window costs more
+/// than every other label of the node plus all its edges weigh: no expansion move gives it to the node,
+/// whatever label the node holds, and the solver does not list the node for it. Fills the cache's
+/// per-pixel arrays and the starting labelling (the MAP labels); returns the energy of the held pixels,
+/// and the pixel-label pairs allowed in `allowed`.
+double fill_window_energy(std::span<const float> dists, std::size_t C, const cv::Mat& image, const SmoothOptions& opt,
+                          double beta, SmoothCache& k, std::int64_t& allowed) {
+  const int W = image.cols, H = image.rows;
+  const std::size_t n = image.total();
+  const double cap = -std::log(opt.p_min);
+  k.map.resize(n);
+  k.map_cost.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {  // the MAP label: the largest value, ties to the lowest label
+    const float* d = dists.data() + i * C;
+    const double s = checked_sum(d, C, i);
+    const auto m = std::size_t(std::max_element(d, d + C) - d);
+    k.map[i] = static_cast<std::uint8_t>(m);
+    k.map_cost[i] = unary_cost(d[m], s, C, opt.p_min, cap);
+  }
+  const std::vector<cv::Mat> near = labels_near(k.map, C, W, H, opt.label_window);
+  k.node_of.assign(n, -1);
+  k.pixel_of.clear();
+  allowed = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    int count = 0;
+    for (std::size_t c = 0; c < C; ++c) count += near[c].data[i] ? 1 : 0;
+    allowed += count;
+    if (count > 1) {
+      k.node_of[i] = static_cast<int>(k.pixel_of.size());
+      k.pixel_of.push_back(static_cast<int>(i));
+    }
+  }
+  features::PottsEnergy& e = k.e;
+  const std::size_t nodes = k.pixel_of.size();
+  e.nodes = static_cast<int>(nodes);
+  e.labels = static_cast<int>(C);
+  e.unary.resize(nodes * C);
+  e.edges.clear();
+  k.incident.assign(nodes, 0.0);
+  double held = 0;
+  for (std::size_t v = 0; v < nodes; ++v) {
+    const auto i = std::size_t(k.pixel_of[v]);
+    pixel_costs(dists.data() + i * C, C, i, opt.p_min, cap, e.unary.data() + v * C);
+  }
+  for (std::size_t i = 0; i < n; ++i)
+    if (k.node_of[i] < 0) held += k.map_cost[i];
+  auto hold_edge = [&](int node, int held_pixel, double w) {  // the node pays w unless it takes that label
+    double* u = e.unary.data() + std::size_t(node) * C;
+    for (std::size_t c = 0; c < C; ++c)
+      if (c != k.map[std::size_t(held_pixel)]) u[c] += w;
+  };
+  if (opt.lambda > 0)
+    for_each_contrast_edge(image, opt, beta, [&](int i, int j, double w) {
+      const int vi = k.node_of[std::size_t(i)], vj = k.node_of[std::size_t(j)];
+      if (vi >= 0 && vj >= 0) {
+        e.edges.push_back({vi, vj, w});
+        k.incident[std::size_t(vi)] += w;
+        k.incident[std::size_t(vj)] += w;
+      } else if (vi >= 0) {
+        hold_edge(vi, j, w);
+      } else if (vj >= 0) {
+        hold_edge(vj, i, w);
+      } else if (k.map[std::size_t(i)] != k.map[std::size_t(j)]) {
+        held += w;
+      }
+    });
+  k.labelling.resize(nodes);
+  for (std::size_t v = 0; v < nodes; ++v) {
+    const auto i = std::size_t(k.pixel_of[v]);
+    double* u = e.unary.data() + v * C;
+    double highest = u[k.map[i]];
+    for (std::size_t c = 0; c < C; ++c)
+      if (near[c].data[i]) highest = std::max(highest, u[c]);
+    for (std::size_t c = 0; c < C; ++c)
+      if (!near[c].data[i]) u[c] = highest + k.incident[v] + 1.0;
+    k.labelling[v] = k.map[i];
+  }
+  return held;
+}
+
+void check_sizes(std::span<const float> dists, int classes, const cv::Mat& image) {
+  check_image(image);
+  if (classes < 1 || classes > 255) throw Error("", "classes", "must be 1..255");
+  const std::size_t n = image.total(), C = std::size_t(classes);
+  if (dists.size() != n * C)
+    throw Error("", "distributions", std::to_string(dists.size()) + " values for a " + std::to_string(image.cols) +
+                                         "x" + std::to_string(image.rows) + " image of " + std::to_string(classes) +
+                                         " classes");
 }
 
 }  // namespace
@@ -120,52 +283,33 @@ void add_contrast_edges(const cv::Mat& image, const SmoothOptions& opt, double b
 cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& image, const SmoothOptions& opt,
                       SmoothReport* report) {
   opt.validate();
-  check_image(image);
-  if (classes < 1 || classes > 255) throw Error("", "classes", "must be 1..255");
-  const int W = image.cols, H = image.rows;
-  const std::size_t n = std::size_t(W) * std::size_t(H), C = std::size_t(classes);
-  if (dists.size() != n * C)
-    throw Error("", "distributions", std::to_string(dists.size()) + " values for a " + std::to_string(W) + "x" +
-                                         std::to_string(H) + " image of " + std::to_string(classes) + " classes");
-  // Working memory kept per thread from frame to frame (the energy's arrays and the max-flow graph):
-  // fresh multi-megabyte buffers per frame cost more in page faults than the cuts themselves.
-  struct Cache {
-    features::PottsEnergy e;
-    features::ExpansionSolver solver;
-    std::vector<int> labelling;
-  };
-  thread_local Cache cache;
-  features::PottsEnergy& e = cache.e;
-  e.nodes = static_cast<int>(n);
-  e.labels = classes;
-  e.unary.resize(n * C);
-  e.edges.clear();
-  const double cap = -std::log(opt.p_min);
-  for (std::size_t i = 0; i < n; ++i) {
-    const float* d = dists.data() + i * C;
-    double s = 0;
-    for (std::size_t c = 0; c < C; ++c) {
-      if (!(d[c] >= 0) || !std::isfinite(d[c]))
-        throw Error("", "distributions", "pixel " + std::to_string(i) + " has a negative or non-finite value");
-      s += d[c];
-    }
-    for (std::size_t c = 0; c < C; ++c)
-      e.unary[i * C + c] = s > 0 ? capped_cost(double(d[c]) / s, opt.p_min, cap) : -std::log(1.0 / double(C));
-  }
+  check_sizes(dists, classes, image);
+  const std::size_t n = image.total(), C = std::size_t(classes);
+  thread_local SmoothCache cache;
   SmoothReport rep;
   rep.beta = contrast_beta(image, opt.connectivity);
-  if (opt.lambda > 0) add_contrast_edges(image, opt, rep.beta, e);
-  std::vector<int>& labelling = cache.labelling;
-  labelling.clear();
-  const features::ExpansionReport r = cache.solver.solve(e, labelling, {.max_cycles = opt.cycles});
-  rep.energy_before = r.initial_energy;
-  rep.energy_after = r.energy;
+  cv::Mat out(image.rows, image.cols, CV_8UC1);
+  features::ExpansionReport r;
+  double held = 0;
+  if (opt.label_window == 0) {
+    fill_pixel_energy(dists, C, image, opt, rep.beta, cache.e);
+    rep.allowed_labels = std::int64_t(n * C);
+    cache.labelling.clear();  // the solver starts from the MAP labels
+    r = cache.solver.solve(cache.e, cache.labelling, {.max_cycles = opt.cycles});
+    for (std::size_t i = 0; i < n; ++i) out.data[i] = static_cast<std::uint8_t>(cache.labelling[i]);
+  } else {
+    held = fill_window_energy(dists, C, image, opt, rep.beta, cache, rep.allowed_labels);
+    r = cache.solver.solve(cache.e, cache.labelling, {.max_cycles = opt.cycles});
+    std::copy(cache.map.begin(), cache.map.end(), out.data);
+    for (std::size_t v = 0; v < cache.pixel_of.size(); ++v)
+      out.data[cache.pixel_of[v]] = static_cast<std::uint8_t>(cache.labelling[v]);
+  }
+  rep.energy_before = held + r.initial_energy;
+  rep.energy_after = held + r.energy;
   rep.cycles = r.cycles;
   rep.moves = r.moves;
   rep.graph_nodes = r.graph_nodes;
   if (report) *report = rep;
-  cv::Mat out(H, W, CV_8UC1);
-  for (std::size_t i = 0; i < n; ++i) out.data[i] = static_cast<std::uint8_t>(labelling[i]);
   return out;
 }
 

@@ -92,6 +92,11 @@ int main(int argc, char** argv) {
   app.add_option("--connectivity", opt.smooth.connectivity, "graph-cut grid: 4 or 8 neighbours")->capture_default_str();
   app.add_option("--smooth-cycles", opt.smooth.cycles, "at most this many alpha-expansion cycles")
       ->capture_default_str();
+  app.add_option("--smooth-window", opt.smooth.label_window,
+                 "graph cut: a pixel may take only the labels that are the per-pixel MAP label somewhere within "
+                 "this many pixels of it; the pixels with one such label keep it and leave the graph (0: every "
+                 "label everywhere)")
+      ->capture_default_str();
   app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str()
       ->check(smseg::kDecimalDigits);
   add_threads_option(app, threads, "the results do not depend on it");

@@ -1,11 +1,12 @@
 // Speed of graph-cut smoothing (eval/smooth.hpp): eval::smooth_labels on one 320x240 frame's per-pixel
-// class distributions, 4- and 8-connected, for a few lambdas; and the plain max-flow of one expansion
+// class distributions, 4- and 8-connected, for a few lambdas, within the default label window of 5 pixels
+// and (8-connected, lambda 1) without one; and the plain max-flow of one expansion
 // move's size. Target (graph-cut issue): smoothing a 320x240 frame under 50 ms on 2 cores.
 //
 // By default the distributions come from a forest (M = 7, K = 400) trained in the benchmark on
 // libforest's synthetic frames (4 classes, as bench_eval). To time a real forest and stack:
 //   SMSEG_BENCH_FOREST=work/forest.json SMSEG_BENCH_WORK=work SMSEG_BENCH_FRAME=110 bench_graphcut
-// BM_SmoothFrameCamVid times the default smoothing on CamVid val frame 60 with the CamVid-size forest
+// BM_SmoothFrameCamVid times the smoothing, label windows 0, 2, 5, 10, on CamVid val frame 60 with the CamVid-size forest
 // (camvid_setup.hpp; skipped without CamVid).
 // Run: bench_graphcut --benchmark_out=graphcut.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
@@ -97,6 +98,7 @@ void smooth_case(benchmark::State& state, const Setup& s, const eval::SmoothOpti
   state.counters["cycles"] = rep.cycles;
   state.counters["moves"] = rep.moves;
   state.counters["graph_nodes"] = double(rep.graph_nodes);
+  state.counters["allowed_labels"] = double(rep.allowed_labels);
   state.counters["energy_after"] = rep.energy_after;
   state.counters["energy_drop"] = rep.energy_before - rep.energy_after;
   state.counters["classes"] = double(s.forest.classes.size());
@@ -105,36 +107,40 @@ void smooth_case(benchmark::State& state, const Setup& s, const eval::SmoothOpti
   state.SetLabel(s.source);
 }
 
-// Args: connectivity, lambda x 10
+// Args: connectivity, lambda x 10, label window (0: plain alpha-expansion)
 void BM_SmoothFrame(benchmark::State& state) {
   const Setup& s = setup();
   eval::SmoothOptions opt;
   opt.method = eval::SmoothMethod::GraphCut;
   opt.connectivity = static_cast<int>(state.range(0));
   opt.lambda = double(state.range(1)) / 10.0;
+  opt.label_window = static_cast<int>(state.range(2));
   smooth_case(state, s, opt);
 }
 BENCHMARK(BM_SmoothFrame)
-    ->ArgNames({"conn", "lambda10"})
-    ->Args({4, 5})
-    ->Args({4, 10})
-    ->Args({4, 20})
-    ->Args({8, 5})
-    ->Args({8, 10})
-    ->Args({8, 20})
+    ->ArgNames({"conn", "lambda10", "window"})
+    ->Args({4, 5, 5})
+    ->Args({4, 10, 5})
+    ->Args({4, 20, 5})
+    ->Args({8, 5, 5})
+    ->Args({8, 10, 0})
+    ->Args({8, 10, 5})
+    ->Args({8, 20, 5})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
-// eval-forest's default smoothing (--smooth graphcut, every other option at its default) on a CamVid
-// frame (480x360, 11 classes). Target (real-scale issue): <= 60 ms.
+// eval-forest's smoothing (--smooth graphcut, every other option at its default but the label window:
+// 0 = plain alpha-expansion, 5 = the default) on a CamVid frame (480x360, 11 classes). Target
+// (real-scale issue): <= 60 ms.
 void BM_SmoothFrameCamVid(benchmark::State& state) {
   const Setup* s = setup_camvid();
   if (!s) return camvid_bench::skip(state);
   eval::SmoothOptions opt;
   opt.method = eval::SmoothMethod::GraphCut;
+  opt.label_window = static_cast<int>(state.range(0));
   smooth_case(state, *s, opt);
 }
-BENCHMARK(BM_SmoothFrameCamVid)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_SmoothFrameCamVid)->ArgName("window")->Arg(0)->Arg(2)->Arg(5)->Arg(10)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 // One binary max-flow on a 320x240 4-connected grid with random terminal capacities (the size of one
 // expansion move).

@@ -20,22 +20,22 @@ namespace {
 
 // A 96x72 image of three regions (a left band, an upper right and a lower right block, the latter
 // with a diagonal edge) at distinct grey levels with a little noise, their class ids, and posteriors
-// that favour the right class at 0.45 vs 0.275 each, except at 35% of the pixels where a random
-// wrong class gets 0.6.
+// that favour the right class at 0.45 vs 0.275 each, except at 35% (flip_rate) of the pixels where a
+// random wrong class gets 0.6.
 struct Scene {
   cv::Mat image, truth;
   std::vector<float> dists;
   static constexpr int C = 3;
 };
 
-Scene make_scene(std::uint64_t seed) {
+Scene make_scene(std::uint64_t seed, double flip_rate = 0.35) {
   const int W = 96, H = 72;
   Scene s;
   s.image.create(H, W, CV_8UC1);
   s.truth.create(H, W, CV_8UC1);
   std::mt19937_64 g(seed);
   std::uniform_int_distribution<int> noise(-6, 6), wrong(1, 2);
-  std::bernoulli_distribution flip(0.35);
+  std::bernoulli_distribution flip(flip_rate);
   const int grey[3] = {50, 130, 210};
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
@@ -55,6 +55,13 @@ Scene make_scene(std::uint64_t seed) {
 
 double accuracy(const cv::Mat& a, const cv::Mat& b) {
   return double(cv::countNonZero(a == b)) / double(a.total());
+}
+
+eval::SmoothOptions graph_cut(double lambda) {
+  eval::SmoothOptions opt;
+  opt.method = eval::SmoothMethod::GraphCut;
+  opt.lambda = lambda;
+  return opt;
 }
 
 cv::Mat map_labels(const Scene& s) {
@@ -82,9 +89,7 @@ TEST(Smooth, BetaIsHalfTheInverseMeanSquaredNeighbourDifference) {
 
 TEST(Smooth, LambdaZeroIsTheMapLabelling) {
   const Scene s = make_scene(1);
-  eval::SmoothOptions opt;
-  opt.method = eval::SmoothMethod::GraphCut;
-  opt.lambda = 0;
+  eval::SmoothOptions opt = graph_cut(0);
   const cv::Mat out = eval::smooth_labels(s.dists, Scene::C, s.image, opt);
   EXPECT_EQ(cv::countNonZero(out != map_labels(s)), 0);
 }
@@ -94,9 +99,7 @@ TEST(Smooth, CleansNoisyPosteriorsAlongTheImageEdgesAndLowersTheEnergy) {
   const double before = accuracy(map_labels(s), s.truth);
   EXPECT_LT(before, 0.75);  // the noise is real
   for (int connectivity : {4, 8}) {
-    eval::SmoothOptions opt;
-    opt.method = eval::SmoothMethod::GraphCut;
-    opt.lambda = 2;
+    eval::SmoothOptions opt = graph_cut(2);
     opt.connectivity = connectivity;
     eval::SmoothReport rep;
     const cv::Mat out = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &rep);
@@ -110,13 +113,99 @@ TEST(Smooth, WithoutContrastTheSameSmoothingCutsCorners) {
   // On a flat image (no edges to follow) a strong Potts term rounds off the 3-way junction and the
   // diagonal edge; with the image's contrast it follows them: contrast must help.
   const Scene s = make_scene(3);
-  eval::SmoothOptions opt;
-  opt.method = eval::SmoothMethod::GraphCut;
-  opt.lambda = 6;
+  eval::SmoothOptions opt = graph_cut(6);
   const cv::Mat with = eval::smooth_labels(s.dists, Scene::C, s.image, opt);
   const cv::Mat flat(s.image.size(), CV_8UC1, cv::Scalar(128));
   const cv::Mat without = eval::smooth_labels(s.dists, Scene::C, flat, opt);
   EXPECT_GT(accuracy(with, s.truth), accuracy(without, s.truth));
+}
+
+namespace {
+
+// The energy of a labelling, written out from the definition in smooth.hpp (8-connected): what the
+// report's energies must be, whatever the solver left out of its graph.
+double frame_energy(const Scene& s, const cv::Mat& labels, double lambda) {
+  const double beta = eval::contrast_beta(s.image, 8), cap = -std::log(1e-3);
+  double e = 0;
+  for (std::size_t i = 0; i < labels.total(); ++i) {
+    const float* d = s.dists.data() + i * Scene::C;
+    const double p = double(d[labels.data[i]]) / (double(d[0]) + double(d[1]) + double(d[2]));
+    e += p <= 1e-3 ? cap : std::min(cap, -std::log(p));
+  }
+  const int dy[4] = {0, 1, 1, 1}, dx[4] = {1, 0, 1, -1};
+  for (int y = 0; y < s.image.rows; ++y)
+    for (int x = 0; x < s.image.cols; ++x)
+      for (int k = 0; k < 4; ++k) {
+        const int y1 = y + dy[k], x1 = x + dx[k];
+        if (y1 >= s.image.rows || x1 < 0 || x1 >= s.image.cols) continue;
+        if (labels.at<std::uint8_t>(y, x) == labels.at<std::uint8_t>(y1, x1)) continue;
+        const double d = double(s.image.at<std::uint8_t>(y, x)) - double(s.image.at<std::uint8_t>(y1, x1));
+        e += lambda * std::exp(-beta * d * d) / (k < 2 ? 1.0 : std::sqrt(2.0));
+      }
+  return e;
+}
+
+}  // namespace
+
+TEST(Smooth, ALabelWindowWiderThanTheFrameIsPlainAlphaExpansion) {
+  const Scene s = make_scene(5);
+  eval::SmoothOptions opt = graph_cut(2);
+  opt.label_window = 0;
+  eval::SmoothReport plain, wide;
+  const cv::Mat a = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &plain);
+  opt.label_window = 200;
+  const cv::Mat b = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &wide);
+  EXPECT_EQ(cv::countNonZero(a != b), 0);
+  EXPECT_EQ(wide.allowed_labels, std::int64_t(a.total()) * Scene::C);
+  EXPECT_NEAR(wide.energy_after, plain.energy_after, 1e-6 * plain.energy_after);
+  EXPECT_EQ(wide.moves, plain.moves);
+}
+
+TEST(Smooth, ANarrowLabelWindowGivesOnlyLabelsMappedNearbyAndReportsTheFrameEnergy) {
+  const Scene s = make_scene(6, 0.03);  // few wrong pixels: most see one MAP label around them
+  const cv::Mat map = map_labels(s);
+  for (int radius : {1, 3}) {
+    eval::SmoothOptions opt = graph_cut(2);
+    opt.label_window = radius;
+    eval::SmoothReport rep;
+    const cv::Mat out = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &rep);
+    int far_labels = 0;
+    for (int y = 0; y < out.rows; ++y)
+      for (int x = 0; x < out.cols; ++x) {
+        bool mapped_nearby = false;
+        for (int v = std::max(0, y - radius); v <= std::min(out.rows - 1, y + radius); ++v)
+          for (int u = std::max(0, x - radius); u <= std::min(out.cols - 1, x + radius); ++u)
+            mapped_nearby |= map.at<std::uint8_t>(v, u) == out.at<std::uint8_t>(y, x);
+        far_labels += mapped_nearby ? 0 : 1;
+      }
+    EXPECT_EQ(far_labels, 0) << "radius " << radius;
+    EXPECT_LT(rep.allowed_labels, std::int64_t(out.total()) * Scene::C);
+    // The pixels held at their MAP label are out of the solver's graph but not out of the energy.
+    EXPECT_NEAR(rep.energy_before, frame_energy(s, map, 2), 1e-6 * rep.energy_before) << "radius " << radius;
+    EXPECT_NEAR(rep.energy_after, frame_energy(s, out, 2), 1e-6 * rep.energy_after) << "radius " << radius;
+    EXPECT_LT(rep.energy_after, rep.energy_before);
+    EXPECT_GT(accuracy(out, s.truth), accuracy(map, s.truth)) << "radius " << radius;
+  }
+}
+
+TEST(Smooth, ALabelThatIsNoNearbyPixelsMapLabelIsNeverGiven) {
+  // A checkerboard of MAP labels 0 and 1 (0.5 / 0.05) over a flat image, with label 2 second everywhere
+  // (0.45): plain alpha-expansion gives the whole board label 2, the label window keeps it out.
+  const int W = 40, H = 30;
+  const cv::Mat flat(H, W, CV_8UC1, cv::Scalar(100));
+  std::vector<float> dists;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      const bool even = (x + y) % 2 == 0;
+      dists.insert(dists.end(), {even ? 0.5f : 0.05f, even ? 0.05f : 0.5f, 0.45f});
+    }
+  eval::SmoothOptions opt = graph_cut(2);
+  opt.label_window = 0;
+  EXPECT_GT(cv::countNonZero(eval::smooth_labels(dists, 3, flat, opt) == 2), W * H / 2);
+  opt.label_window = 3;
+  eval::SmoothReport rep;
+  EXPECT_EQ(cv::countNonZero(eval::smooth_labels(dists, 3, flat, opt, &rep) == 2), 0);
+  EXPECT_EQ(rep.allowed_labels, std::int64_t(W) * H * 2);
 }
 
 TEST(Smooth, BadInputIsAnError) {
@@ -130,6 +219,10 @@ TEST(Smooth, BadInputIsAnError) {
   opt.lambda = 1;
   opt.connectivity = 6;
   EXPECT_THROW(opt.validate(), Error);
+  opt.connectivity = 8;
+  opt.label_window = -1;
+  EXPECT_THROW(opt.validate(), Error);
+  opt.label_window = 0;
   EXPECT_THROW(eval::smooth_method_from_string("crf", "--smooth"), Error);
   std::vector<float> bad = s.dists;
   bad[5] = -1;

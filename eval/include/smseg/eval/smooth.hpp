@@ -9,6 +9,10 @@
 // beta = 1 / (2 <(I_i - I_j)^2>) averaged over the neighbour pairs of the frame (0 on a flat image).
 // Minimised by alpha-expansion (smseg/graphcut/graphcut.hpp) from the per-pixel MAP labelling, so the
 // energy is never above that of the unsmoothed output; lambda = 0 gives the MAP labels.
+// With a label window of radius r > 0, a pixel may take only the labels that are the MAP label of a pixel
+// within r of it: the moves are alpha-expansions restricted to the pixels near alpha's MAP regions, the
+// rest of the frame keeps its label without being looked at (the expansion moves' work follows the
+// labels' borders instead of every uncertain pixel once per label).
 
 #include <cstdint>
 #include <span>
@@ -31,6 +35,10 @@ struct SmoothOptions {
   int connectivity = 8;      ///< 4 or 8
   int cycles = 3;            ///< at most this many alpha-expansion cycles, >= 1
   double p_min = 1e-3;       ///< posterior floor of the unary cost (caps it at -log p_min), in (0, 1)
+  /// A pixel may take only the labels that are some pixel's MAP label within this many pixels of it
+  /// (Chebyshev distance); 0: every label everywhere (plain alpha-expansion). 0..1000. The default 5
+  /// gave the plain expansion's accuracy on CamVid val to 0.01 points (docs/graphcuts.md).
+  int label_window = 5;
 
   bool enabled() const { return method != SmoothMethod::None; }
   void validate() const;  ///< Error naming the option (--lambda, --connectivity, ...)
@@ -43,6 +51,7 @@ struct SmoothReport {
   double energy_after = 0;
   int cycles = 0;
   int moves = 0;
+  std::int64_t allowed_labels = 0;  ///< pixel-label pairs the label window allows, summed over the pixels
   std::int64_t graph_nodes = 0;  ///< nodes of the expansion moves' max-flow graphs, summed over the moves
 };
 
