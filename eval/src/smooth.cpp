@@ -2,10 +2,11 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <chrono>
 #include <cmath>
 
-#include <opencv2/imgproc.hpp>
+#include <opencv2/core.hpp>
 
 #include "smseg/common/error.hpp"
 #include "smseg/graphcut/graphcut.hpp"
@@ -149,12 +150,14 @@ struct SmoothCache {
   features::PottsEnergy e;
   features::ExpansionSolver solver;
   std::vector<int> labelling;
-  // Label window only: per pixel, the MAP label and its cost and the energy node (-1: held at its MAP
-  // label); per node, the pixel and the weight of its edges to other nodes.
+  // Label window only: per pixel, the MAP label, its cost, the sum of the pixel's values, the energy
+  // node (-1: held at its MAP label) and the labels it may take (LabelSets); per node, the pixel and the
+  // weight of its edges to other nodes.
   std::vector<std::uint8_t> map;
-  std::vector<double> map_cost;
+  std::vector<double> map_cost, sum;
   std::vector<int> node_of, pixel_of;
   std::vector<double> incident;
+  std::vector<std::uint64_t> near, prefix, suffix;
 };
 
 /// The whole frame's energy: a node per pixel, an edge per neighbour pair.
@@ -173,17 +176,91 @@ void fill_pixel_energy(std::span<const float> dists, std::size_t C, const cv::Ma
   }
 }
 
-/// Which labels each pixel may take under the label window: near[c] is non-zero within `radius` pixels
-/// (Chebyshev distance) of a pixel whose MAP label is c.
-std::vector<cv::Mat> labels_near(const std::vector<std::uint8_t>& map, std::size_t C, int W, int H, int radius) {
-  std::vector<cv::Mat> near(C);
-  const cv::Mat box = cv::getStructuringElement(cv::MORPH_RECT, cv::Size(2 * radius + 1, 2 * radius + 1));
-  cv::Mat is_map(H, W, CV_8UC1);
-  for (std::size_t c = 0; c < C; ++c) {
-    for (std::size_t i = 0; i < map.size(); ++i) is_map.data[i] = map[i] == c ? 1 : 0;
-    cv::dilate(is_map, near[c], box, cv::Point(-1, -1), 1, cv::BORDER_CONSTANT, cv::Scalar(0));
+/// A set of labels per pixel, as bits: label c is bit c % 64 of word c / 64, and word w of every pixel
+/// lies in plane w (`bits[w * n + i]`), so that one plane is a frame of 64-bit words.
+struct LabelSets {
+  std::uint64_t* bits;
+  std::size_t n;
+  bool has(std::size_t i, std::size_t c) const { return (bits[(c >> 6) * n + i] >> (c & 63)) & 1; }
+};
+
+/// ORs each element with its neighbours within `radius` along `lines` lines of `length` elements `step`
+/// apart (the lines `line_step` apart), clipped to the line. van Herk / Gil-Werman: ORs of prefixes and
+/// suffixes within blocks of 2 radius + 1 elements, so the cost does not grow with the radius.
+void or_dilate_lines(std::uint64_t* data, int lines, int length, std::ptrdiff_t step, std::ptrdiff_t line_step,
+                     int radius, std::vector<std::uint64_t>& prefix, std::vector<std::uint64_t>& suffix) {
+  const int k = 2 * radius + 1, last_block = (length - 1) / k * k;
+  prefix.resize(std::size_t(length));
+  suffix.resize(std::size_t(length));
+  for (int l = 0; l < lines; ++l) {
+    std::uint64_t* line = data + l * line_step;
+    auto at = [&](int x) -> std::uint64_t& { return line[x * step]; };
+    for (int start = 0; start < length; start += k) {
+      const int end = std::min(start + k, length);
+      prefix[std::size_t(start)] = at(start);
+      for (int x = start + 1; x < end; ++x) prefix[std::size_t(x)] = prefix[std::size_t(x) - 1] | at(x);
+      suffix[std::size_t(end) - 1] = at(end - 1);
+      for (int x = end - 2; x >= start; --x) suffix[std::size_t(x)] = suffix[std::size_t(x) + 1] | at(x);
+    }
+    // The window [a, b] is the ends of two blocks, or one block (a at its start), or, clipped at the
+    // line's end, the end of the last block.
+    for (int x = 0; x < length; ++x) {
+      const int a = x - radius, b = std::min(x + radius, length - 1);
+      if (a < 0) at(x) = prefix[std::size_t(b)];
+      else if (a >= last_block) at(x) = suffix[std::size_t(a)];
+      else at(x) = suffix[std::size_t(a)] | prefix[std::size_t(b)];
+    }
   }
-  return near;
+}
+
+/// Which labels each pixel may take under the label window, into k.near: label c within `radius` pixels
+/// (Chebyshev distance) of a pixel whose MAP label is c. Returns the sets.
+LabelSets labels_near(std::size_t C, int W, int H, int radius, SmoothCache& k) {
+  const std::size_t n = k.map.size(), planes = (C + 63) / 64;
+  k.near.assign(planes * n, 0);
+  for (std::size_t i = 0; i < n; ++i) k.near[(k.map[i] >> 6) * n + i] = std::uint64_t(1) << (k.map[i] & 63);
+  for (std::size_t p = 0; p < planes; ++p) {
+    std::uint64_t* plane = k.near.data() + p * n;
+    or_dilate_lines(plane, H, W, 1, W, radius, k.prefix, k.suffix);  // along the rows, then the columns
+    or_dilate_lines(plane, W, H, W, 1, radius, k.prefix, k.suffix);
+  }
+  return {k.near.data(), n};
+}
+
+/// Per pixel, the MAP label (the largest value, ties to the lowest label), its cost and the values' sum.
+void map_labels(std::span<const float> dists, std::size_t C, std::size_t n, const SmoothOptions& opt,
+                SmoothCache& k) {
+  const double cap = -std::log(opt.p_min);
+  k.map.resize(n);
+  k.map_cost.resize(n);
+  k.sum.resize(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const float* d = dists.data() + i * C;
+    const double s = checked_sum(d, C, i);
+    const auto m = std::size_t(std::max_element(d, d + C) - d);
+    k.map[i] = static_cast<std::uint8_t>(m);
+    k.map_cost[i] = unary_cost(d[m], s, C, opt.p_min, cap);
+    k.sum[i] = s;
+  }
+}
+
+/// A node per pixel that may take more than one label (k.node_of, k.pixel_of). Returns the pixel-label
+/// pairs allowed, summed over the pixels.
+std::int64_t list_nodes(const LabelSets& near, std::size_t C, SmoothCache& k) {
+  const std::size_t n = near.n, planes = (C + 63) / 64;
+  k.node_of.assign(n, -1);
+  k.pixel_of.clear();
+  std::int64_t allowed = 0;
+  for (std::size_t i = 0; i < n; ++i) {
+    int count = 0;
+    for (std::size_t p = 0; p < planes; ++p) count += std::popcount(near.bits[p * n + i]);
+    allowed += count;
+    if (count > 1) {
+      k.node_of[i] = static_cast<int>(k.pixel_of.size());
+      k.pixel_of.push_back(static_cast<int>(i));
+    }
+  }
+  return allowed;
 }
 
 /// The label window's energy: a node per pixel that may take more than one label (the others are held
@@ -195,42 +272,24 @@ std::vector<cv::Mat> labels_near(const std::vector<std::uint8_t>& map, std::size
 /// and the pixel-label pairs allowed in `allowed`.
 double fill_window_energy(std::span<const float> dists, std::size_t C, const cv::Mat& image, const SmoothOptions& opt,
                           double beta, SmoothCache& k, std::int64_t& allowed) {
-  const int W = image.cols, H = image.rows;
   const std::size_t n = image.total();
   const double cap = -std::log(opt.p_min);
-  k.map.resize(n);
-  k.map_cost.resize(n);
-  for (std::size_t i = 0; i < n; ++i) {  // the MAP label: the largest value, ties to the lowest label
-    const float* d = dists.data() + i * C;
-    const double s = checked_sum(d, C, i);
-    const auto m = std::size_t(std::max_element(d, d + C) - d);
-    k.map[i] = static_cast<std::uint8_t>(m);
-    k.map_cost[i] = unary_cost(d[m], s, C, opt.p_min, cap);
-  }
-  const std::vector<cv::Mat> near = labels_near(k.map, C, W, H, opt.label_window);
-  k.node_of.assign(n, -1);
-  k.pixel_of.clear();
-  allowed = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    int count = 0;
-    for (std::size_t c = 0; c < C; ++c) count += near[c].data[i] ? 1 : 0;
-    allowed += count;
-    if (count > 1) {
-      k.node_of[i] = static_cast<int>(k.pixel_of.size());
-      k.pixel_of.push_back(static_cast<int>(i));
-    }
-  }
+  map_labels(dists, C, n, opt, k);
+  const LabelSets near = labels_near(C, image.cols, image.rows, opt.label_window, k);
+  allowed = list_nodes(near, C, k);
   features::PottsEnergy& e = k.e;
   const std::size_t nodes = k.pixel_of.size();
   e.nodes = static_cast<int>(nodes);
   e.labels = static_cast<int>(C);
-  e.unary.resize(nodes * C);
+  e.unary.assign(nodes * C, 0.0);  // the costs of labels outside the window are set below
   e.edges.clear();
   k.incident.assign(nodes, 0.0);
   double held = 0;
   for (std::size_t v = 0; v < nodes; ++v) {
     const auto i = std::size_t(k.pixel_of[v]);
-    pixel_costs(dists.data() + i * C, C, i, opt.p_min, cap, e.unary.data() + v * C);
+    const float* d = dists.data() + i * C;
+    for (std::size_t c = 0; c < C; ++c)
+      if (near.has(i, c)) e.unary[v * C + c] = unary_cost(d[c], k.sum[i], C, opt.p_min, cap);
   }
   for (std::size_t i = 0; i < n; ++i)
     if (k.node_of[i] < 0) held += k.map_cost[i];
@@ -260,9 +319,9 @@ double fill_window_energy(std::span<const float> dists, std::size_t C, const cv:
     double* u = e.unary.data() + v * C;
     double highest = u[k.map[i]];
     for (std::size_t c = 0; c < C; ++c)
-      if (near[c].data[i]) highest = std::max(highest, u[c]);
+      if (near.has(i, c)) highest = std::max(highest, u[c]);
     for (std::size_t c = 0; c < C; ++c)
-      if (!near[c].data[i]) u[c] = highest + k.incident[v] + 1.0;
+      if (!near.has(i, c)) u[c] = highest + k.incident[v] + 1.0;
     k.labelling[v] = k.map[i];
   }
   return held;

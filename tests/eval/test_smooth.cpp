@@ -188,6 +188,37 @@ TEST(Smooth, ANarrowLabelWindowGivesOnlyLabelsMappedNearbyAndReportsTheFrameEner
   }
 }
 
+TEST(Smooth, TheLabelWindowAllowsEachPixelExactlyTheMapLabelsWithinItsRadius) {
+  // 70 classes (two 64-label planes) with random MAP labels on a 23x17 frame, whose sides are not
+  // multiples of the dilation's blocks: the pixel-label pairs allowed equal a brute-force count of the
+  // distinct MAP labels in each pixel's (2R + 1)-square, clipped to the frame, for radii from one pixel
+  // to more than the frame.
+  const int W = 23, H = 17, C = 70;
+  std::mt19937_64 g(12);
+  std::uniform_int_distribution<int> label(0, C - 1);
+  cv::Mat map(H, W, CV_8UC1), image(H, W, CV_8UC1, cv::Scalar(90));
+  std::vector<float> dists(std::size_t(W) * H * C, 0.1f);
+  for (int i = 0; i < W * H; ++i) {
+    map.data[i] = static_cast<std::uint8_t>(label(g) % (i % 3 == 0 ? C : 5 + 64 * (i % 2)));  // some runs share labels
+    dists[std::size_t(i) * C + map.data[i]] = 1.0f;
+  }
+  for (int radius : {1, 2, 3, 5, 8, 40}) {
+    std::int64_t expected = 0;
+    for (int y = 0; y < H; ++y)
+      for (int x = 0; x < W; ++x) {
+        std::vector<bool> seen(C, false);
+        for (int v = std::max(0, y - radius); v <= std::min(H - 1, y + radius); ++v)
+          for (int u = std::max(0, x - radius); u <= std::min(W - 1, x + radius); ++u) seen[map.at<std::uint8_t>(v, u)] = true;
+        expected += std::count(seen.begin(), seen.end(), true);
+      }
+    eval::SmoothOptions opt = graph_cut(1);
+    opt.label_window = radius;
+    eval::SmoothReport rep;
+    eval::smooth_labels(dists, C, image, opt, &rep);
+    EXPECT_EQ(rep.allowed_labels, expected) << "radius " << radius;
+  }
+}
+
 TEST(Smooth, ALabelThatIsNoNearbyPixelsMapLabelIsNeverGiven) {
   // A checkerboard of MAP labels 0 and 1 (0.5 / 0.05) over a flat image, with label 2 second everywhere
   // (0.45): plain alpha-expansion gives the whole board label 2, the label window keeps it out.
