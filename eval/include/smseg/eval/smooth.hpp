@@ -34,7 +34,7 @@ struct SmoothOptions {
   double lambda = 1.0;       ///< weight of the smoothness term (unary costs are in nats), >= 0
   int connectivity = 8;      ///< 4 or 8
   /// At most this many alpha-expansion cycles, 1..100. One by default: on CamVid val the first cycle
-  /// gave ~99.8 % of the energy drop of three and the same scores to 0.04 points (docs/graphcuts.md).
+  /// gave ~99.8 % of the energy drop of three and the same scores to 0.05 points (docs/graphcuts.md).
   int cycles = 1;
   double p_min = 1e-3;       ///< posterior floor of the unary cost (caps it at -log p_min), in (0, 1)
   /// A pixel may take only the labels that are some pixel's MAP label within this many pixels of it
