@@ -180,8 +180,14 @@ void fill_pixel_energy(std::span<const float> dists, std::size_t C, const cv::Ma
 /// lies in plane w (`bits[w * n + i]`), so that one plane is a frame of 64-bit words.
 struct LabelSets {
   std::uint64_t* bits;
-  std::size_t n;
+  std::size_t n, planes;
+  static std::size_t planes_for(std::size_t labels) { return (labels + 63) / 64; }
   bool has(std::size_t i, std::size_t c) const { return (bits[(c >> 6) * n + i] >> (c & 63)) & 1; }
+  int count(std::size_t i) const {
+    int labels = 0;
+    for (std::size_t p = 0; p < planes; ++p) labels += std::popcount(bits[p * n + i]);
+    return labels;
+  }
 };
 
 /// ORs each element with its neighbours within `radius` along `lines` lines of `length` elements `step`
@@ -216,7 +222,7 @@ void or_dilate_lines(std::uint64_t* data, int lines, int length, std::ptrdiff_t 
 /// Which labels each pixel may take under the label window, into k.near: label c within `radius` pixels
 /// (Chebyshev distance) of a pixel whose MAP label is c. Returns the sets.
 LabelSets labels_near(std::size_t C, int W, int H, int radius, SmoothCache& k) {
-  const std::size_t n = k.map.size(), planes = (C + 63) / 64;
+  const std::size_t n = k.map.size(), planes = LabelSets::planes_for(C);
   k.near.assign(planes * n, 0);
   for (std::size_t i = 0; i < n; ++i) k.near[(k.map[i] >> 6) * n + i] = std::uint64_t(1) << (k.map[i] & 63);
   for (std::size_t p = 0; p < planes; ++p) {
@@ -224,7 +230,7 @@ LabelSets labels_near(std::size_t C, int W, int H, int radius, SmoothCache& k) {
     or_dilate_lines(plane, H, W, 1, W, radius, k.prefix, k.suffix);  // along the rows, then the columns
     or_dilate_lines(plane, W, H, W, 1, radius, k.prefix, k.suffix);
   }
-  return {k.near.data(), n};
+  return {k.near.data(), n, planes};
 }
 
 /// Per pixel, the MAP label (the largest value, ties to the lowest label), its cost and the values' sum.
@@ -246,14 +252,13 @@ void map_labels(std::span<const float> dists, std::size_t C, std::size_t n, cons
 
 /// A node per pixel that may take more than one label (k.node_of, k.pixel_of). Returns the pixel-label
 /// pairs allowed, summed over the pixels.
-std::int64_t list_nodes(const LabelSets& near, std::size_t C, SmoothCache& k) {
-  const std::size_t n = near.n, planes = (C + 63) / 64;
+std::int64_t list_nodes(const LabelSets& near, SmoothCache& k) {
+  const std::size_t n = near.n;
   k.node_of.assign(n, -1);
   k.pixel_of.clear();
   std::int64_t allowed = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    int count = 0;
-    for (std::size_t p = 0; p < planes; ++p) count += std::popcount(near.bits[p * n + i]);
+    const int count = near.count(i);
     allowed += count;
     if (count > 1) {
       k.node_of[i] = static_cast<int>(k.pixel_of.size());
@@ -276,7 +281,7 @@ double fill_window_energy(std::span<const float> dists, std::size_t C, const cv:
   const double cap = -std::log(opt.p_min);
   map_labels(dists, C, n, opt, k);
   const LabelSets near = labels_near(C, image.cols, image.rows, opt.label_window, k);
-  allowed = list_nodes(near, C, k);
+  allowed = list_nodes(near, k);
   features::PottsEnergy& e = k.e;
   const std::size_t nodes = k.pixel_of.size();
   e.nodes = static_cast<int>(nodes);

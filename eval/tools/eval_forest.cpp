@@ -90,7 +90,8 @@ int main(int argc, char** argv) {
   app.add_option("--lambda", opt.smooth.lambda, "weight of the graph-cut smoothness term (0: per-pixel MAP)")
       ->capture_default_str();
   app.add_option("--connectivity", opt.smooth.connectivity, "graph-cut grid: 4 or 8 neighbours")->capture_default_str();
-  app.add_option("--smooth-cycles", opt.smooth.cycles, "at most this many alpha-expansion cycles (each tries every label once)")
+  app.add_option("--smooth-cycles", opt.smooth.cycles,
+                 "at most this many alpha-expansion cycles (each tries every label once)")
       ->capture_default_str();
   app.add_option("--smooth-window", opt.smooth.label_window,
                  "graph cut: a pixel may take only the labels that are the per-pixel MAP label somewhere within "

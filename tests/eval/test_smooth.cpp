@@ -208,7 +208,8 @@ TEST(Smooth, TheLabelWindowAllowsEachPixelExactlyTheMapLabelsWithinItsRadius) {
       for (int x = 0; x < W; ++x) {
         std::vector<bool> seen(C, false);
         for (int v = std::max(0, y - radius); v <= std::min(H - 1, y + radius); ++v)
-          for (int u = std::max(0, x - radius); u <= std::min(W - 1, x + radius); ++u) seen[map.at<std::uint8_t>(v, u)] = true;
+          for (int u = std::max(0, x - radius); u <= std::min(W - 1, x + radius); ++u)
+            seen[map.at<std::uint8_t>(v, u)] = true;
         expected += std::count(seen.begin(), seen.end(), true);
       }
     eval::SmoothOptions opt = graph_cut(1);
