@@ -82,6 +82,7 @@ Classifier::Classifier(const Forest& forest)
     }
   }
   build_compact(forest);
+  set_simd(true);
 }
 
 void Classifier::check_frame(const FrameData& frame) const {
@@ -183,12 +184,15 @@ void Classifier::classify_tiles(const FrameData& frame, const Tables& tables, st
                                 std::span<float> dists) const {
   const std::size_t C = static_cast<std::size_t>(num_classes_);
   // Tiles of pixels, each labelled as one set; the output does not depend on the tiling.
-  const int tiles_x = (width_ + kTileWidth - 1) / kTileWidth, tiles_y = (height_ + kTileHeight - 1) / kTileHeight;
+  const int tiles_x = (width_ + kTileWidth - 1) / kTileWidth;
+  const int bands = 2 * ((height_ + 2 * kTileHeightMax - 1) / (2 * kTileHeightMax));
+  const int tile_height = (height_ + bands - 1) / bands;
+  const int tiles_y = (height_ + tile_height - 1) / tile_height;
   tbb::parallel_for(tbb::blocked_range<int>(0, tiles_x * tiles_y), [&](const tbb::blocked_range<int>& r) {
     Scratch s;
     for (int tile = r.begin(); tile != r.end(); ++tile) {
-      const int x0 = tile % tiles_x * kTileWidth, y0 = tile / tiles_x * kTileHeight;
-      const int x1 = std::min(width_, x0 + kTileWidth), y1 = std::min(height_, y0 + kTileHeight);
+      const int x0 = tile % tiles_x * kTileWidth, y0 = tile / tiles_x * tile_height;
+      const int x1 = std::min(width_, x0 + kTileWidth), y1 = std::min(height_, y0 + tile_height);
       const std::size_t tw = static_cast<std::size_t>(x1 - x0), m = tw * static_cast<std::size_t>(y1 - y0);
       s.xs.resize(m);
       s.ys.resize(m);

@@ -13,6 +13,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
+#include "forest_split.hpp"
 
 namespace smseg::forest {
 
@@ -26,6 +27,8 @@ constexpr std::size_t kLanes = 16;
 // than this (bench_eval: CamVid's 8.3 MB gain, the synthetic 320x240 frame's 3.7 MB lose).
 constexpr std::size_t kPrefetchTableBytes = std::size_t(6) << 20;
 }  // namespace
+
+void Classifier::set_simd(bool on) { simd_ = on && detail::split_avx512_available(); }
 
 void Classifier::build_compact(const Forest& forest) {
   compact_.reserve(nodes_.size());
@@ -184,6 +187,14 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
     }
     const std::uint32_t attr = c.next & 0xffu;
     const float threshold = c.threshold;
+    const std::uint32_t left_child = c.next >> 9;
+    if (simd_ && !(textons_ && attr >= F)) {
+      const detail::WindowCorners corners{c.y0 * S + c.x0, c.y0 * S + c.x1, c.y1 * S + c.x0, c.y1 * S + c.x1};
+      const std::uint32_t l = detail::split_avx512(a, right, r.b, r.e, tables.at[attr], corners, threshold);
+      s.runs.push_back({left_child + 1, l, r.e});
+      s.runs.push_back({left_child, r.b, l});
+      continue;
+    }
     if (textons_ && attr >= F) {
       for (std::uint32_t i = r.b; i < r.e; ++i)
         goes_right[i] = !(texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
@@ -208,7 +219,6 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
       k += to_right;
     }
     std::copy(right, right + k, a + l);
-    const std::uint32_t left_child = c.next >> 9;
     s.runs.push_back({left_child + 1, l, r.e});
     s.runs.push_back({left_child, r.b, l});
   }
@@ -252,6 +262,10 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
   }
   std::uint8_t* labels = s.labels.data();
   float* dists = with_dists ? s.dists.data() : nullptr;
+  if (simd_ && Cp <= 16) {
+    detail::sum_votes_avx512(leaf_probs_.data(), Cp, C, s.leaf.data(), n, M, labels, dists);
+    return;
+  }
   // Summed distributions, trees in order (the same float sums as posterior()), then the MAP class.
   float acc[kMaxClasses + 4];
   const float* probs = leaf_probs_.data();

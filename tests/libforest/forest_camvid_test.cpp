@@ -89,22 +89,28 @@ TEST(ClassifierCamVid, FastPathEqualsThePerPixelReferenceOnACamVidSizeForest) {
     EXPECT_GT(t.depth, 15);
   }
 
-  const Classifier clf(forest);
+  Classifier clf(forest);
   const FrameData frame = frames.back().view();
   const std::size_t C = forest.classes.size(), n = static_cast<std::size_t>(frame.width) * frame.height;
-  std::vector<std::uint8_t> labels(n);
-  std::vector<float> dists(n * C), ref(C);
-  clf.classify_frame(frame, labels, dists);
-  std::size_t label_mismatches = 0, dist_mismatches = 0;
-  for (int y = 0; y < frame.height; ++y)
-    for (int x = 0; x < frame.width; ++x) {
-      const std::size_t i = static_cast<std::size_t>(y) * frame.width + x;
-      label_mismatches += clf.posterior(frame, x, y, ref.data()) != labels[i];
-      for (std::size_t c = 0; c < C; ++c) dist_mismatches += ref[c] != dists[i * C + c];
-    }
-  // The same double sums and float thresholds: bit for bit, on every pixel.
-  EXPECT_EQ(label_mismatches, 0u);
-  EXPECT_EQ(dist_mismatches, 0u);
+  // Both ways of splitting a whole frame's pixels (AVX-512 where the processor has it, and the
+  // scalar loop), each against the per-pixel reference.
+  for (const bool simd : {true, false}) {
+    clf.set_simd(simd);
+    SCOPED_TRACE(clf.simd() ? "AVX-512 splits" : "scalar splits");
+    std::vector<std::uint8_t> labels(n);
+    std::vector<float> dists(n * C), ref(C);
+    clf.classify_frame(frame, labels, dists);
+    std::size_t label_mismatches = 0, dist_mismatches = 0;
+    for (int y = 0; y < frame.height; ++y)
+      for (int x = 0; x < frame.width; ++x) {
+        const std::size_t i = static_cast<std::size_t>(y) * frame.width + x;
+        label_mismatches += clf.posterior(frame, x, y, ref.data()) != labels[i];
+        for (std::size_t c = 0; c < C; ++c) dist_mismatches += ref[c] != dists[i * C + c];
+      }
+    // The same double sums and float thresholds: bit for bit, on every pixel.
+    EXPECT_EQ(label_mismatches, 0u);
+    EXPECT_EQ(dist_mismatches, 0u);
+  }
 }
 
 }  // namespace

@@ -74,8 +74,10 @@ Forest random_forest(const SyntheticData& s, std::uint64_t seed, bool textons, i
   return f;
 }
 
-void expect_matches_reference(const Forest& f, const SyntheticData& s) {
-  const Classifier clf(f);
+// simd: whether whole frames may split their pixels with AVX-512 (where the processor has it).
+void expect_matches_reference(const Forest& f, const SyntheticData& s, bool simd = true) {
+  Classifier clf(f);
+  clf.set_simd(simd);
   const std::size_t W = static_cast<std::size_t>(s.data.width), H = static_cast<std::size_t>(s.data.height);
   const std::size_t C = f.classes.size();
   std::vector<float> ref_acc;
@@ -125,6 +127,28 @@ TEST(Classifier, WholeFrameEqualsTheReferenceNearEveryBorder) {
   const SyntheticData s = frames(1, 9, false, 150, 91);
   for (std::uint64_t seed = 11; seed <= 14; ++seed)
     expect_matches_reference(random_forest(s, seed, seed % 2 == 0, seed <= 12 ? 3 : 0), s);
+}
+
+TEST(Classifier, ScalarSplitsEqualTheReferenceToo) {
+  // Where the processor has AVX-512 the tests above check its splits; these check the scalar loop
+  // that runs everywhere else (and on any processor with set_simd(false)).
+  const SyntheticData train = frames(3, 1, true), test = frames(2, 2, false), border = frames(1, 9, false, 150, 91);
+  TrainParams p;
+  p.K = 150;
+  p.M = 4;
+  expect_matches_reference(train_forest(train.data, p), test, false);
+  for (std::uint64_t seed = 11; seed <= 14; ++seed)
+    expect_matches_reference(random_forest(border, seed, seed % 2 == 0, seed <= 12 ? 3 : 0), border, false);
+}
+
+TEST(Classifier, AvxSplitsAreOnlyWhereTheProcessorHasThem) {
+  const SyntheticData s = frames(1, 3, false);
+  Classifier clf(random_forest(s, 1, false));
+  const bool available = clf.simd();  // on by default where available
+  clf.set_simd(false);
+  EXPECT_FALSE(clf.simd());
+  clf.set_simd(true);
+  EXPECT_EQ(clf.simd(), available);
 }
 
 TEST(Classifier, PixelListsAndSinglePixelsAgreeWithWholeFrames) {

@@ -21,6 +21,14 @@ struct Pixel {
   int x = 0, y = 0;
 };
 
+namespace detail {
+/// A pixel in partition_tree's runs (forest_tiles.cpp; split_avx512 reads it as one 64-bit lane).
+struct RoutedPixel {
+  std::int32_t cell;  // y * stride + x: the pixel's cell in the tables
+  std::int32_t at;    // its place in the set (Scratch::xs[at], Scratch::ys[at])
+};
+}  // namespace detail
+
 class Classifier {
  public:
   explicit Classifier(const Forest& forest);
@@ -47,6 +55,12 @@ class Classifier {
   /// Error when the frame does not fit the forest (size, number of tables, greyscale for textons).
   void check_frame(const FrameData& frame) const;
 
+  /// Whether whole frames split their pixels with AVX-512 (on by default where the processor has it;
+  /// the same labels and distributions either way, bit for bit). For tests and benchmarks: asking
+  /// for it where the processor lacks it leaves it off.
+  bool simd() const { return simd_; }
+  void set_simd(bool on);
+
  private:
   struct PackedNode {
     std::int16_t x0, x1, y0, y1;  // window rectangle relative to the pixel (textons: x0, y0 = offset)
@@ -69,10 +83,7 @@ class Classifier {
     std::vector<std::int32_t> xs, ys;  // the set's pixels
     std::vector<std::uint32_t> index;  // after order_inside_first: each pixel's place in the caller's order
     std::vector<std::int32_t> leaf;    // leaf row per tree and pixel: leaf[t * n + i]
-    struct Routed {
-      std::int32_t cell;   // y * stride + x: the pixel's cell in the tables
-      std::int32_t at;     // its place in the set (s.xs[at], s.ys[at])
-    };
+    using Routed = detail::RoutedPixel;
     std::vector<Routed> routed, right;  // partition_tree's runs, and the right-hand side of a split
     std::vector<std::uint8_t> goes_right;  // partition_tree: each pixel's test outcome at the node
     struct Run {
@@ -87,8 +98,10 @@ class Classifier {
   /// first; s.index keeps where each came from. Returns how many are inside.
   std::size_t order_inside_first(Scratch& s, std::size_t n) const;
   // Whole frames: tiles of pixels per task, whole rows wide (a set of many pixels spreads each node's
-  // fixed cost over more of them; 24 rows give 15 tasks on a 360-row frame).
-  static constexpr int kTileWidth = 512, kTileHeight = 24;
+  // fixed cost over more of them), in an even number of bands of equal height, at most
+  // kTileHeightMax rows (bench_eval on the CamVid-size forest: 45-row bands ~10 % faster than 24-row
+  // ones; an even count keeps two threads equally busy: 8 bands on a 360-row frame, 6 on 240 rows).
+  static constexpr int kTileWidth = 512, kTileHeightMax = 45;
   /// The tables an "inside" pixel reads without clipping: one pointer per attribute to the cell of
   /// pixel (0, 0), and the row stride (the frame's own tables, or PaddedTables).
   struct Tables {
@@ -145,6 +158,7 @@ class Classifier {
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
+  bool simd_ = false;  // partition_tree's splits by split_avx512 (forest_split.hpp)
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;  // the trees as in the file (posterior(): the reference path)
   int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image

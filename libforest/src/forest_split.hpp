@@ -1,0 +1,34 @@
+#pragma once
+// One split of partition_tree (forest_tiles.cpp) with AVX-512: eight pixels' window tests at once
+// (one load or one gather per corner, the same double arithmetic and float comparison as the scalar
+// loop) and the stable partition by compress, so the outcome is the scalar split's, bit for bit. Compiled for AVX-512 by a function attribute and called only where the processor has
+// it (split_avx512_available), so the library runs on any x86-64 (and builds elsewhere without it).
+#include <cstddef>
+#include <cstdint>
+
+#include "smseg/forest/classify.hpp"
+
+namespace smseg::forest::detail {
+
+/// Whether this processor runs split_avx512 (AVX-512 F, VL and DQ).
+bool split_avx512_available();
+
+/// The four corners of a window relative to a pixel's cell, as offsets into its table.
+struct WindowCorners {
+  std::ptrdiff_t top_a, top_b, bot_a, bot_b;  // value = (bot_b - top_b) - (bot_a - top_a)
+};
+
+/// Splits the run a[b, e) stably: the pixels whose value at `table` (from their cell) is below
+/// `threshold` stay first, in order, the others follow, in order. `right` has room for e - b
+/// pixels. Returns the first pixel of the right-hand side.
+std::uint32_t split_avx512(RoutedPixel* a, RoutedPixel* right, std::uint32_t b, std::uint32_t e,
+                           const double* table, const WindowCorners& corners, float threshold);
+
+/// classify_set's votes with AVX-512, for forests of at most 16 classes: per pixel i < n, the leaf
+/// distributions leaf[t * n + i] (rows of `probs`, `padded` floats each) summed over the trees t < M
+/// in order, as float (the scalar loop's sums, lane by lane), and the first class of the largest sum;
+/// labels[i], and dists[i * classes + c] unless dists is null.
+void sum_votes_avx512(const float* probs, std::size_t padded, std::size_t classes, const std::int32_t* leaf,
+                      std::size_t n, std::size_t M, std::uint8_t* labels, float* dists);
+
+}  // namespace smseg::forest::detail
