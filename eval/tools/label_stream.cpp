@@ -178,7 +178,7 @@ int main(int argc, char** argv) {
       "second, latency, milliseconds per stage); OUT is built beside itself and swapped in whole at the end.\n"
       "Ctrl-C stops after the current frame and still writes everything.",
       "label-stream"};
-  std::string seq_dir, forest_file, out, frames = "0:", stereo = "bm", detector = "sift", tracker = "descriptors",
+  std::string seq_dir, forest_file, out, frames = "0:", stereo = "bm", detector = "auto", tracker = "klt",
       superpixels, vote = "sum", cameras, side_by_side, video;
   eval::StreamOptions opt;
   int threads = 0, max_frames = 0, in_flight = 3;
@@ -213,13 +213,15 @@ int main(int argc, char** argv) {
   app.add_option("--num-disparities", opt.front_end.stereo.num_disparities, "disparity search range, multiple of 16")
       ->capture_default_str();
   app.add_option("--block-size", opt.front_end.stereo.block_size, "matching window side (odd)")->capture_default_str();
-  app.add_option("--keypoints", detector, "keypoint detector: sift | orb | akaze | gftt (klt only)")
+  app.add_option("--keypoints", detector,
+                 "keypoint detector: auto (gftt with the klt tracker, sift with descriptors) | sift | orb | akaze |\n"
+                 "gftt (klt only)")
       ->capture_default_str();
   app.add_option("--max-keypoints", opt.front_end.tracking.max_keypoints, "strongest keypoints kept per frame")
       ->capture_default_str();
   app.add_option("--gftt-quality", opt.front_end.tracking.gftt_quality, "gftt: relative corner strength kept")
       ->capture_default_str();
-  app.add_option("--tracker", tracker, "descriptors | klt")->capture_default_str();
+  app.add_option("--tracker", tracker, "klt | descriptors (extract-features's default is klt too)")->capture_default_str();
   app.add_option("--min-track-frames", opt.front_end.filters.min_frames,
                  "a track's points are used once it has lived this many frames")
       ->capture_default_str();
@@ -238,8 +240,8 @@ int main(int argc, char** argv) {
     opt.front_end.stereo.method = features::parse_stereo_method(stereo, "--stereo");
     if (opt.front_end.stereo.method == features::StereoMethod::Given)
       throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm or sgbm");
-    opt.front_end.tracking.detector = features::parse_keypoint_method(detector, "--keypoints");
     opt.front_end.tracker = features::parse_frame_tracker(tracker, "--tracker");
+    opt.front_end.tracking.detector = features::parse_keypoint_method(detector, opt.front_end.tracker, "--keypoints");
     opt.front_end.refine.enabled = !no_refine;
     opt.front_end.progress = false;
     if (app.count("--camera-height")) {

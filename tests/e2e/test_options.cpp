@@ -125,7 +125,7 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"label-stream", {"{S} {F} -o {O} --cameras 0", 2, "--cameras"}},
       {"label-stream", {"{S} {F} -o {O} --stereo given", 2, "--stereo"}},
       {"label-stream", {"{S} {F} -o {O} --min-track-frames 0", 2, "--min-track-frames"}},
-      {"label-stream", {"{S} {F} -o {O} --keypoints gftt", 2, "--keypoints"}},
+      {"label-stream", {"{S} {F} -o {O} --keypoints gftt --tracker descriptors", 2, "--keypoints"}},
       {"label-stream", {"{S} {F} -o {O} --overlay-video a/b.avi", 2, "--overlay-video"}},
       {"label-stream", {"{S} {F} -o {O} --side-by-side /nonexistent/rig.avi", 1, "rig.avi"}},
       {"label-stream", {"{S} {F} -o {O} --video-fps 0", 2, "--video-fps"}},

@@ -75,7 +75,9 @@ TEST(SegmentCloudTool, SaliencySeededMrfOnTheTabletopSequence) {
   r = run(tool("check-sequence") + " " + seq.string());
   ASSERT_EQ(r.status, 0) << r.out;
   EXPECT_NE(r.out.find("4 instance images"), std::string::npos) << r.out;
-  r = run(tool("extract-features") + " -q " + seq.string() + " -o " + work.string());
+  // The cloud of the descriptor tracker, which the figures of docs/graphcuts.md were measured on (with
+  // the default KLT tracks objects 2 and 3 fall to F1 0.00 and 0.84 on this frame: docs/graphcuts.md).
+  r = run(tool("extract-features") + " -q " + seq.string() + " -o " + work.string() + " --tracker descriptors");
   ASSERT_EQ(r.status, 0) << r.out;
   ASSERT_TRUE(fs::exists(work / "cloud.pcd"));
 

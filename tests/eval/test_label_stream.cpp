@@ -128,7 +128,7 @@ TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
 // sequences, which OpenCV opens as videos, of the same grey frames) it writes the labels eval-forest
 // writes for the causal work folder, and a summary with its speed.
 TEST_F(LabelStream, ToolLabelsFoldersSideBySideVideoAndTwoCamerasAlike) {
-  const StreamCase c{"tool", features::FrameTracker::Descriptors, features::KeypointMethod::Sift};
+  const StreamCase c{"tool", features::FrameTracker::Klt, features::KeypointMethod::Gftt};  // the tools' defaults
   const fs::path work = dir / "work-tool", forest_file = dir / "forest-tool.json";
   forest::save_forest(causal_forest(c, work), forest_file);
 

@@ -38,7 +38,7 @@ void take(const py::dict& options, const char* key, T& out) {
 
 features::ExtractOptions extract_options(const py::dict& o) {
   features::ExtractOptions opt;
-  std::string motion = "auto", stereo = "bm", keypoints = "sift", tracker = "auto", frames = ":";
+  std::string motion = "auto", stereo = "bm", keypoints = "auto", tracker = "auto", frames = ":";
   take(o, "motion", motion);
   take(o, "stereo", stereo);
   take(o, "keypoints", keypoints);
@@ -54,11 +54,12 @@ features::ExtractOptions extract_options(const py::dict& o) {
   opt.front_end.gravity.method = features::parse_gravity_method(gravity, "gravity");
   opt.motion = features::parse_motion_method(motion, "motion");
   opt.front_end.stereo.method = features::parse_stereo_method(stereo, "stereo");
-  opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, "keypoints");
-  opt.sfm.tracking.detector = opt.front_end.tracking.detector;
+  opt.front_end.tracker = tracker == "auto" ? features::FrameTracker::Klt : features::parse_frame_tracker(tracker, "tracker");
+  opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, opt.front_end.tracker, "keypoints");
+  opt.sfm.tracking.detector =
+      keypoints == "auto" ? features::KeypointMethod::Sift : features::parse_keypoint_method(keypoints, "keypoints");
   if (o.contains("max_keypoints")) opt.front_end.tracking.max_keypoints = opt.sfm.tracking.max_keypoints = o["max_keypoints"].cast<int>();
   opt.sfm.tracker = features::parse_sfm_tracker(tracker, "tracker");
-  opt.front_end.tracker = tracker == "auto" ? features::FrameTracker::Descriptors : features::parse_frame_tracker(tracker, "tracker");
   if (o.contains("camera_height")) opt.front_end.camera_height = o["camera_height"].cast<double>();
   if (o.contains("focal")) opt.sfm.focal = o["focal"].cast<double>();
   opt.frames = features::FrameRange::parse(frames, "frames");

@@ -39,6 +39,14 @@ FrameTracker parse_frame_tracker(const std::string& name, const std::string& fie
 
 const char* frame_tracker_name(FrameTracker t) { return t == FrameTracker::Klt ? "klt" : "descriptors"; }
 
+KeypointMethod default_keypoints(FrameTracker t) {
+  return t == FrameTracker::Klt ? KeypointMethod::Gftt : KeypointMethod::Sift;
+}
+
+KeypointMethod parse_keypoint_method(const std::string& name, FrameTracker tracker, const std::string& field) {
+  return name == "auto" ? default_keypoints(tracker) : parse_keypoint_method(name, field);
+}
+
 void KltOptions::validate(const std::string& prefix) const {
   if (window < 5 || window > 101) throw Error("", prefix + ".klt_window", "must be in 5..101");
   if (!(max_backward_px > 0)) throw Error("", prefix + ".klt_max_backward_px", "must be positive");

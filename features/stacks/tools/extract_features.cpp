@@ -16,8 +16,8 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Run the front end of a sequence and write its feature stacks (thesis 3.2.2, 3.2.3, 3.2.6).\n"
       "Stereo (default for stereo sequences): disparity (block matching with a left-right check by\n"
-      "default), keypoints matched frame to frame (symmetric nearest neighbours; or followed by KLT with\n"
-      "--tracker klt), tracks and their\n"
+      "default), Shi-Tomasi corners followed frame to frame by KLT (or SIFT keypoints matched by\n"
+      "symmetric nearest neighbours, the thesis's way, with --tracker descriptors), tracks and their\n"
       "filters, camera motion (Arun SVD in RANSAC). Monocular structure from motion (always for mono\n"
       "sequences, --motion sfm for the left images of a stereo one): KLT or descriptor tracks, focal\n"
       "length from --focal, the manifest or self-calibration, essential-matrix initialisation, PnP, key\n"
@@ -30,7 +30,7 @@ int main(int argc, char** argv) {
       "frames; frames already written are skipped unless --force: a killed or failed run resumes, keeping\n"
       "every stack on disk made with the same options from the same sequence (the front end runs again).",
       "extract-features"};
-  std::string seq_dir, work, frames = "0:", stereo = "bm", detector = "sift", preview, motion = "auto",
+  std::string seq_dir, work, frames = "0:", stereo = "bm", detector = "auto", preview, motion = "auto",
       tracker = "auto", height_reference = "auto";
   ExtractOptions opt;
   int threads = 0;
@@ -51,7 +51,9 @@ int main(int argc, char** argv) {
       ->capture_default_str();
   app.add_option("--block-size", opt.front_end.stereo.block_size, "matching window side (odd)")->capture_default_str();
   app.add_option("--keypoints", detector,
-                 "keypoint detector: sift | orb | akaze | gftt (Shi-Tomasi corners, no descriptors: --tracker klt only)")->capture_default_str();
+                 "keypoint detector: auto (stereo: gftt with the klt tracker, sift with descriptors; sfm: sift) |\n"
+                 "sift | orb | akaze | gftt (Shi-Tomasi corners, no descriptors: --tracker klt only)")
+      ->capture_default_str();
   app.add_option("--max-keypoints", opt.front_end.tracking.max_keypoints,
                  "strongest keypoints kept per frame (default: " + std::to_string(opt.front_end.tracking.max_keypoints) +
                      " stereo, " + std::to_string(sfm_defaults.tracking.max_keypoints) + " sfm)");
@@ -80,8 +82,9 @@ int main(int argc, char** argv) {
                  "how keypoints are followed from frame to frame: descriptors (symmetric nearest-neighbour "
                  "matching of the keypoints' descriptors; sfm: for wide baselines such as CamVid's 1 Hz runs) | klt "
                  "(pyramidal Lucas-Kanade from each point, forward-backward checked, new keypoints filling gaps; "
-                 "for video) | auto (stereo: descriptors, the thesis's matching; sfm: descriptors with whole-image "
-                 "matching and Lowe ratio 0.8 when frames are more than 0.25 s apart, else klt)")
+                 "for video) | auto (stereo: klt, which drifts less than the thesis's descriptor matching; sfm: "
+                 "descriptors with whole-image matching and Lowe ratio 0.8 when frames are more than 0.25 s apart, "
+                 "else klt)")
       ->capture_default_str();
   app.add_option("--match-radius", opt.sfm.match_radius_px,
                  "sfm, descriptors: match candidates within this many pixels; 0 = the whole image (wide baselines)")
@@ -135,14 +138,14 @@ int main(int argc, char** argv) {
       ->excludes(quiet_flag);
   return run_tool(app, argc, argv, threads, [&] {
     opt.front_end.stereo.method = parse_stereo_method(stereo, "--stereo");
-    opt.front_end.tracking.detector = parse_keypoint_method(detector, "--keypoints");
+    opt.front_end.tracker = tracker == "auto" ? FrameTracker::Klt : parse_frame_tracker(tracker, "--tracker");
+    opt.front_end.tracking.detector = parse_keypoint_method(detector, opt.front_end.tracker, "--keypoints");
     opt.motion = parse_motion_method(motion, "--motion");
-    opt.sfm.tracking.detector = opt.front_end.tracking.detector;
+    opt.sfm.tracking.detector = detector == "auto" ? KeypointMethod::Sift : parse_keypoint_method(detector, "--keypoints");
     opt.sfm.tracking.gftt_quality = opt.front_end.tracking.gftt_quality;
     if (app.count("--max-keypoints")) opt.sfm.tracking.max_keypoints = opt.front_end.tracking.max_keypoints;
     opt.sfm.filters = opt.front_end.filters;
     opt.sfm.tracker = parse_sfm_tracker(tracker, "--tracker");
-    opt.front_end.tracker = tracker == "auto" ? FrameTracker::Descriptors : parse_frame_tracker(tracker, "--tracker");
     if (app.count("--camera-height")) {
       if (!(camera_height > 0)) throw UsageError("", "--camera-height", "must be positive (metres)");
       opt.front_end.camera_height = camera_height;

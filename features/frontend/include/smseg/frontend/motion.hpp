@@ -160,10 +160,19 @@ std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, 
 // ---------------------------------------------------------------------------------------------
 // The front end.
 
+/// The stereo front end's keypoints by default: Shi-Tomasi corners for its default KLT tracker.
+inline TrackingOptions stereo_default_tracking() {
+  TrackingOptions t;
+  t.detector = default_keypoints(FrameTracker::Klt);
+  return t;
+}
+
 struct FrontEndOptions {
   StereoOptions stereo;
-  TrackingOptions tracking;
-  FrameTracker tracker = FrameTracker::Descriptors;  ///< descriptors (the thesis) or klt
+  TrackingOptions tracking = stereo_default_tracking();
+  /// klt (default since 2026-12-04: lower path error and better forests than the thesis's descriptor
+  /// matching on the synthetic corridor, lab and KITTI; docs/stereo.md) or descriptors (the thesis)
+  FrameTracker tracker = FrameTracker::Klt;
   KltOptions klt;                                    ///< used by the klt tracker
   TrackFilterOptions filters;
   RansacOptions motion;

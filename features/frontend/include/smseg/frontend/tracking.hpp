@@ -54,6 +54,12 @@ enum class FrameTracker {
 FrameTracker parse_frame_tracker(const std::string& name, const std::string& field);  ///< descriptors | klt
 const char* frame_tracker_name(FrameTracker t);
 
+/// The keypoints a tracker is best served by: Shi-Tomasi corners for KLT (positions are all it needs),
+/// SIFT for descriptor matching. The tools' `--keypoints auto`.
+KeypointMethod default_keypoints(FrameTracker t);
+/// `name` as parse_keypoint_method, or "auto": default_keypoints(tracker).
+KeypointMethod parse_keypoint_method(const std::string& name, FrameTracker tracker, const std::string& field);
+
 struct KltOptions {
   int window = 21;               ///< KLT window side, pixels (5..101)
   double max_backward_px = 0.5;  ///< forward-backward disagreement that drops a KLT match
