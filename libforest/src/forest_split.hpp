@@ -20,7 +20,9 @@ struct WindowCorners {
 
 /// Splits the run a[b, e) stably: the pixels whose value at `table` (from their cell) is below
 /// `threshold` stay first, in order, the others follow, in order. `right` has room for e - b
-/// pixels. Returns the first pixel of the right-hand side.
+/// pixels. Returns the first pixel of the right-hand side. The run's cells must increase strictly
+/// (as partition_tree's tiles do: raster order, kept by every split): eight pixels spanning seven
+/// cells are then row neighbours, read by one load per corner.
 std::uint32_t split_avx512(RoutedPixel* a, RoutedPixel* right, std::uint32_t b, std::uint32_t e,
                            const double* table, const WindowCorners& corners, float threshold);
 
