@@ -20,6 +20,7 @@ const std::vector<std::string>& known_params() {
   static const std::vector<std::string> names{
       "train", "test", "train_frames", "test_frames", "features",
       "stereo", "train_stereo", "test_stereo", "motion", "train_motion", "test_motion",
+      "tracker", "train_tracker", "test_tracker",
       "causal", "train_causal", "test_causal",
       "K", "Ks", "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score",
       "grid", "superpixels", "votes", "vote", "trees", "tolerance", "eval_seed", "label"};
@@ -227,14 +228,16 @@ Point build_point(const Raw& raw, const Experiment& ex) {
   }
 
   // Front end, per side: train_X / test_X override X.
-  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, motions{"stereo", "sfm"};
+  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, motions{"stereo", "sfm"}, trackers{"klt", "descriptors"};
   const auto side_fe = [&](const std::string& side) {
     FrontEnd fe;
     const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
     const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
     const std::string c = raw.has(side + "_causal") ? side + "_causal" : "causal";
+    const std::string t = raw.has(side + "_tracker") ? side + "_tracker" : "tracker";
     fe.stereo = raw.choice(s, "bm", stereo_methods);
     fe.motion = raw.choice(m, "stereo", motions);
+    fe.tracker = raw.choice(t, "klt", trackers);
     fe.causal = raw.boolean(c, false);
     return fe;
   };
@@ -300,7 +303,8 @@ Point build_point(const Raw& raw, const Experiment& ex) {
     bool extracted = false;
     for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
     if (!extracted) return nullptr;  // prepared work folders: their own front end
-    return key == std::string("stereo") ? json(fe.stereo) : key == std::string("motion") ? json(fe.motion) : json(fe.causal);
+    const std::string k = key;
+    return k == "stereo" ? json(fe.stereo) : k == "motion" ? json(fe.motion) : k == "tracker" ? json(fe.tracker) : json(fe.causal);
   };
   p.json = {{"train", p.train},
             {"test", p.test},
@@ -313,6 +317,8 @@ Point build_point(const Raw& raw, const Experiment& ex) {
             {"test_motion", side_json(p.test, p.test_front_end, "motion")},
             {"train_causal", side_json(p.train, p.train_front_end, "causal")},
             {"test_causal", side_json(p.test, p.test_front_end, "causal")},
+            {"train_tracker", side_json(p.train, p.train_front_end, "tracker")},
+            {"test_tracker", side_json(p.test, p.test_front_end, "tracker")},
             {"K", tp.K},
             {"Ks", tp.ks()},
             {"Kt", tp.kt()},
@@ -336,12 +342,14 @@ Point build_point(const Raw& raw, const Experiment& ex) {
 
 }  // namespace
 
-json FrontEnd::to_json() const { return {{"stereo", stereo}, {"motion", motion}, {"causal", causal}}; }
+json FrontEnd::to_json() const {
+  return {{"stereo", stereo}, {"motion", motion}, {"causal", causal}, {"tracker", tracker}};
+}
 
 json Point::training_key() const {
   nlohmann::json k;
-  for (const char* key : {"train", "train_frames", "features", "train_stereo", "train_motion", "train_causal", "K", "Ks",
-                          "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score"})
+  for (const char* key : {"train", "train_frames", "features", "train_stereo", "train_motion", "train_causal",
+                          "train_tracker", "K", "Ks", "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score"})
     k[key] = json.at(key);
   return k;
 }
@@ -355,7 +363,7 @@ std::string Point::describe() const {
     std::string v;
     if (json.contains(k)) {
       v = text(json.at(k));
-    } else {  // stereo, motion, causal: per side
+    } else {  // stereo, motion, causal, tracker: per side
       const auto& a = json.at("train_" + k);
       const auto& b = json.at("test_" + k);
       v = a == b ? text(a) : text(a) + "/" + text(b);

@@ -68,6 +68,8 @@ features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
     throw Error("", "motion", "the \"" + fe.motion + "\" front end is not available in this build");
   features::ExtractOptions o;
   o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
+  o.front_end.tracker = features::parse_frame_tracker(fe.tracker, "tracker");
+  o.front_end.tracking.detector = features::default_keypoints(o.front_end.tracker);
   o.motion = features::parse_motion_method(fe.motion, "motion");
   o.features.causal = fe.causal;
   o.progress = progress;

@@ -74,5 +74,18 @@ TEST(ThesisQuick, EveryConfigRunsInItsQuickForm) {
   std::set<std::string> labels;
   for (const auto& r : results["cross-training"]) labels.insert(r["label"].get<std::string>());
   EXPECT_EQ(labels, (std::set<std::string>{"C on C", "C on L", "L on C", "L on L"}));
+  // The tracker cases extract the corridor twice: a forest trained on KLT's stacks (the default) scores
+  // otherwise on the descriptor tracker's stacks, and the two trackers' forests differ.
+  std::map<std::pair<std::string, int>, const json*> tracker_case;
+  for (const auto& r : results["trackers"]) tracker_case[{r["label"].get<std::string>(), r["point"]["K"].get<int>()}] = &r;
+  for (const int K : {100, 400}) {
+    const json *kk = tracker_case[{"K on K", K}], *kd = tracker_case[{"K on D", K}], *dd = tracker_case[{"D on D", K}];
+    ASSERT_TRUE(kk && kd && dd) << "K = " << K;
+    EXPECT_EQ((*kk)["point"]["train_tracker"], "klt");
+    EXPECT_EQ((*dd)["point"]["test_tracker"], "descriptors");
+    EXPECT_EQ((*kk)["tree_nodes"], (*kd)["tree_nodes"]);  // one forest
+    EXPECT_NE((*kk)["confusion"], (*kd)["confusion"]);    // two test extractions
+    EXPECT_NE((*kk)["tree_nodes"], (*dd)["tree_nodes"]);  // two training extractions
+  }
   fs::remove_all(dir);
 }

@@ -62,6 +62,7 @@ struct FrontEnd {
   std::string stereo = "bm";      ///< "bm" | "sgbm"
   std::string motion = "stereo";  ///< "stereo" | "sfm"
   bool causal = false;
+  std::string tracker = "klt";    ///< the stereo front end's: "klt" (GFTT corners) | "descriptors" (SIFT, the thesis)
   nlohmann::json to_json() const;
   bool operator==(const FrontEnd&) const = default;
 };
