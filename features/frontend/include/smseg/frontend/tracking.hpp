@@ -1,9 +1,12 @@
 #pragma once
 // Keypoint tracks for the stereo front end (thesis 3.2.2, DESIGN section 4 "Point tracking").
 //
-// Keypoints (SIFT by default, the stand-in for the thesis's SURF; ORB and AKAZE selectable) are matched
-// from each frame to the next by nearest descriptor in both directions, keeping only symmetric matches.
-// Chains of matches are tracks. Then the filters, in this order, each counting what it removed:
+// The thesis's tracker (FrameTracker::Descriptors): keypoints (SIFT, the stand-in for the thesis's SURF;
+// ORB and AKAZE selectable) are matched from each frame to the next by nearest descriptor in both
+// directions, keeping only symmetric matches. The stereo front end's default since 2026-12-04 is
+// FrameTracker::Klt (klt_step: Shi-Tomasi corners followed by pyramidal Lucas-Kanade), which drifts
+// less (docs/stereo.md). Chains of matches are tracks. Then the filters, in this order, each counting
+// what it removed:
 //   1. no valid disparity: observations (keypoint in a frame) whose pixel has no valid disparity are
 //      dropped (the track keeps its other observations, so its frames may have gaps);
 //   2. too short: tracks seen in fewer than `min_frames` frames (default 2) are dropped;
