@@ -13,11 +13,6 @@ namespace smseg::forest::detail {
 /// Whether this processor runs split_avx512 (AVX-512 F, VL and DQ).
 bool split_avx512_available();
 
-/// The four corners of a window relative to a pixel's cell, as offsets into its table.
-struct WindowCorners {
-  std::ptrdiff_t top_a, top_b, bot_a, bot_b;  // value = (bot_b - top_b) - (bot_a - top_a)
-};
-
 /// Splits the run a[b, e) stably: the pixels whose value at `table` (from their cell) is below
 /// `threshold` stay first, in order, the others follow, in order. `right` has room for e - b
 /// pixels. Returns the first pixel of the right-hand side. The run's cells must increase strictly

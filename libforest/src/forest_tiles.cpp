@@ -151,6 +151,40 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
   }
 }
 
+// The scalar split of partition_tree (see there): the tests of run [b, e) first, outcomes to
+// s.goes_right, then the stable partition, with no branch on the outcome (each pixel is written to
+// both sides, counted on one). Returns the first pixel of the right-hand side.
+std::uint32_t Classifier::split_scalar(const FrameData& frame, const double* table, const detail::WindowCorners& w,
+                                       const CompactNode& c, bool texton, Scratch& s, std::uint32_t b,
+                                       std::uint32_t e) const {
+  Scratch::Routed* a = s.routed.data();
+  Scratch::Routed* right = s.right.data();
+  std::uint8_t* goes_right = s.goes_right.data();
+  if (texton) {
+    const int texton_index = static_cast<int>((c.next & 0xffu) - static_cast<std::uint32_t>(num_features_));
+    for (std::uint32_t i = b; i < e; ++i)
+      goes_right[i] = !(texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
+                                     texton_index) < c.threshold);
+  } else {
+    for (std::uint32_t i = b; i < e; ++i) {
+      const double* cell = table + a[i].cell;
+      goes_right[i] =
+          !(static_cast<float>((cell[w.bot_b] - cell[w.top_b]) - (cell[w.bot_a] - cell[w.top_a])) < c.threshold);
+    }
+  }
+  std::uint32_t l = b, k = 0;
+  for (std::uint32_t i = b; i < e; ++i) {
+    const Scratch::Routed p = a[i];
+    const std::uint32_t to_right = goes_right[i];
+    a[l] = p;
+    right[k] = p;
+    l += 1u - to_right;
+    k += to_right;
+  }
+  std::copy(right, right + k, a + l);
+  return l;
+}
+
 // Routes pixels [0, n) of the set through one tree, node by node: at a split, the node's pixels are
 // partitioned (stably) into its children's runs, which are split in turn, depth first. A node's
 // constants are read once for all its pixels, and the pixels' table reads go through the tables in
@@ -173,7 +207,6 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
     s.routed[i] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
   Scratch::Routed* a = s.routed.data();
   Scratch::Routed* right = s.right.data();
-  std::uint8_t* goes_right = s.goes_right.data();
   s.runs.clear();
   s.runs.push_back({root, 0, static_cast<std::uint32_t>(n)});
   while (!s.runs.empty()) {
@@ -187,38 +220,12 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
     }
     const std::uint32_t attr = c.next & 0xffu;
     const float threshold = c.threshold;
+    const bool texton = textons_ && attr >= F;
+    const detail::WindowCorners corners{c.y0 * S + c.x0, c.y0 * S + c.x1, c.y1 * S + c.x0, c.y1 * S + c.x1};
+    const double* table = texton ? nullptr : tables.at[attr];  // a texton test reads the grey image
+    const std::uint32_t l = simd_ && !texton ? detail::split_avx512(a, right, r.b, r.e, table, corners, threshold)
+                                             : split_scalar(frame, table, corners, c, texton, s, r.b, r.e);
     const std::uint32_t left_child = c.next >> 9;
-    if (simd_ && !(textons_ && attr >= F)) {
-      const detail::WindowCorners corners{c.y0 * S + c.x0, c.y0 * S + c.x1, c.y1 * S + c.x0, c.y1 * S + c.x1};
-      const std::uint32_t l = detail::split_avx512(a, right, r.b, r.e, tables.at[attr], corners, threshold);
-      s.runs.push_back({left_child + 1, l, r.e});
-      s.runs.push_back({left_child, r.b, l});
-      continue;
-    }
-    if (textons_ && attr >= F) {
-      for (std::uint32_t i = r.b; i < r.e; ++i)
-        goes_right[i] = !(texton_value(frame.gray, width_, height_, s.xs[a[i].at], s.ys[a[i].at], c.x0, c.y0,
-                                       static_cast<int>(attr - F)) < threshold);
-    } else {
-      const double* table = tables.at[attr];
-      const std::ptrdiff_t top_a = c.y0 * S + c.x0, top_b = c.y0 * S + c.x1;
-      const std::ptrdiff_t bot_a = c.y1 * S + c.x0, bot_b = c.y1 * S + c.x1;
-      for (std::uint32_t i = r.b; i < r.e; ++i) {
-        const double* cell = table + a[i].cell;
-        goes_right[i] = !(static_cast<float>((cell[bot_b] - cell[top_b]) - (cell[bot_a] - cell[top_a])) < threshold);
-      }
-    }
-    // The partition, with no branch on the outcome: each pixel is written to both sides, counted on one.
-    std::uint32_t l = r.b, k = 0;
-    for (std::uint32_t i = r.b; i < r.e; ++i) {
-      const Scratch::Routed p = a[i];
-      const std::uint32_t to_right = goes_right[i];
-      a[l] = p;
-      right[k] = p;
-      l += 1u - to_right;
-      k += to_right;
-    }
-    std::copy(right, right + k, a + l);
     s.runs.push_back({left_child + 1, l, r.e});
     s.runs.push_back({left_child, r.b, l});
   }

@@ -149,6 +149,13 @@ TEST(Classifier, AvxSplitsAreOnlyWhereTheProcessorHasThem) {
   EXPECT_FALSE(clf.simd());
   clf.set_simd(true);
   EXPECT_EQ(clf.simd(), available);
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+  // On by default exactly where the processor runs the AVX-512 splits.
+  EXPECT_EQ(available, __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+                           __builtin_cpu_supports("avx512dq"));
+#else
+  EXPECT_FALSE(available);
+#endif
 }
 
 TEST(Classifier, PixelListsAndSinglePixelsAgreeWithWholeFrames) {

@@ -8,6 +8,7 @@
 // pixels between its children), the same double window sums: bit for bit posterior()'s labels and
 // distributions.
 
+#include <cstddef>
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -26,6 +27,10 @@ namespace detail {
 struct RoutedPixel {
   std::int32_t cell;  // y * stride + x: the pixel's cell in the tables
   std::int32_t at;    // its place in the set (Scratch::xs[at], Scratch::ys[at])
+};
+/// The four corners of a window relative to a pixel's cell, as offsets into its table.
+struct WindowCorners {
+  std::ptrdiff_t top_a, top_b, bot_a, bot_b;  // value = (bot_b - top_b) - (bot_a - top_a)
 };
 }  // namespace detail
 
@@ -55,9 +60,9 @@ class Classifier {
   /// Error when the frame does not fit the forest (size, number of tables, greyscale for textons).
   void check_frame(const FrameData& frame) const;
 
-  /// Whether whole frames split their pixels with AVX-512 (on by default where the processor has it;
-  /// the same labels and distributions either way, bit for bit). For tests and benchmarks: asking
-  /// for it where the processor lacks it leaves it off.
+  /// Whether AVX-512 is used: whole frames' splits and every set's summed votes (on by default where
+  /// the processor has it; the same labels and distributions either way, bit for bit). For tests and
+  /// benchmarks: asking for it where the processor lacks it leaves it off.
   bool simd() const { return simd_; }
   void set_simd(bool on);
 
@@ -152,13 +157,17 @@ class Classifier {
   /// window of every pixel must lie inside `tables` (no clipping).
   void partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::uint32_t root,
                       std::int32_t* leaf) const;
+  /// One split of partition_tree without SIMD: run [b, e) of s.routed by node c's test (a window of
+  /// `table` at the corners w, or a texton test when `texton`). Returns the first right-hand pixel.
+  std::uint32_t split_scalar(const FrameData& frame, const double* table, const detail::WindowCorners& w,
+                             const CompactNode& c, bool texton, Scratch& s, std::uint32_t b, std::uint32_t e) const;
   /// Whether pixel (x, y) keeps every window of the forest inside the image.
   bool inside(int x, int y) const { return x >= inner_x0_ && x <= inner_x1_ && y >= inner_y0_ && y <= inner_y1_; }
   void build_compact(const Forest& forest);
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
-  bool simd_ = false;  // partition_tree's splits by split_avx512 (forest_split.hpp)
+  bool simd_ = false;  // split_avx512 and sum_votes_avx512 (forest_split.hpp)
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;  // the trees as in the file (posterior(): the reference path)
   int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image
