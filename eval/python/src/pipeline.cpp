@@ -54,7 +54,7 @@ features::ExtractOptions extract_options(const py::dict& o) {
   opt.front_end.gravity.method = features::parse_gravity_method(gravity, "gravity");
   opt.motion = features::parse_motion_method(motion, "motion");
   opt.front_end.stereo.method = features::parse_stereo_method(stereo, "stereo");
-  opt.front_end.tracker = tracker == "auto" ? features::FrameTracker::Klt : features::parse_frame_tracker(tracker, "tracker");
+  opt.front_end.tracker = features::parse_stereo_tracker(tracker, "tracker");
   opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, opt.front_end.tracker, "keypoints");
   opt.sfm.tracking.detector =
       keypoints == "auto" ? features::KeypointMethod::Sift : features::parse_keypoint_method(keypoints, "keypoints");

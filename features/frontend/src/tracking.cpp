@@ -39,6 +39,10 @@ FrameTracker parse_frame_tracker(const std::string& name, const std::string& fie
 
 const char* frame_tracker_name(FrameTracker t) { return t == FrameTracker::Klt ? "klt" : "descriptors"; }
 
+FrameTracker parse_stereo_tracker(const std::string& name, const std::string& field) {
+  return name == "auto" ? FrameTracker::Klt : parse_frame_tracker(name, field);
+}
+
 KeypointMethod default_keypoints(FrameTracker t) {
   return t == FrameTracker::Klt ? KeypointMethod::Gftt : KeypointMethod::Sift;
 }

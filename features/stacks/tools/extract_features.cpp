@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
       ->excludes(quiet_flag);
   return run_tool(app, argc, argv, threads, [&] {
     opt.front_end.stereo.method = parse_stereo_method(stereo, "--stereo");
-    opt.front_end.tracker = tracker == "auto" ? FrameTracker::Klt : parse_frame_tracker(tracker, "--tracker");
+    opt.front_end.tracker = parse_stereo_tracker(tracker, "--tracker");
     opt.front_end.tracking.detector = parse_keypoint_method(detector, opt.front_end.tracker, "--keypoints");
     opt.motion = parse_motion_method(motion, "--motion");
     opt.sfm.tracking.detector = detector == "auto" ? KeypointMethod::Sift : parse_keypoint_method(detector, "--keypoints");

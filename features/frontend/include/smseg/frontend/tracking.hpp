@@ -55,6 +55,8 @@ enum class FrameTracker {
   Klt           ///< pyramidal Lucas-Kanade from each point, forward-backward checked; new keypoints fill gaps
 };
 FrameTracker parse_frame_tracker(const std::string& name, const std::string& field);  ///< descriptors | klt
+/// The stereo front end's tracker from a tool's option: "auto" (klt, the default) or parse_frame_tracker's.
+FrameTracker parse_stereo_tracker(const std::string& name, const std::string& field);
 const char* frame_tracker_name(FrameTracker t);
 
 /// The keypoints a tracker is best served by: Shi-Tomasi corners for KLT (positions are all it needs),
