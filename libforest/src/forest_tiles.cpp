@@ -68,11 +68,10 @@ void Classifier::build_compact(const Forest& forest) {
 
 // Walks pixels [b, e) of the set through one tree, kLanes at a time (classify_pixels' sets: a few
 // pixels scattered over the frame, where partition_tree's runs soon hold one pixel each and each
-// split waits for the last one's table read), each lane taking the next pixel
-// as soon as its own reaches a leaf, so the lanes' table reads are independent and overlap. The step
-// has no data-dependent branch (a mispredicted branch would empty the pipeline of the other lanes'
-// reads): every lane reads a window (leaves read an empty one), and selects its next node, pixel and
-// leaf slot. Lanes past the last pixel walk it again and write nowhere that counts.
+// split waits for the last one's table read), each lane taking the next pixel as soon as its own
+// reaches a leaf, so the lanes' table reads are independent and overlap. A lane keeps its pixel's
+// coordinates; a step is the node's test and the move to its child, and only a lane at a leaf (one
+// step in ~20 on a CamVid-size forest, so the branch is mostly foreseen) writes and takes a pixel.
 // kClamp: corners clipped to the image (window_sum); otherwise every window is inside for every pixel
 // and the four reads are at fixed offsets from the pixel's own cell (the same cells, so the same sums).
 template <bool kClamp, bool kTextons>
@@ -86,23 +85,37 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
   const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
   const std::int32_t* xs = s.xs.data();
   const std::int32_t* ys = s.ys.data();
-  std::int32_t sink = 0;  // where lanes past the last pixel write their leaves
-  std::uint32_t node[kLanes];
-  std::size_t pixel[kLanes];
-  std::size_t next = b + kLanes, done = 0;
   const bool prefetch = frame.sats.size() * std::size_t(W + 1) * std::size_t(H + 1) * sizeof(double) > kPrefetchTableBytes;
+  std::uint32_t node[kLanes];
+  std::int32_t px[kLanes], py[kLanes];
+  std::size_t pixel[kLanes];
+  std::size_t next = b, live = 0;
   for (std::size_t g = 0; g < kLanes; ++g) {
     node[g] = root;
-    pixel[g] = b + g;
+    pixel[g] = next < e ? next++ : e;  // e: a lane without a pixel
+    px[g] = xs[std::min(pixel[g], e - 1)];
+    py[g] = ys[std::min(pixel[g], e - 1)];
+    live += pixel[g] < e;
   }
-  const std::size_t n = e - b, last = e - 1;
-  while (done < n) {
+  while (live > 0) {
     for (std::size_t g = 0; g < kLanes; ++g) {
+      if (pixel[g] == e) continue;
       const CompactNode c = nodes[node[g]];
+      if (c.next & kLeafBit) {
+        leaf[pixel[g]] = static_cast<std::int32_t>(c.next >> 9);
+        node[g] = root;
+        if (next == e) {
+          pixel[g] = e;
+          --live;
+          continue;
+        }
+        pixel[g] = next++;
+        px[g] = xs[pixel[g]];
+        py[g] = ys[pixel[g]];
+        continue;
+      }
       const std::uint32_t attr = c.next & 0xffu;
-      const bool is_leaf = (c.next & kLeafBit) != 0;
-      const std::size_t p = pixel[g], q = p < e ? p : last;
-      const std::int32_t x = xs[q], y = ys[q];
+      const std::int32_t x = px[g], y = py[g];
       float v;
       if (kTextons && attr >= F) {
         v = texton_value(frame.gray, W, H, x, y, c.x0, c.y0, static_cast<int>(attr - F));
@@ -114,34 +127,25 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
         const double* bot = cell + c.y1 * S;
         v = static_cast<float>((bot[c.x1] - top[c.x1]) - (bot[c.x0] - top[c.x0]));
       }
-      const std::uint32_t child = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
-      const bool counts = is_leaf && p < e;
-      std::int32_t* slot = counts ? leaf + p : &sink;
-      *slot = static_cast<std::int32_t>(c.next >> 9);
-      done += counts ? 1u : 0u;
-      node[g] = is_leaf ? root : child;
-      pixel[g] = is_leaf ? next : p;
-      next += is_leaf ? 1u : 0u;
+      node[g] = (c.next >> 9) + (v < c.threshold ? 0u : 1u);
       // Asks now for the next step's four corners, read when this lane comes round again (kLanes
       // steps later): the voters are scattered over the frame, so nearly every read misses the
-      // caches, and the processor's window alone holds only a few lanes' misses at a time (grid
-      // voting on CamVid: ~1.4x faster on one thread). A leaf or a texton node asks for the pixel's
-      // own cell. Tables that mostly stay in the caches (kPrefetchTableBytes) gain nothing from the
-      // requests and pay for them (synthetic 320x240 grid: ~1.4x slower), so they are not asked for.
+      // caches, and the processor's window alone holds only a few lanes' misses at a time. Tables
+      // that mostly stay in the caches (kPrefetchTableBytes) gain nothing from the requests and pay
+      // for them, so they are not asked for.
       if (!prefetch) continue;
-      CompactNode d = nodes[node[g]];
-      if ((d.next & 0xffu) >= F) d = CompactNode{0, 0, 0, 0, 0.0f, 0u};  // a leaf's window is already empty
-      const std::size_t np = std::min(pixel[g], last);
+      const CompactNode d = nodes[node[g]];
+      if ((d.next & 0xffu) >= F) continue;  // a leaf reads no table; a texton test reads the image
       if constexpr (kClamp) {
         const double* sat = sats[d.next & 0xffu];
-        const std::ptrdiff_t xa = std::clamp(xs[np] + d.x0, 0, W), xb = std::clamp(xs[np] + d.x1, 0, W);
-        const std::ptrdiff_t ya = std::clamp(ys[np] + d.y0, 0, H) * (W + 1), yb = std::clamp(ys[np] + d.y1, 0, H) * (W + 1);
+        const std::ptrdiff_t xa = std::clamp(x + d.x0, 0, W), xb = std::clamp(x + d.x1, 0, W);
+        const std::ptrdiff_t ya = std::clamp(y + d.y0, 0, H) * (W + 1), yb = std::clamp(y + d.y1, 0, H) * (W + 1);
         __builtin_prefetch(sat + ya + xa);
         __builtin_prefetch(sat + ya + xb);
         __builtin_prefetch(sat + yb + xa);
         __builtin_prefetch(sat + yb + xb);
       } else {
-        const double* cell = tables.at[d.next & 0xffu] + (ys[np] * S + xs[np]);
+        const double* cell = tables.at[d.next & 0xffu] + (y * S + x);
         __builtin_prefetch(cell + d.y0 * S + d.x0);
         __builtin_prefetch(cell + d.y0 * S + d.x1);
         __builtin_prefetch(cell + d.y1 * S + d.x0);

@@ -158,11 +158,13 @@ TEST(Classifier, AvxSplitsAreOnlyWhereTheProcessorHasThem) {
 #endif
 }
 
-TEST(Classifier, PixelListsAndSinglePixelsAgreeWithWholeFrames) {
+class PixelLists : public ::testing::TestWithParam<bool> {};  // with texton tests, or windows only
+
+TEST_P(PixelLists, AndSinglePixelsAgreeWithWholeFrames) {
   const SyntheticData s = frames(2, 4, false);
   TrainParams p;
   p.K = 100;
-  p.textons = true;
+  p.textons = GetParam();
   const Forest f = train_forest(s.data, p);
   const Classifier clf(f);
   const std::size_t W = 72, H = 52, C = f.classes.size();
@@ -188,6 +190,8 @@ TEST(Classifier, PixelListsAndSinglePixelsAgreeWithWholeFrames) {
   for (std::size_t c = 0; c < C; ++c) sum += dists[c];
   EXPECT_NEAR(sum, static_cast<double>(f.trees.size()), 1e-5);
 }
+INSTANTIATE_TEST_SUITE_P(Classifier, PixelLists, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "textons" : "windows"; });
 
 TEST(Classifier, SameLabelsWhateverTheThreadCount) {
   const SyntheticData s = frames(2, 5, false);
