@@ -135,7 +135,7 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
       // for them, so they are not asked for.
       if (!prefetch) continue;
       const CompactNode d = nodes[node[g]];
-      if ((d.next & 0xffu) >= F) continue;  // a leaf reads no table; a texton test reads the image
+      if ((d.next & kLeafBit) || (d.next & 0xffu) >= F) continue;  // a leaf reads no table, a texton test the image
       if constexpr (kClamp) {
         const double* sat = sats[d.next & 0xffu];
         const std::ptrdiff_t xa = std::clamp(x + d.x0, 0, W), xb = std::clamp(x + d.x1, 0, W);
