@@ -90,28 +90,23 @@ void Classifier::route_tree(const FrameData& frame, const Tables& tables, const 
   std::int32_t px[kLanes], py[kLanes];
   std::size_t pixel[kLanes];
   std::size_t next = b, live = 0;
-  for (std::size_t g = 0; g < kLanes; ++g) {
+  auto start = [&](std::size_t g) {  // lane g takes the set's next pixel from the root, or stops (e)
     node[g] = root;
-    pixel[g] = next < e ? next++ : e;  // e: a lane without a pixel
-    px[g] = xs[std::min(pixel[g], e - 1)];
-    py[g] = ys[std::min(pixel[g], e - 1)];
-    live += pixel[g] < e;
-  }
+    pixel[g] = next < e ? next++ : e;
+    if (pixel[g] == e) return;
+    px[g] = xs[pixel[g]];
+    py[g] = ys[pixel[g]];
+    ++live;
+  };
+  for (std::size_t g = 0; g < kLanes; ++g) start(g);
   while (live > 0) {
     for (std::size_t g = 0; g < kLanes; ++g) {
       if (pixel[g] == e) continue;
       const CompactNode c = nodes[node[g]];
       if (c.next & kLeafBit) {
         leaf[pixel[g]] = static_cast<std::int32_t>(c.next >> 9);
-        node[g] = root;
-        if (next == e) {
-          pixel[g] = e;
-          --live;
-          continue;
-        }
-        pixel[g] = next++;
-        px[g] = xs[pixel[g]];
-        py[g] = ys[pixel[g]];
+        --live;
+        start(g);
         continue;
       }
       const std::uint32_t attr = c.next & 0xffu;

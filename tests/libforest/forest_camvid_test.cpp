@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
-#include <random>
 #include <filesystem>
+#include <random>
 #include <string>
 #include <vector>
 
