@@ -27,7 +27,10 @@ def run_once(binary, pattern, repetitions):
     with tempfile.NamedTemporaryFile(suffix=".json") as out:
         cmd = [binary, f"--benchmark_filter={pattern}", f"--benchmark_repetitions={repetitions}",
                f"--benchmark_out={out.name}", "--benchmark_out_format=json"]
-        done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        try:
+            done = subprocess.run(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+        except OSError as e:  # not executable, not a program
+            sys.exit(f"compare.py: {binary}: cannot be run ({e.strerror})")
         if done.returncode != 0:
             last = (done.stderr.strip().splitlines() or [""])[-1][:300]
             sys.exit(f"compare.py: {binary}: exited with {done.returncode}: {last}")

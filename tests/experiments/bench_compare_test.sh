@@ -39,6 +39,8 @@ refuses() {  # EXPECTED_TEXT ARGS...: a non-zero exit and one line naming the pr
   grep -q -- "$want" "$tmp/err" || { cat "$tmp/err"; fail "does not say '$want': $*"; }
 }
 refuses "$tmp/missing: no such file" --rounds 1 "$tmp/missing"
+printf 'not a program\n' > "$tmp/text"
+refuses "$tmp/text: cannot be run" --rounds 1 "$tmp/text"
 refuses "no benchmark matches" --filter 'NoSuchCase' --rounds 1 --repetitions 1 "$tmp/bench_a"
 refuses "must be at least 1" --rounds 0 "$tmp/bench_a"
 echo "bench_compare: ok"
