@@ -137,13 +137,22 @@ SequenceSource parse_source(const JsonView& v, const fs::path& base) {
   if (!v.json().is_object()) v.fail("expected {\"synthetic\": {...}}, {\"path\": DIR} or {\"work\": DIR}");
   if (v.json().size() != 1) v.fail("give exactly one of \"synthetic\", \"path\", \"work\"");
   SequenceSource s;
-  const auto resolve = [&](const std::string& p) { return fs::path(p).is_absolute() ? fs::path(p) : base / p; };
+  // A folder the system cannot even name (too long, a loop of links) is the config's fault: one line
+  // naming the member, not a filesystem_error out of the reader.
+  const auto folder = [&](const char* key) {
+    const std::string given = v.str(key);
+    const fs::path p = fs::path(given).is_absolute() ? fs::path(given) : base / given;
+    std::error_code ec;
+    fs::path out = fs::weakly_canonical(p, ec);
+    if (ec) v.fail("cannot be resolved: " + ec.message(), key);
+    return out;
+  };
   if (v.has("path")) {
     s.kind = SequenceSource::Kind::Path;
-    s.path = fs::weakly_canonical(resolve(v.str("path")));
+    s.path = folder("path");
   } else if (v.has("work")) {
     s.kind = SequenceSource::Kind::Work;
-    s.path = fs::weakly_canonical(resolve(v.str("work")));
+    s.path = folder("work");
   } else if (v.has("synthetic")) {
     s.kind = SequenceSource::Kind::Synthetic;
     const JsonView o = v.at("synthetic");

@@ -130,6 +130,14 @@ TEST(ExperimentConfig, BadInputIsOneErrorNamingTheFileAndTheField) {
     EXPECT_EQ(e.field(), c.field) << c.patch << ": " << e.what();
     EXPECT_NE(std::string(e.reason()).find(c.reason_part), std::string::npos) << c.patch << ": " << e.what();
   }
+  // A folder the system cannot name (a component longer than NAME_MAX): one line, not a filesystem_error.
+  for (const char* key : {"path", "work"}) {
+    json j = base();
+    j["sequences"]["c"] = {{key, "/tmp/" + std::string(300, 'x')}};  // /tmp exists, so it is looked up
+    const smseg::Error e = error_of(j);
+    EXPECT_EQ(e.field(), std::string("sequences.c.") + key) << e.what();
+    EXPECT_NE(std::string(e.reason()).find("cannot be resolved"), std::string::npos) << e.what();
+  }
   // --quick on a config without a quick form.
   json j = base();
   j.erase("quick");

@@ -82,8 +82,13 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
 bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options) {
   Json old_options = old.options, new_options = options;
   if (!old_options.contains("input")) new_options.erase("input");
-  return old_options == new_options && old.size == seq.size &&
-         fs::weakly_canonical(old.sequence) == fs::weakly_canonical(seq.root);
+  if (old_options != new_options || old.size != seq.size) return false;
+  // An old manifest may name a folder that can no longer be resolved (too long, a loop of links):
+  // then it is not this sequence.
+  std::error_code ec_old, ec_new;
+  const fs::path old_root = fs::weakly_canonical(old.sequence, ec_old);
+  const fs::path new_root = fs::weakly_canonical(seq.root, ec_new);
+  return !ec_old && !ec_new && old_root == new_root;
 }
 
 // Stack files of another making (other options or sequence, or no stacks.json to say) must not be taken
