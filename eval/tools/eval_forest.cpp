@@ -98,6 +98,11 @@ int main(int argc, char** argv) {
                  "this many pixels of it; the pixels with one such label keep it and leave the graph (0: every "
                  "label everywhere)")
       ->capture_default_str();
+  app.add_option("--smooth-bands", opt.smooth.bands,
+                 "graph cut with a label window: the frame's rows are cut into this many bands solved at once, "
+                 "then the seams between them (1: one energy over the whole frame); the labels depend on it, "
+                 "not on --threads")
+      ->capture_default_str();
   app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str()
       ->check(smseg::kDecimalDigits);
   add_threads_option(app, threads, "the results do not depend on it");

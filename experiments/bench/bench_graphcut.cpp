@@ -115,17 +115,20 @@ void BM_SmoothFrame(benchmark::State& state) {
   opt.connectivity = static_cast<int>(state.range(0));
   opt.lambda = double(state.range(1)) / 10.0;
   opt.label_window = static_cast<int>(state.range(2));
+  opt.bands = static_cast<int>(state.range(3));
   smooth_case(state, s, opt);
 }
 BENCHMARK(BM_SmoothFrame)
-    ->ArgNames({"conn", "lambda10", "window"})
-    ->Args({4, 5, 5})
-    ->Args({4, 10, 5})
-    ->Args({4, 20, 5})
-    ->Args({8, 5, 5})
-    ->Args({8, 10, 0})
-    ->Args({8, 10, 5})
-    ->Args({8, 20, 5})
+    ->ArgNames({"conn", "lambda10", "window", "bands"})
+    ->Args({4, 5, 5, 2})
+    ->Args({4, 10, 5, 2})
+    ->Args({4, 20, 5, 2})
+    ->Args({8, 5, 5, 2})
+    ->Args({8, 10, 0, 1})
+    ->Args({8, 10, 5, 1})
+    ->Args({8, 10, 5, 2})
+    ->Args({8, 10, 5, 4})
+    ->Args({8, 20, 5, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

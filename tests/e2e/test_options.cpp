@@ -96,6 +96,8 @@ TEST_F(Options, EvalForestRefusesAbsurdValues) {
       {"{F} {W} --tolerance -1 -o {O}", 2, "--tolerance"},
       {"{F} {W} --smooth graphcut --smooth-window -1 -o {O}", 2, "--smooth-window"},
       {"{F} {W} --smooth graphcut --smooth-window 5000 -o {O}", 2, "--smooth-window"},
+      {"{F} {W} --smooth graphcut --smooth-bands 0 -o {O}", 2, "--smooth-bands"},
+      {"{F} {W} --smooth graphcut --smooth-bands 65 -o {O}", 2, "--smooth-bands"},
       {"{F} {W} --test-frames 500: -o {O}", 1, "500:"},
       {"{F} {W} --trees 3 -o {O}", 1, "--trees"},
   };

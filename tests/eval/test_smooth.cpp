@@ -151,6 +151,7 @@ TEST(Smooth, ALabelWindowWiderThanTheFrameIsPlainAlphaExpansion) {
   const Scene s = make_scene(5);
   eval::SmoothOptions opt = graph_cut(2);
   opt.label_window = 0;
+  opt.bands = 1;  // one energy over the whole frame, as plain alpha-expansion has
   eval::SmoothReport plain, wide;
   const cv::Mat a = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &plain);
   opt.label_window = 200;
@@ -185,6 +186,36 @@ TEST(Smooth, ANarrowLabelWindowGivesOnlyLabelsMappedNearbyAndReportsTheFrameEner
     EXPECT_NEAR(rep.energy_after, frame_energy(s, out, 2), 1e-6 * rep.energy_after) << "radius " << radius;
     EXPECT_LT(rep.energy_after, rep.energy_before);
     EXPECT_GT(accuracy(out, s.truth), accuracy(map, s.truth)) << "radius " << radius;
+  }
+}
+
+TEST(Smooth, BandsSolvedApartThenTheirSeamsGiveTheSameLabelsOnAnyThreadCount) {
+  const Scene s = make_scene(8);
+  const cv::Mat map = map_labels(s);
+  eval::SmoothOptions opt = graph_cut(2);
+  opt.label_window = 3;
+  opt.bands = 1;
+  eval::SmoothReport whole;
+  eval::smooth_labels(s.dists, Scene::C, s.image, opt, &whole);
+  for (const int bands : {2, 3, 7}) {
+    opt.bands = bands;
+    cv::Mat out[2];
+    eval::SmoothReport rep[2];
+    for (const int threads : {1, 2}) {
+      tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+      out[threads - 1] = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &rep[threads - 1]);
+    }
+    EXPECT_EQ(cv::countNonZero(out[0] != out[1]), 0) << bands << " bands";
+    EXPECT_EQ(rep[0].energy_after, rep[1].energy_after) << bands << " bands";
+    EXPECT_EQ(rep[0].graph_nodes, rep[1].graph_nodes) << bands << " bands";
+    // The report is the whole frame's energy, and the bands find about the one energy's minimum.
+    EXPECT_NEAR(rep[0].energy_before, frame_energy(s, map, 2), 1e-6 * rep[0].energy_before) << bands << " bands";
+    EXPECT_NEAR(rep[0].energy_after, frame_energy(s, out[0], 2), 1e-6 * rep[0].energy_after) << bands << " bands";
+    EXPECT_NEAR(rep[0].energy_after, whole.energy_after, 0.01 * whole.energy_after) << bands << " bands";
+    EXPECT_LT(rep[0].energy_after, rep[0].energy_before);
+    EXPECT_GT(accuracy(out[0], s.truth), accuracy(map, s.truth)) << bands << " bands";
+    // The bands were used: the seams' moves cut their rows again.
+    EXPECT_GT(rep[0].graph_nodes, whole.graph_nodes) << bands << " bands";
   }
 }
 
@@ -260,6 +291,24 @@ TEST(Smooth, BadInputIsAnError) {
   bad[5] = -1;
   opt.connectivity = 4;
   EXPECT_THROW(eval::smooth_labels(bad, Scene::C, s.image, opt), Error);
+  // Under the label window the rows are read at once; the error still names the frame's first bad pixel.
+  opt.label_window = 3;
+  for (const int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    std::vector<float> two_bad = s.dists;
+    two_bad[std::size_t(70 * 96 + 3) * Scene::C] = std::nanf("");
+    two_bad[std::size_t(40 * 96 + 5) * Scene::C + 1] = -2;
+    try {
+      eval::smooth_labels(two_bad, Scene::C, s.image, opt);
+      ADD_FAILURE() << "no error";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find("pixel " + std::to_string(40 * 96 + 5) + " "), std::string::npos) << e.what();
+    }
+  }
+  opt.bands = 0;
+  EXPECT_THROW(opt.validate(), Error);
+  opt.bands = 65;
+  EXPECT_THROW(opt.validate(), Error);
 }
 
 TEST(Smooth, EvaluateReportsSmoothingApart) {
