@@ -289,7 +289,6 @@ LabelSets labels_near(std::size_t C, int W, int H, int radius, WindowCache& k) {
   return {k.near.data(), n, planes};
 }
 
-/// Per pixel, the MAP label (the largest value, ties to the lowest label), its cost and the values' sum.
 /// Calls f(chunk, y0, y1) for the rows [y0, y1) of each of a fixed number of chunks of the frame, at
 /// once on the TBB pool. Per-chunk results combined in chunk order do not depend on the thread count.
 constexpr std::size_t kRowChunks = 16;
@@ -300,6 +299,8 @@ void for_row_chunks(int rows, F&& f) {
   });
 }
 
+/// Per pixel, the MAP label (the largest value, ties to the lowest label), its cost and the values' sum;
+/// Error naming the frame's first pixel with a negative or non-finite value.
 void map_labels(std::span<const float> dists, std::size_t C, int W, int H, const SmoothOptions& opt,
                 WindowCache& k) {
   const double cap = -std::log(opt.p_min);
