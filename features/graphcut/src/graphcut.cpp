@@ -457,15 +457,21 @@ void build_move_graph(const PottsEnergy& energy, const std::vector<int>& labelli
   }
   // Flow on the paths source -> v -> u -> sink pushed before the search: the same minimum cuts, fewer
   // augmenting paths (and orphans) for libmaxflow to find.
+  // push(from, to, there, back): as much flow as source -> from -> to -> sink takes, where `there` is
+  // the arc's capacity from `from` to `to` and `back` the other way's.
+  const auto push = [&](int from, int to, float& there, float& back) {
+    double& source = w.e1[std::size_t(from)];
+    double& sink = w.e0[std::size_t(to)];
+    const double f = std::min({source, double(there), sink});
+    if (!(f > 0)) return;
+    source -= f;
+    sink -= f;
+    there = float(there - f);
+    back = float(back + f);
+  };
   for (auto& a : w.arcs) {
-    double& sv = w.e1[std::size_t(a.v)];
-    double& tu = w.e0[std::size_t(a.u)];
-    const double f = std::min({sv, double(a.forward), tu});
-    if (f > 0) { sv -= f; tu -= f; a.forward = float(a.forward - f); a.backward = float(a.backward + f); }
-    double& su = w.e1[std::size_t(a.u)];
-    double& tv = w.e0[std::size_t(a.v)];
-    const double b = std::min({su, double(a.backward), tv});
-    if (b > 0) { su -= b; tv -= b; a.backward = float(a.backward - b); a.forward = float(a.forward + b); }
+    push(a.v, a.u, a.forward, a.backward);
+    push(a.u, a.v, a.backward, a.forward);
   }
   for (const auto& a : w.arcs) w.g.add_edge(a.v, a.u, a.forward, a.backward);
   for (std::size_t v = 0; v < nf; ++v) w.g.add_tweights(static_cast<int>(v), float(w.e1[v]), float(w.e0[v]));
