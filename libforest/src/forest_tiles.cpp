@@ -258,6 +258,9 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
     const std::uint32_t root = compact_roots_[t];
     if (routing == Routing::ByNodes) {
       partition_tree(frame, tables, s, n, root, leaf);  // every pixel inside (inside == n)
+    } else if (simd_ && !textons_ && num_features_ <= 16) {
+      detail::route_avx512(compact_.data(), root, frame.sats.data(), frame.sats.size(), width_, height_, s.xs.data(),
+                           s.ys.data(), n, leaf);
     } else if (textons_) {
       route_tree<false, true>(frame, tables, s, 0, inside, root, leaf);
       route_tree<true, true>(frame, tables, s, inside, n, root, leaf);

@@ -113,22 +113,27 @@ TEST(ClassifierCamVid, FastPathEqualsThePerPixelReferenceOnACamVidSizeForest) {
     EXPECT_EQ(dist_mismatches, 0u);
   }
 
-  // Pixel lists (grid and superpixel voters: route_tree's lanes), every pixel of the frame in a
-  // scattered order, so that each lane meets pixels near the borders (corners clipped) and inside.
+  // Pixel lists (grid and superpixel voters: the lanes of route_tree, or of route_avx512 where the
+  // processor has AVX-512), every pixel of the frame in a scattered order, so that each lane meets
+  // pixels near the borders (corners clipped) and inside.
   std::vector<Pixel> pixels;
   for (int y = 0; y < frame.height; ++y)
     for (int x = 0; x < frame.width; ++x) pixels.push_back({x, y});
   std::shuffle(pixels.begin(), pixels.end(), std::mt19937(7));
-  std::vector<std::uint8_t> labels(pixels.size());
-  std::vector<float> dists(pixels.size() * C), ref(C);
-  clf.classify_pixels(frame, pixels, labels, dists);
-  std::size_t label_mismatches = 0, dist_mismatches = 0;
-  for (std::size_t i = 0; i < pixels.size(); ++i) {
-    label_mismatches += clf.posterior(frame, pixels[i].x, pixels[i].y, ref.data()) != labels[i];
-    for (std::size_t c = 0; c < C; ++c) dist_mismatches += ref[c] != dists[i * C + c];
+  for (const bool simd : {true, false}) {
+    clf.set_simd(simd);
+    SCOPED_TRACE(clf.simd() ? "AVX-512 lanes" : "scalar lanes");
+    std::vector<std::uint8_t> labels(pixels.size());
+    std::vector<float> dists(pixels.size() * C), ref(C);
+    clf.classify_pixels(frame, pixels, labels, dists);
+    std::size_t label_mismatches = 0, dist_mismatches = 0;
+    for (std::size_t i = 0; i < pixels.size(); ++i) {
+      label_mismatches += clf.posterior(frame, pixels[i].x, pixels[i].y, ref.data()) != labels[i];
+      for (std::size_t c = 0; c < C; ++c) dist_mismatches += ref[c] != dists[i * C + c];
+    }
+    EXPECT_EQ(label_mismatches, 0u);
+    EXPECT_EQ(dist_mismatches, 0u);
   }
-  EXPECT_EQ(label_mismatches, 0u);
-  EXPECT_EQ(dist_mismatches, 0u);
 }
 
 }  // namespace

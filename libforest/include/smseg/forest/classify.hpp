@@ -140,7 +140,8 @@ class Classifier {
                       std::span<float> dists) const;
   /// How a set's pixels go through a tree: node by node (partition_tree: whole frames, where each
   /// node gets many neighbouring pixels; every pixel must be inside) or several pixels in flight, each
-  /// to its leaf (route_tree: classify_pixels' few scattered pixels).
+  /// to its leaf (classify_pixels' few scattered pixels: route_tree, or with AVX-512 and without
+  /// texton tests detail::route_avx512, eight pixels a vector).
   enum class Routing { ByNodes, ByLanes };
   /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
   /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
