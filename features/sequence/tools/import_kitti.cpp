@@ -26,7 +26,8 @@ int main(int argc, char** argv) {
   double disparity_offset = 0;
   app.add_option("--disparity-offset", disparity_offset,
                  "pixels added to every disparity: the right images' offset against the left ones (cx_right - "
-                 "cx_left; default: from calib.txt, P1 cx - P0 cx, 0 for KITTI's own files)");
+                 "cx_left; default: from calib.txt, P1 cx - P0 cx, 0 for KITTI's own files; "
+                 "experiments/kitti/self_calibrate_offset.py estimates it from the sequence's own tracks)");
   return smseg::run_tool(app, argc, argv, [&] {
     if (app.count("--disparity-offset")) opt.disparity_offset = disparity_offset;
     opt.poses = poses;

@@ -1,0 +1,36 @@
+#!/usr/bin/env bash
+# experiments/kitti/self_calibrate_offset.py on the real KITTI slice seq1 of ../shared/data: the
+# disparity offset estimated from the sequence's own tracks (no ground truth) must be near zero for its
+# correct calibration (~0.1 px; the ground-truth script gives +0.13), and the same total when the slice
+# is imported 1 px off (--disparity-offset -1: the estimate must give the pixel back). Then a work
+# folder without tracks.json is one clear line and a non-zero exit.
+# Usage: kitti_self_calibration_test.sh SOURCE_DIR BIN_DIR SHARED_DIR PYTHON     (exit 77: no KITTI, skipped)
+set -euo pipefail
+src=$1 bin=$2 shared=$3 python=$4
+kitti="$shared/data/kitti-stereo/seq1"
+[[ -f "$kitti/calib.txt" ]] || { echo "no KITTI slice under $shared/data: skipped"; exit 77; }
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+estimate() {  # OFFSET: the total the script estimates for seq1 imported with that offset
+  "$bin/import-kitti" "$kitti" -o "$tmp/seq$1" --disparity-offset "$1" >/dev/null
+  "$bin/extract-features" "$tmp/seq$1" -o "$tmp/work$1" -q --threads 2 >/dev/null
+  "$python" "$src/experiments/kitti/self_calibrate_offset.py" "$tmp/seq$1" "$tmp/work$1" | tail -1 |
+    sed -n 's/^disparity offset: \([-+0-9.]*\) px.*/\1/p'
+}
+plain=$(estimate 0)
+shifted=$(estimate -1)
+echo "estimated offset: $plain px (calibration 0), $shifted px (calibration -1)"
+"$python" - "$plain" "$shifted" <<'PY'
+import sys
+plain, shifted = float(sys.argv[1]), float(sys.argv[2])
+assert abs(plain) < 0.35, f"FAIL: seq1's own calibration should need ~0 px, estimated {plain}"
+assert abs(shifted - plain) < 0.25, f"FAIL: 1 px off, the estimate should give the pixel back ({shifted} vs {plain})"
+PY
+
+rm "$tmp/work0/tracks.json"
+if "$python" "$src/experiments/kitti/self_calibrate_offset.py" "$tmp/seq0" "$tmp/work0" 2>"$tmp/err.txt"; then
+  echo "FAIL: a work folder without tracks.json was accepted"; exit 1
+fi
+[[ $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "tracks.json" "$tmp/err.txt" || { cat "$tmp/err.txt"; echo "FAIL: not one line naming the file"; exit 1; }
+echo "ok"
