@@ -3,6 +3,7 @@
 // sums in the same order (window_sum), the same float thresholds, the same float sums of the leaf
 // distributions, so the labels and distributions are bit for bit the reference path's.
 #include <algorithm>
+#include <cstddef>
 #include <deque>
 #include <new>
 
@@ -31,6 +32,10 @@ constexpr std::size_t kPrefetchTableBytes = std::size_t(6) << 20;
 void Classifier::set_simd(bool on) { simd_ = on && detail::split_avx512_available(); }
 
 void Classifier::build_compact(const Forest& forest) {
+  // detail::route_avx512 reads the nodes as two 64-bit words: the rectangle, then threshold and link.
+  static_assert(sizeof(CompactNode) == 16 && offsetof(CompactNode, x0) == 0 && offsetof(CompactNode, y1) == 6 &&
+                    offsetof(CompactNode, threshold) == 8 && offsetof(CompactNode, next) == 12,
+                "route_avx512's view of a compact node");
   compact_.reserve(nodes_.size());
   std::size_t base = 0;  // the tree's first index in nodes_
   for (const Tree& tree : forest.trees) {
