@@ -126,15 +126,17 @@ def search(pairs, cal):
 def main(argv):
     if len(argv) != 3:
         sys.exit(__doc__)
+    seq_file, tracks_file = argv[1].rstrip("/") + "/sequence.json", argv[2].rstrip("/") + "/tracks.json"
     try:
-        seq = json.load(open(argv[1].rstrip("/") + "/sequence.json"))
-        work = json.load(open(argv[2].rstrip("/") + "/tracks.json"))
-        cal = seq["calibration"]
-    except (OSError, ValueError, KeyError) as e:
-        sys.exit(f"self_calibrate_offset.py: error: {e}")
-    if not all(k in cal for k in ("fx", "fy", "cx", "cy", "baseline")):
-        sys.exit(f"self_calibrate_offset.py: error: {argv[1]}/sequence.json: not a stereo calibration")
-    pairs = consecutive_observations(work["tracks"])
+        cal = json.load(open(seq_file))["calibration"]
+        if not all(isinstance(cal.get(k), (int, float)) for k in ("fx", "fy", "cx", "cy", "baseline")):
+            raise ValueError("not a stereo calibration (fx, fy, cx, cy, baseline)")
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        sys.exit(f"self_calibrate_offset.py: error: {seq_file}: {e}")
+    try:
+        pairs = consecutive_observations(json.load(open(tracks_file))["tracks"])
+    except (OSError, ValueError, KeyError, TypeError, IndexError) as e:
+        sys.exit(f"self_calibrate_offset.py: error: {tracks_file}: not readable as tracks ({type(e).__name__}: {e})")
     if len(pairs) < 2:
         sys.exit(f"self_calibrate_offset.py: error: {argv[2]}/tracks.json: fewer than two frame pairs share tracks")
     table, extra = search(pairs, cal)

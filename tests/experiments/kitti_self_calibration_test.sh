@@ -3,7 +3,7 @@
 # disparity offset estimated from the sequence's own tracks (no ground truth) must be near zero for its
 # correct calibration (~0.1 px; the ground-truth script gives +0.13), and the same total when the slice
 # is imported 1 px off (--disparity-offset -1: the estimate must give the pixel back). Then a work
-# folder without tracks.json is one clear line and a non-zero exit.
+# folder without tracks.json, or with a malformed track, is one clear line and a non-zero exit.
 # Usage: kitti_self_calibration_test.sh SOURCE_DIR BIN_DIR SHARED_DIR PYTHON     (exit 77: no KITTI, skipped)
 set -euo pipefail
 src=$1 bin=$2 shared=$3 python=$4
@@ -31,6 +31,12 @@ PY
 rm "$tmp/work0/tracks.json"
 if "$python" "$src/experiments/kitti/self_calibrate_offset.py" "$tmp/seq0" "$tmp/work0" 2>"$tmp/err.txt"; then
   echo "FAIL: a work folder without tracks.json was accepted"; exit 1
+fi
+[[ $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "tracks.json" "$tmp/err.txt" || { cat "$tmp/err.txt"; echo "FAIL: not one line naming the file"; exit 1; }
+# A track without its pixels: the same, not a traceback.
+echo '{"tracks": [{"frames": [0, 1], "d": [10, 11]}]}' >"$tmp/work0/tracks.json"
+if "$python" "$src/experiments/kitti/self_calibrate_offset.py" "$tmp/seq0" "$tmp/work0" 2>"$tmp/err.txt"; then
+  echo "FAIL: a track without pixels was accepted"; exit 1
 fi
 [[ $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "tracks.json" "$tmp/err.txt" || { cat "$tmp/err.txt"; echo "FAIL: not one line naming the file"; exit 1; }
 echo "ok"
