@@ -263,7 +263,7 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
     const std::uint32_t root = compact_roots_[t];
     if (routing == Routing::ByNodes) {
       partition_tree(frame, tables, s, n, root, leaf);  // every pixel inside (inside == n)
-    } else if (simd_ && !textons_ && num_features_ <= 16) {
+    } else if (vector_walk()) {
       detail::route_avx512(compact_.data(), root, frame.sats.data(), frame.sats.size(), width_, height_, s.xs.data(),
                            s.ys.data(), n, leaf);
     } else if (textons_) {

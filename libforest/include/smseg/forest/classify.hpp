@@ -150,6 +150,9 @@ class Classifier {
   /// s.dists[i * C + c] (if with_dists).
   void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
                     bool with_dists, Routing routing) const;
+  /// Whether pixel lists take detail::route_avx512 (AVX-512 on, no texton test, at most 16 tables)
+  /// rather than route_tree.
+  bool vector_walk() const { return simd_ && !textons_ && num_features_ <= 16; }
   /// Routes pixels [b, e) of the set through the tree at `root`, kLanes at a time: leaf[i] for each.
   template <bool kClamp, bool kTextons>
   void route_tree(const FrameData& frame, const Tables& tables, const Scratch& s, std::size_t b, std::size_t e,
