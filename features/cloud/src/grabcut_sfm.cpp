@@ -4,6 +4,7 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -104,25 +105,29 @@ bool project_point(const Eigen::Vector3f& world, const Pose& pose, const Pinhole
 
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
-                               double min_cos, bool up_is_known) {
+                               double min_cos, bool up_is_known, const std::vector<Eigen::Vector3f>* agree) {
   const std::size_t n = points.size();
   std::vector<char> inlier(n, 0);
   if (plane_out) plane_out->setZero();
   if (n < 3) return inlier;
   std::mt19937_64 rng(seed);
-  const auto count = [&](const Eigen::Vector4d& pl) {
+  const auto count_in = [&](const std::vector<Eigen::Vector3f>& cloud, const Eigen::Vector4d& pl) {
     int c = 0;
-    for (const auto& p : points)
+    for (const auto& p : cloud)
       if (std::abs(pl.head<3>().dot(p.cast<double>()) + pl[3]) <= distance) ++c;
     return c;
   };
+  const auto count = [&](const Eigen::Vector4d& pl) { return count_in(points, pl); };
   Eigen::Vector4d best(0, 0, 0, 0);
   int best_count = -1;
+  // With `agree`: every hypothesis is kept and the one both clouds support best wins (below).
+  std::vector<std::array<double, 6>> scored;  // plane, inliers in points, inliers in agree
   for (int it = 0; it < iterations; ++it) {
     if (up_is_known) {
       const Eigen::Vector3d pa = points[draw(rng, n)].cast<double>();
       const Eigen::Vector4d pl(up.x(), up.y(), up.z(), -up.dot(pa));
       const int cnt = count(pl);
+      if (agree) scored.push_back({pl[0], pl[1], pl[2], pl[3], double(cnt), double(count_in(*agree, pl))});
       if (cnt > best_count) {
         best_count = cnt;
         best = pl;
@@ -139,9 +144,28 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
     if (std::abs(nrm.dot(up)) < min_cos) continue;  // not facing `up` closely enough
     const Eigen::Vector4d pl(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(pa));
     const int cnt = count(pl);
+    if (agree) scored.push_back({pl[0], pl[1], pl[2], pl[3], double(cnt), double(count_in(*agree, pl))});
     if (cnt > best_count) {
       best_count = cnt;
       best = pl;
+    }
+  }
+  if (agree && !scored.empty()) {
+    // The plane both clouds hold: the highest lesser share of either cloud's best count (a plane that
+    // is the best of one cloud and nearly empty in the other loses to one that is good in both).
+    double max_own = 0, max_agree = 0;
+    for (const auto& h : scored) {
+      max_own = std::max(max_own, h[4]);
+      max_agree = std::max(max_agree, h[5]);
+    }
+    double best_score = -1;
+    for (const auto& h : scored) {
+      const double score = std::min(h[4] / std::max(max_own, 1.0), h[5] / std::max(max_agree, 1.0));
+      if (score > best_score) {
+        best_score = score;
+        best = Eigen::Vector4d(h[0], h[1], h[2], h[3]);
+        best_count = int(h[4]);
+      }
     }
   }
   if (best_count < 3) return inlier;
@@ -512,7 +536,8 @@ std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, i
 }
 
 cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
-                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report_out) {
+                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report_out,
+                    const std::vector<Eigen::Vector3f>* plane_cloud) {
   params.validate();
   intrinsics.validate();
   if (points.empty()) throw Error("", "cloud", "the cloud is empty");
@@ -530,14 +555,28 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
 
   // 1. Plane removal.
   auto t0 = Clock::now();
-  std::vector<Eigen::Vector3f> considered;
-  considered.reserve(points.size());
   const Eigen::Vector3f cam_f(float(pose.t[0]), float(pose.t[1]), float(pose.t[2]));
-  for (const auto& p : points) {
-    if (params.max_distance > 0 && (p - cam_f).norm() > params.max_distance) continue;
-    if (!params.frustum_only || in_frame(p, nullptr)) considered.push_back(p);
-  }
+  const auto within_reach = [&](const std::vector<Eigen::Vector3f>& cloud) {
+    std::vector<Eigen::Vector3f> out;
+    out.reserve(cloud.size());
+    for (const auto& p : cloud) {
+      if (params.max_distance > 0 && (p - cam_f).norm() > params.max_distance) continue;
+      if (!params.frustum_only || in_frame(p, nullptr)) out.push_back(p);
+    }
+    return out;
+  };
+  const std::vector<Eigen::Vector3f> considered = within_reach(points);
   rep.considered = int(considered.size());
+  // The first plane's own cloud (see the header): within the same reach; empty = `considered`.
+  std::vector<Eigen::Vector3f> plane_considered =
+      plane_cloud ? within_reach(*plane_cloud) : std::vector<Eigen::Vector3f>();
+  if (params.world_up && params.height_band > 0)  // a supporting plane lies below the camera (not the ceiling)
+    plane_considered.erase(std::remove_if(plane_considered.begin(), plane_considered.end(),
+                                          [&](const Eigen::Vector3f& p) { return p.y() >= cam_f.y(); }),
+                           plane_considered.end());
+  if (plane_cloud && plane_considered.size() < 3)
+    throw Error("", "cloud", "the plane cloud has " + std::to_string(plane_considered.size()) +
+                                 " points in reach (" + std::to_string(plane_cloud->size()) + " in all), too few for a plane");
   std::vector<Eigen::Vector3f> rest = considered;
   const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
   // The camera's up axis in the world (camera y points down), or world +Y when the work folder's world
@@ -553,10 +592,17 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
     // later one while it holds plane_min_share of the rest.
     for (int pi = 0; pi < params.planes; ++pi) {
       Eigen::Vector4d pl;
-      const std::vector<char> on_plane =
-          ransac_plane(rest, params.plane_distance, params.plane_iterations,
+      const bool own_cloud = pi == 0 && plane_cloud;
+      std::vector<char> on_plane =
+          ransac_plane(own_cloud ? plane_considered : rest, params.plane_distance, params.plane_iterations,
                        stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1,
-                       pi == 0 && params.world_up && params.height_band > 0);
+                       pi == 0 && params.world_up && params.height_band > 0, own_cloud ? &rest : nullptr);
+      if (own_cloud) {  // the plane found in its own cloud; its inliers are those of the segmented one
+        on_plane.assign(rest.size(), 0);
+        if (pl.head<3>().squaredNorm() > 0)
+          for (std::size_t i = 0; i < rest.size(); ++i)
+            on_plane[i] = std::abs(pl.head<3>().dot(rest[i].cast<double>()) + pl[3]) <= params.plane_distance ? 1 : 0;
+      }
       const int count = int(std::count(on_plane.begin(), on_plane.end(), char(1)));
       if (count < 3 || (pi > 0 && double(count) < params.plane_min_share * double(rest.size()))) break;
       if (pi == 0) rep.plane = pl;

@@ -152,6 +152,11 @@ int main(int argc, char** argv) {
                  "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
                  "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "
                  "one reconstruction)")->capture_default_str();
+  app.add_option("--plane-window", gc.plane_window,
+                 "grabcut-sfm: fit the first (supporting) plane to the tracks seen within this many frames of --frame "
+                 "(as --window) and remove its inliers from the clustered cloud, e.g. with --dense-cloud, whose "
+                 "depth sees more floor than table top from above a table (-1: the clustered cloud's own plane)")
+      ->capture_default_str();
   app.add_flag("--frustum-only", gc.params.frustum_only,
                "grabcut-sfm: cluster only the points projecting into the frame (001 clusters the whole cloud)");
   app.add_option("--planes", gc.params.planes,

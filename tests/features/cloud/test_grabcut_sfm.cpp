@@ -513,3 +513,54 @@ TEST(GrabCutSfm, SeveralPlanesTakeTheGroundThenTheWall) {
   grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
   EXPECT_EQ(rep.planes.size(), 1u);
 }
+
+TEST(GrabCutSfm, PlaneRansacWithAnAgreeingCloudTakesThePlaneBothHold) {
+  // Seen from above a table: the tracked cloud holds most points on a ledge 10 cm below the table top, the
+  // dense one on the floor; each alone picks its own plane, together they pick the table (y = 0).
+  std::mt19937_64 rng(9);
+  std::uniform_real_distribution<float> U(-1, 1);
+  std::vector<Eigen::Vector3f> tracked, dense;
+  for (int i = 0; i < 300; ++i) tracked.emplace_back(U(rng), -0.1f, 2 + 0.05f * U(rng));  // the ledge
+  for (int i = 0; i < 200; ++i) tracked.emplace_back(U(rng), 0.f, 2 + U(rng));          // the table top
+  for (int i = 0; i < 2000; ++i) dense.emplace_back(3 * U(rng), -0.75f, 2 + 2 * U(rng));  // the floor
+  for (int i = 0; i < 1000; ++i) dense.emplace_back(U(rng), 0.f, 2 + U(rng));
+  for (int i = 0; i < 50; ++i) dense.emplace_back(U(rng), -0.1f, 2 + 0.05f * U(rng));
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitY();
+  const double min_cos = std::cos(M_PI / 36);
+  Eigen::Vector4d pl;
+  ransac_plane(tracked, 0.02, 100, 1, &pl, up, min_cos, true);
+  EXPECT_NEAR(pl[3], 0.1, 1e-3);  // y = -0.1: the ledge
+  ransac_plane(dense, 0.02, 100, 1, &pl, up, min_cos, true);
+  EXPECT_NEAR(pl[3], 0.75, 1e-3);  // the floor
+  const std::vector<char> in = ransac_plane(tracked, 0.02, 100, 1, &pl, up, min_cos, true, &dense);
+  EXPECT_NEAR(pl[3], 0.0, 1e-3);  // the table
+  for (int i = 0; i < 500; ++i) EXPECT_EQ(bool(in[std::size_t(i)]), i >= 300) << i;
+}
+
+TEST(GrabCutSfm, APlaneCloudFindsTheGroundWhereTheClusteredCloudSeesMoreOfALowerFloor) {
+  // The clustered cloud also holds a large floor 0.6 m below the box's ground (as a frame's dense depth
+  // sees the room's floor past a table): its own supporting plane is that floor and the band swallows the
+  // ground. With the scene's own cloud as the plane cloud the ground is the supporting plane again, its
+  // inliers go from the clustered cloud, and the box is found.
+  const Scene sc = make_scene();
+  std::vector<Eigen::Vector3f> cloud = sc.cloud;
+  std::mt19937_64 rng(10);
+  std::uniform_real_distribution<float> U(0, 1);
+  for (int i = 0; i < 3000; ++i) cloud.emplace_back(-3 + 6 * U(rng), -0.6f, 8 * U(rng));
+  GrabCutSfmParams p = standing_on_the_ground();
+  p.world_up = true;
+  p.max_tilt = 5;
+  GrabCutSfmReport own, with;
+  try {
+    grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, &own);
+    EXPECT_NEAR(own.planes.at(0)[3], 0.6, p.plane_distance);  // the lower floor
+  } catch (const Error&) {  // or no cluster is left to choose: either way not the ground
+  }
+  const cv::Mat mask = grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, &with, &sc.cloud);
+  ASSERT_FALSE(with.planes.empty());
+  EXPECT_NEAR(with.planes[0][3], 0.0, p.plane_distance);  // the ground (within the inlier distance)
+  EXPECT_GE(with.planes_inliers[0], 1400);     // its points, removed from the clustered cloud
+  EXPECT_GE(mask_f1(mask, sc.truth), 0.9);
+  const std::vector<Eigen::Vector3f> too_few(sc.cloud.begin(), sc.cloud.begin() + 2);
+  EXPECT_THROW(grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, nullptr, &too_few), Error);
+}

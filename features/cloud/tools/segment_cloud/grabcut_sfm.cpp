@@ -96,6 +96,16 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
       throw Error(cloud_path, "", "no cloud: run extract-features on the sequence first");
     cloud = sf::read_coloured_cloud(cloud_path);
   }
+  std::vector<Eigen::Vector3f> plane_cloud;  // --plane-window: the tracks around the frame find the plane
+  if (o.plane_window >= 0) {
+    if (!(o.params.plane_distance > 0))
+      throw Error("", "--plane-window", "needs plane removal (--plane-distance > 0)");
+    plane_cloud = sf::window_cloud(tracks.result, o.frame, o.plane_window);
+    if (plane_cloud.empty())
+      throw Error(tracks_path.string(), "--plane-window", "no track has a 3D point within " +
+                                                              std::to_string(o.plane_window) + " frames of frame " +
+                                                              std::to_string(o.frame));
+  }
   const cv::Mat image = seq.load_left(o.frame);
 
   // Truth mask (255 object) and ignored pixels (void).
@@ -184,7 +194,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
   sf::GrabCutSfmReport rep;
   cv::Mat mask;
   try {
-    mask = sf::grabcut_sfm(cloud.points, k, pose, image, o.params, &rep);
+    mask = sf::grabcut_sfm(cloud.points, k, pose, image, o.params, &rep, o.plane_window >= 0 ? &plane_cloud : nullptr);
   } catch (const Error& e) {
     throw Error(e.field() == "cloud" ? cloud_path : e.file(), e.field(),
                 e.reason() + " (frame " + std::to_string(o.frame) + ")");
@@ -228,6 +238,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& o) {
                     {"max_distance", p.max_distance},
                     {"window", o.window},
                     {"dense_cloud", o.dense_cloud},
+                    {"plane_window", o.plane_window},
                     {"planes", p.planes},
                     {"plane_min_share", p.plane_min_share},
                     {"height_band", p.height_band},

@@ -73,6 +73,7 @@ struct GrabCutSfmCli {
   int truth_value = 0;  // --truth-mask: 0 = any non-zero pixel is the object, else pixels == value
   int dense_cloud = 0;  // > 0: the cloud of the frame's dense depth, every this-many pixels (stereo)
   int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
+  int plane_window = -1;  // >= 0: the first plane is fitted to the tracks seen within this many frames
   std::string cluster = "kmeans", nearest = "centre", up = "camera";  // up: --plane-up
   smseg::features::GrabCutSfmParams params;
 };

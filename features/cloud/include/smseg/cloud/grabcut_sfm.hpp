@@ -120,8 +120,13 @@ struct GrabCutSfmReport {
 /// Returns the foreground mask (CV_8UC1, 255 object, 0 background). Errors: empty cloud, empty or
 /// non-colour image, too few points left for k clusters after plane removal, no cluster with
 /// min_cluster_points projections in front of the camera inside the frame.
+/// `plane_cloud` (not in 001; null: `points`): the first (supporting) plane is fitted to this cloud
+/// instead, within the same reach (max_distance, frustum_only), and removes its inliers from `points`.
+/// A frame's dense depth sees the objects a tracked cloud misses but, seen from above a table, often
+/// more floor than table top; the tracks around the frame find the table (docs/graphcuts.md).
 cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
-                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report = nullptr);
+                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report = nullptr,
+                    const std::vector<Eigen::Vector3f>* plane_cloud = nullptr);
 
 /// A cloud local to one frame (not in 001): one point per track observed with a 3D point in frames
 /// [frame - window, frame + window] (those with a pose), the mean of its world positions there (R P + t of
@@ -142,11 +147,12 @@ std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calib
 /// |n . up| >= min_cos count (a plane facing `up`, unit, within acos(min_cos)). With `up_is_known` the
 /// hypotheses are the planes normal to `up` through one point each (a levelled world: 3-point samples
 /// of a noisy table top fall within a few degrees of `up` too rarely), and the refitted normal is kept
-/// only within acos(min_cos) of `up`.
+/// only within acos(min_cos) of `up`. With `agree` (another cloud of the same scene) the hypothesis whose
+/// smaller share of the two clouds' best inlier counts is highest wins, then the refit as above.
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane = nullptr,
                                const Eigen::Vector3d& up = Eigen::Vector3d::Zero(), double min_cos = -1,
-                               bool up_is_known = false);
+                               bool up_is_known = false, const std::vector<Eigen::Vector3f>* agree = nullptr);
 
 /// k-means of n rows of `dim` floats (row-major), k-means++ seeding, Lloyd iterations until no label
 /// changes, best of `attempts` (lowest sum of squared distances). Labels 0..k-1 ordered by the first point
