@@ -9,9 +9,14 @@
 #   bash experiments/grabcut-sfm-frames.sh tab/seq tab/work out/tab "$(seq -s ' ' 0 10 290)" --truth-instance nearest \
 #       --window 10 --frustum-only --max-distance 3 --plane-distance 0.02 --height-band 0.35 --support-radius 0.15 \
 #       --cluster euclidean --cluster-tolerance 0.06 --min-cluster-size 8 --box-margin 0.3 --max-tilt 20
+#   or, best on that scene (0.88; docs/graphcuts.md "H"), its dense depth clustered and the table from the tracks
+#   of a work folder made with extract-features --gravity estimate:
+#   ... --truth-instance nearest --dense-cloud 2 --plane-window 10 --frustum-only --max-distance 3 \
+#       --plane-distance 0.02 --height-band 0.35 --support-radius 0.15 --max-tilt 5 --plane-up world --box-to-plane \
+#       --box-margin 0.1 --cluster euclidean --cluster-tolerance 0.02 --min-cluster-size 80 --nearest depth
 # env BIN: the folder holding segment-cloud (default build/bin).
 set -euo pipefail
-if [ $# -lt 4 ]; then sed -n 2,12p "$0"; exit 2; fi
+if [ $# -lt 4 ]; then sed -n 2,17p "$0"; exit 2; fi
 seq="$1"; work="$2"; out="$3"; frames="$4"; shift 4
 bin="${BIN:-build/bin}"
 mkdir -p "$out"
