@@ -567,7 +567,7 @@ cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeInt
   };
   const std::vector<Eigen::Vector3f> considered = within_reach(points);
   rep.considered = int(considered.size());
-  // The first plane's own cloud (see the header): within the same reach; empty = `considered`.
+  // The first plane's own cloud (see the header), within the same reach; empty without one.
   std::vector<Eigen::Vector3f> plane_considered =
       plane_cloud ? within_reach(*plane_cloud) : std::vector<Eigen::Vector3f>();
   if (params.world_up && params.height_band > 0)  // a supporting plane lies below the camera (not the ceiling)

@@ -121,7 +121,9 @@ struct GrabCutSfmReport {
 /// non-colour image, too few points left for k clusters after plane removal, no cluster with
 /// min_cluster_points projections in front of the camera inside the frame.
 /// `plane_cloud` (not in 001; null: `points`): the first (supporting) plane is fitted to this cloud
-/// instead, within the same reach (max_distance, frustum_only), and removes its inliers from `points`.
+/// instead, within the same reach (max_distance, frustum_only; with world_up and a height band only its
+/// points below the camera), each hypothesis scored by both clouds (ransac_plane's `agree`), and removes
+/// its inliers from `points`; unused without plane removal (plane_distance 0).
 /// A frame's dense depth sees the objects a tracked cloud misses but, seen from above a table, often
 /// more floor than table top; the tracks around the frame find the table (docs/graphcuts.md).
 cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
