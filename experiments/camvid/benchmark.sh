@@ -6,22 +6,26 @@
 #               testannot). With test rows in frames.csv it trains on train + val and tests on test;
 #               without, it trains on train and tests on val.
 #   OUT         output folder: sequences/, work/, forests/, context/, eval/, measure/ and summary.json
-# Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default:
-#   sm               structure and motion only: the six features fH fC fOx fOy fD fR
-#   sm_dense         the six and the five dense geometry channels of --dense (a plane sweep over the SfM
-#                    poses: fZV fZI fZH fZU fZE; structure and motion, no appearance; docs/camvid.md,
-#                    "Dense geometry from the plane sweep")
+# Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default. The two
+# headline runs are the best sets measured on val (docs/camvid.md, "The benchmark's defaults"):
+#   sm               structure and motion (no image appearance): the six point features fH fC fOx fOy fD fR
+#                    and the five dense geometry channels of --dense (a plane sweep over the SfM poses:
+#                    fZV fZI fZH fZU fZE), --balance sqrt, evaluated with --smooth graphcut
 #   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
-#                    with --balance sqrt (measured on val: docs/camvid.md, "Appearance channels")
-#   combined_smooth  the combined forest, evaluated with --smooth graphcut
-#   sm_context       auto-context on sm: add-context writes the sm forest's class posteriors as 11 more
-#                    channels (out of 4 folds on the training runs, from the sm forest on the test runs),
-#                    and a second forest, with sm's options, trains on the six features and them
-#   combined_context the same on the combined forest (its features, textons and --balance sqrt)
-#   combined_context_smooth  the combined_context forest, evaluated with --smooth graphcut
+#                    --balance sqrt, auto-context (below), evaluated with --smooth graphcut
+# and one row per lever on its own (the ablation):
+#   sm_six           the six point features only
+#   sm_dense         the six and the five dense geometry channels (no balance, no smoothing)
+#   sm_context       auto-context on sm_six: add-context writes the sm_six forest's class posteriors as 11
+#                    more channels (out of 4 folds on the training runs, from the forest on the test runs),
+#                    and a second forest, with sm_six's options, trains on the six features and them
+#   combined_forest  the S+M + appearance forest alone (no auto-context, no smoothing)
+#   combined_smooth  that forest evaluated with --smooth graphcut
+#   combined_context auto-context on it (its features, textons and --balance sqrt), not smoothed
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
-# OUT/summary.json: {"runs": {"sm": {...}, "sm_dense": {...}, "sm_context": {...}, "combined": {...}, "combined_context": {...},
-# "combined_smooth": {...}, "combined_context_smooth": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class,
+# OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_context": {...},
+# "combined_forest": {...}, "combined_smooth": {...}, "combined_context": {...}}}, each with global_accuracy,
+# class_average_accuracy, mean_iou, per_class,
 # train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
 # forests', the context channels' and the second forest's).
 # Training frames are extracted with --require-label (the training filters); test frames without it,
@@ -99,49 +103,53 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
 
-echo "== 3/5 train-forest: sm (six S+M features), sm_dense (+ dense geometry), combined (+ appearance channels and textons, --balance sqrt)"
+echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), combined (+ appearance channels and textons, --balance sqrt)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
 six=fH,fC,fOx,fOy,fD,fR
 dense=fZV,fZI,fZH,fZU,fZE
 appearance=fL,fA,fB,fG0,fG1,fG2,fG3,fRow,fCol
 python3 "$summary_py" measure "$out/measure/sm.json" -- \
-  "$bin/train-forest" "${train_works[@]}" --features $six "${common[@]}" -o "$out/forests/sm.json"
+  "$bin/train-forest" "${train_works[@]}" --features $six,$dense --balance sqrt "${common[@]}" -o "$out/forests/sm.json"
+python3 "$summary_py" measure "$out/measure/sm_six.json" -- \
+  "$bin/train-forest" "${train_works[@]}" --features $six "${common[@]}" -o "$out/forests/sm_six.json"
 python3 "$summary_py" measure "$out/measure/sm_dense.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$dense "${common[@]}" -o "$out/forests/sm_dense.json"
 python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${common[@]}" \
   -o "$out/forests/combined.json"
 
-echo "== 4/5 auto-context: the sm and combined forests' posteriors (out of 4 folds on the training runs), second forests"
+echo "== 4/5 auto-context: the sm_six and combined forests' posteriors (out of 4 folds on the training runs), second forests"
 under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-context's output folders)
   local folder=$1 w
   shift
   for w in "$@"; do printf '%s\n' "$folder/$(basename "$w")"; done
 }
-context() {  # FIRST [train-forest options of the second forest...]: OUT/context/FIRST-{train,test}, OUT/forests/FIRST_context.json
-  local first=$1
-  shift
+context() {  # FIRST NAME [train-forest options of the second forest...]: OUT/context/FIRST-{train,test},
+  # OUT/forests/NAME.json, OUT/eval/NAME
+  local first=$1 name=$2
+  shift 2
   local ctx_train ctx_test
   mapfile -t ctx_train < <(under "$out/context/$first-train" "${train_works[@]}")
   mapfile -t ctx_test < <(under "$out/context/$first-test" "${test_works[@]}")
-  python3 "$summary_py" measure "$out/measure/${first}_context.json" -- \
+  python3 "$summary_py" measure "$out/measure/$name.json" -- \
     "$bin/add-context" "$out/forests/$first.json" "${train_works[@]}" --folds 4 -q -o "$out/context/$first-train" \
-    --then "$bin/train-forest" "${ctx_train[@]}" "$@" "${common[@]}" -o "$out/forests/${first}_context.json"
+    --then "$bin/train-forest" "${ctx_train[@]}" "$@" "${common[@]}" -o "$out/forests/$name.json"
   "$bin/add-context" "$out/forests/$first.json" "${test_works[@]}" -q -o "$out/context/$first-test" >/dev/null
-  "$bin/eval-forest" "$out/forests/${first}_context.json" "${ctx_test[@]}" --no-pictures -q -o "$out/eval/${first}_context"
+  "$bin/eval-forest" "$out/forests/$name.json" "${ctx_test[@]}" --no-pictures -q -o "$out/eval/$name"
 }
-context sm
-context combined --textons --balance sqrt
+context sm_six sm_context
+context combined combined_context --textons --balance sqrt
 mapfile -t combined_context_test < <(under "$out/context/combined-test" "${test_works[@]}")
 
 echo "== 5/5 eval-forest on $test_split"
-"$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --smooth graphcut --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/sm_six.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_six"
 "$bin/eval-forest" "$out/forests/sm_dense.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_dense"
-"$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined"
+"$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined_forest"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \
   -o "$out/eval/combined_smooth"
 "$bin/eval-forest" "$out/forests/combined_context.json" "${combined_context_test[@]}" --smooth graphcut --no-pictures \
-  -q -o "$out/eval/combined_context_smooth"
+  -q -o "$out/eval/combined"
 
 python3 "$summary_py" summary "$out" --train "$train_splits" --test "$test_split" --kt "$kt" --trees "$trees"

@@ -19,16 +19,15 @@ import tempfile
 import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
-    ("sm", "sm", ["sm"], "S+M"),
-    ("sm_dense", "sm_dense", ["sm_dense"], "S+M + dense geometry"),
-    ("sm_context", "sm_context", ["sm", "sm_context"], "S+M + auto-context"),
-    ("combined", "combined", ["combined"], "S+M + appearance"),
-    ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
+    ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, smoothing"),
+    ("combined", "combined", ["combined", "combined_context"], "S+M + appearance + auto-context + smoothing"),
+    ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
+    ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),
+    ("sm_context", "sm_context", ["sm_six", "sm_context"], "S+M six + auto-context"),
+    ("combined_forest", "combined_forest", ["combined"], "S+M + appearance"),
     ("combined_smooth", "combined_smooth", ["combined"], "S+M + appearance + smoothing"),
-    ("combined_context_smooth", "combined_context_smooth", ["combined", "combined_context"],
-     "S+M + appearance + auto-context + smoothing"),
+    ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
 ]
-
 
 def write_json_atomic(path, value):
     folder = os.path.dirname(os.path.abspath(path))
