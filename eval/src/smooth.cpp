@@ -79,7 +79,8 @@ nlohmann::json SmoothOptions::to_json() const {
           {"cycles", cycles},
           {"p_min", p_min},
           {"label_window", label_window},
-          {"bands", bands}};
+          {"bands", bands},
+          {"contrast", contrast}};
 }
 
 double contrast_beta(const cv::Mat& image, int connectivity) {
@@ -557,7 +558,7 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
   check_sizes(dists, classes, image);
   const std::size_t n = image.total(), C = std::size_t(classes);
   SmoothReport rep;
-  rep.beta = contrast_beta(image, opt.connectivity);
+  rep.beta = opt.contrast ? contrast_beta(image, opt.connectivity) : 0.0;  // beta 0: exp(-beta dI^2) = 1
   cv::Mat out;
   if (opt.label_window > 0) {
     out = smooth_in_window(dists, C, image, opt, rep);

@@ -31,7 +31,7 @@ std::string mode_text(const smseg::eval::EvalOptions& opt) {
            to_string(opt.vote);
   if (opt.smooth.enabled())
     return "per pixel, " + smseg::eval::to_string(opt.smooth.method) + " lambda=" + std::to_string(opt.smooth.lambda) +
-           " " + std::to_string(opt.smooth.connectivity) + "-connected";
+           " " + std::to_string(opt.smooth.connectivity) + "-connected" + (opt.smooth.contrast ? "" : ", no contrast");
   return "per pixel";
 }
 
@@ -103,6 +103,12 @@ int main(int argc, char** argv) {
                  "then the seams between them (1: one energy over the whole frame); the labels depend on it, "
                  "not on --threads")
       ->capture_default_str();
+  std::string smooth_contrast = "on";
+  app.add_option("--smooth-contrast", smooth_contrast,
+                 "graph cut: on (the Potts weight falls with the greyscale image's contrast across an edge) or off "
+                 "(plain Potts: the smoothing reads nothing of the image, for structure-and-motion-only runs)")
+      ->check(CLI::IsMember({"on", "off"}))
+      ->capture_default_str();
   app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str()
       ->check(smseg::kDecimalDigits);
   add_threads_option(app, threads, "the results do not depend on it");
@@ -116,6 +122,7 @@ int main(int argc, char** argv) {
     if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
     opt.vote = eval::vote_rule_from_string(vote, "--vote");
     opt.smooth.method = eval::smooth_method_from_string(smooth, "--smooth");
+    opt.smooth.contrast = smooth_contrast == "on";
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
     as_usage([&] { opt.validate(); });

@@ -11,6 +11,7 @@
 #   sm               structure and motion (no image appearance): the six point features fH fC fOx fOy fD fR
 #                    and the five dense geometry channels of --dense (a plane sweep over the SfM poses:
 #                    fZV fZI fZH fZU fZE), --balance sqrt, evaluated with --smooth graphcut
+#                    --smooth-contrast off (plain Potts: the smoothing reads nothing of the image)
 #   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
 #                    --balance sqrt, auto-context (below), evaluated with --smooth graphcut
 # and one row per lever on its own (the ablation):
@@ -143,7 +144,8 @@ context combined combined_context --textons --balance sqrt
 mapfile -t combined_context_test < <(under "$out/context/combined-test" "${test_works[@]}")
 
 echo "== 5/5 eval-forest on $test_split"
-"$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --smooth graphcut --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --smooth graphcut --smooth-contrast off --no-pictures -q \
+  -o "$out/eval/sm"
 "$bin/eval-forest" "$out/forests/sm_six.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_six"
 "$bin/eval-forest" "$out/forests/sm_dense.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_dense"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined_forest"

@@ -19,7 +19,7 @@ import tempfile
 import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
-    ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, smoothing"),
+    ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, Potts smoothing"),
     ("combined", "combined", ["combined", "combined_context"], "S+M + appearance + auto-context + smoothing"),
     ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
     ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),

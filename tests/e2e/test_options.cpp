@@ -98,6 +98,7 @@ TEST_F(Options, EvalForestRefusesAbsurdValues) {
       {"{F} {W} --smooth graphcut --smooth-window 5000 -o {O}", 2, "--smooth-window"},
       {"{F} {W} --smooth graphcut --smooth-bands 0 -o {O}", 2, "--smooth-bands"},
       {"{F} {W} --smooth graphcut --smooth-bands 65 -o {O}", 2, "--smooth-bands"},
+      {"{F} {W} --smooth graphcut --smooth-contrast maybe -o {O}", 2, "--smooth-contrast"},
       {"{F} {W} --test-frames 500: -o {O}", 1, "500:"},
       {"{F} {W} --trees 3 -o {O}", 1, "--trees"},
   };

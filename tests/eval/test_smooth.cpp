@@ -120,6 +120,25 @@ TEST(Smooth, WithoutContrastTheSameSmoothingCutsCorners) {
   EXPECT_GT(accuracy(with, s.truth), accuracy(without, s.truth));
 }
 
+TEST(Smooth, ContrastOffReadsNothingOfTheImage) {
+  // Plain Potts (contrast = false, eval-forest --smooth-contrast off): the scene's image, a flat one and
+  // random noise give the same labels, and the report's beta is 0; with contrast they differ.
+  const Scene s = make_scene(3);
+  eval::SmoothOptions opt = graph_cut(6);
+  opt.contrast = false;
+  eval::SmoothReport rep;
+  const cv::Mat on_scene = eval::smooth_labels(s.dists, Scene::C, s.image, opt, &rep);
+  EXPECT_EQ(rep.beta, 0.0);
+  const cv::Mat flat(s.image.size(), CV_8UC1, cv::Scalar(128));
+  cv::Mat noise(s.image.size(), CV_8UC1);
+  cv::randu(noise, 0, 256);
+  EXPECT_EQ(cv::countNonZero(on_scene != eval::smooth_labels(s.dists, Scene::C, flat, opt)), 0);
+  EXPECT_EQ(cv::countNonZero(on_scene != eval::smooth_labels(s.dists, Scene::C, noise, opt)), 0);
+  opt.contrast = true;
+  EXPECT_GT(cv::countNonZero(on_scene != eval::smooth_labels(s.dists, Scene::C, s.image, opt)), 0);
+  EXPECT_EQ(opt.to_json()["contrast"], true);
+}
+
 namespace {
 
 // The energy of a labelling, written out from the definition in smooth.hpp (8-connected): what the

@@ -52,6 +52,10 @@ struct SmoothOptions {
   /// 8. On a held-out CamVid frame a reach of 10 gave a lower energy than the whole frame's one energy
   /// (5: the same, 3: 0.01 % above), and on CamVid val scores closer to it (docs/graphcuts.md).
   int seam_reach() const { return std::max(8, 2 * label_window); }
+  /// The Potts weight falls with the image's contrast across the edge (lambda exp(-beta dI^2) / dist);
+  /// false: plain Potts (lambda / dist), which reads nothing of the image, so that a structure-and-motion
+  /// run stays free of appearance (docs/camvid.md, "The benchmark's defaults").
+  bool contrast = true;
 
   bool enabled() const { return method != SmoothMethod::None; }
   void validate() const;  ///< Error naming the option (--lambda, --connectivity, ...)
