@@ -123,6 +123,8 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"extract-features", {"{S} -o {O} --num-disparities 0", 2, "--num-disparities"}},
       {"extract-features", {"{S} -o {O} --min-track-frames 0", 2, "--min-track-frames"}},
       {"extract-features", {"{S} -o {O} --gravity tilted", 2, "--gravity"}},
+      {"extract-features", {"{S} -o {O} --dense --sweep-baseline 0", 2, "--sweep-baseline"}},
+      {"extract-features", {"{S} -o {O} --dense --sweep-reach 0", 2, "--sweep-reach"}},
       {"label-stream", {"{S} {F} -o {O} --grid -1", 2, "--grid"}},
       {"label-stream", {"{S} {F} -o {O} --frames 500:", 1, "--frames"}},
       {"label-stream", {"{S} {F} -o {O} --cameras 0", 2, "--cameras"}},

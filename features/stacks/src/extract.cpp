@@ -179,6 +179,9 @@ Json feature_options_json(const FeatureOptions& o) {
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
   if (o.appearance) j["appearance"] = true;  // only when on: work folders from before keep their options
   if (o.dense) j["dense"] = true;            // the same
+  const FeatureOptions defaults;
+  if (o.sweep_baseline != defaults.sweep_baseline) j["sweep_baseline"] = o.sweep_baseline;  // the same
+  if (o.sweep_reach != defaults.sweep_reach) j["sweep_reach"] = o.sweep_reach;              // the same
   if (o.height_reference == HeightReference::Camera) j["height_reference"] = "camera";  // the same
   return j;
 }
@@ -362,7 +365,8 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const auto frame_depth = [&](int f) {
     if (!sfm) return dense_depth(seq, f, dense_stereo);
     std::vector<SweepView> views;
-    for (int g : sweep_neighbours(f, sweep.usable, video.poses)) views.push_back({seq.load_left_gray(g), video.poses[g]});
+    const SweepNeighbourOptions choice{opt.features.sweep_reach, opt.features.sweep_baseline};
+    for (int g : sweep_neighbours(f, sweep.usable, video.poses, choice)) views.push_back({seq.load_left_gray(g), video.poses[g]});
     return plane_sweep_depth(seq.load_left_gray(f), video.poses[f], views, sweep.calibration, PlaneSweepOptions{});
   };
   const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {

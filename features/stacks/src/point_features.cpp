@@ -95,6 +95,11 @@ double height_shift(std::optional<double> camera_height, const Pose& pose) {
 void FeatureOptions::validate() const {
   if (future_frames < 0 || future_frames > 100000)
     throw Error("", "--future-frames", "must be in 0..100000 (got " + std::to_string(future_frames) + ")");
+  // The sweep never takes a neighbour nearer than SweepNeighbourOptions::min_baseline (0.05 m).
+  if (!(sweep_baseline >= 0.05 && sweep_baseline <= 1000))
+    throw Error("", "--sweep-baseline", "must be in 0.05..1000 metres (got " + std::to_string(sweep_baseline) + ")");
+  if (sweep_reach < 1 || sweep_reach > 1000)
+    throw Error("", "--sweep-reach", "must be in 1..1000 frames (got " + std::to_string(sweep_reach) + ")");
 }
 
 void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {

@@ -122,6 +122,14 @@ int main(int argc, char** argv) {
                "fZU (surface facing up), fZE (depth edges), from semi-global matching (stereo) or a plane sweep\n"
                "over the SfM's posed neighbour frames (mono); structure and motion, not appearance\n"
                "(docs/stereo.md, docs/sfm.md)");
+  app.add_option("--sweep-baseline", opt.features.sweep_baseline,
+                 "--dense, monocular: metres between the frame's camera and each neighbour the plane sweep reads\n"
+                 "(the nearest frame each side at least this far, within --sweep-reach frames); a video much\n"
+                 "denser than its training runs can match their baseline (docs/camvid.md)")
+      ->capture_default_str();
+  app.add_option("--sweep-reach", opt.features.sweep_reach,
+                 "--dense, monocular: frames either side the plane sweep looks for its neighbours in")
+      ->capture_default_str();
   app.add_option("--height-reference", height_reference,
                  "what fH and fZH measure heights from: plane (the run's ground plane, world Y), camera (the\n"
                  "ground under each frame's camera: its height relative to the camera plus the cameras' median\n"

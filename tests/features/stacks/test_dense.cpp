@@ -55,6 +55,13 @@ Sequence thirteen_frames(const std::string& scene, const fs::path& dir) {
   return synth::make_sequence(so, dir);
 }
 
+// One pixel of channel k of a stored frame (its summed-area table), frames W pixels wide.
+double stored_pixel(const FrameStack& st, int k, int y, int x, int W) {
+  const double* S = st.sat(k);
+  const auto at = [&](int r, int c) { return S[std::size_t(r) * std::size_t(W + 1) + std::size_t(c)]; };
+  return at(y + 1, x + 1) - at(y, x + 1) - at(y + 1, x) + at(y, x);
+}
+
 double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) {
   return test::raster_at(r, dense_feature_names(), name, y, x);
 }
@@ -237,12 +244,7 @@ TEST(PlaneSweep, MonocularExtractionWritesDenseChannelsAtTheSceneScale) {
   EXPECT_TRUE(std::equal(dense_feature_names().begin(), dense_feature_names().end(), m.features.begin() + 6));
   EXPECT_EQ(m.options["features"]["height_reference"], "camera");  // monocular: auto is the camera's ground
   const int W = seq.size.width, H = seq.size.height;
-  // One pixel of a stored summed-area table.
-  const auto pixel = [&](const FrameStack& st, int k, int y, int x) {
-    const double* S = st.sat(k);
-    const auto at = [&](int r, int c) { return S[std::size_t(r) * std::size_t(W + 1) + std::size_t(c)]; };
-    return at(y + 1, x + 1) - at(y, x + 1) - at(y + 1, x) + at(y, x);
-  };
+  const auto pixel = [&](const FrameStack& st, int k, int y, int x) { return stored_pixel(st, k, y, x, W); };
   int frames_with_depth = 0;
   for (int f : {9, 12, 15}) {
     const FrameStack st = FrameStack::open(m, f, false);
@@ -260,5 +262,49 @@ TEST(PlaneSweep, MonocularExtractionWritesDenseChannelsAtTheSceneScale) {
     EXPECT_NEAR(ratio[ratio.size() / 2], 1.0, 0.2) << "frame " << f;
   }
   EXPECT_GE(frames_with_depth, 2);
+  fs::remove_all(dir);
+}
+
+// --sweep-baseline / --sweep-reach: which neighbours a monocular frame's plane sweep reads. A wider
+// choice changes the depth (still the scene's), is recorded in the work folder's options so that a
+// resume with the other choice is refused, and absurd values are refused.
+TEST(PlaneSweep, TheSweepBaselineChoosesTheNeighboursAndIsRecorded) {
+  const fs::path dir = test::temp_dir("plane_sweep_baseline");
+  const Sequence seq = test::small_corridor(dir / "seq", 24, 6);
+  ExtractOptions near = test::quiet_extract_options();
+  near.features.dense = true;
+  near.motion = MotionMethod::Sfm;
+  near.frames = FrameRange::parse("12:13", "--frames");
+  ExtractOptions far = near;
+  far.features.sweep_baseline = 1000;  // never reached: the widest frame within the reach, 8 either side
+  far.features.sweep_reach = 8;
+  extract_features(seq, dir / "near", near);
+  extract_features(seq, dir / "far", far);
+  const StackManifest mn = load_stack_manifest(dir / "near"), mf = load_stack_manifest(dir / "far");
+  EXPECT_FALSE(mn.options["features"].contains("sweep_baseline"));  // the default: older folders still resume
+  EXPECT_EQ(mf.options["features"]["sweep_baseline"], 1000.0);
+  EXPECT_EQ(mf.options["features"]["sweep_reach"], 8);
+  const int W = seq.size.width, H = seq.size.height;
+  const FrameStack sn = FrameStack::open(mn, 12, false), sf = FrameStack::open(mf, 12, false);
+  const cv::Mat truth = seq.load_gt_depth(12);
+  long differ = 0;
+  std::vector<double> ratio;
+  for (int y = 0; y < H; ++y)
+    for (int x = 0; x < W; ++x) {
+      differ += stored_pixel(sn, 7, y, x, W) != stored_pixel(sf, 7, y, x, W);  // fZI
+      if (stored_pixel(sf, 6, y, x, W) > 0.5 && truth.at<float>(y, x) > 0)
+        ratio.push_back(1.0 / stored_pixel(sf, 7, y, x, W) / truth.at<float>(y, x));
+    }
+  EXPECT_GT(differ, W * H / 20);
+  ASSERT_GT(ratio.size(), std::size_t(W * H / 20));
+  std::nth_element(ratio.begin(), ratio.begin() + long(ratio.size() / 2), ratio.end());
+  EXPECT_NEAR(ratio[ratio.size() / 2], 1.0, 0.2);
+  EXPECT_THROW(extract_features(seq, dir / "near", far), Error);  // made with the other choice
+  ExtractOptions bad = near;
+  bad.features.sweep_baseline = 0.01;
+  EXPECT_THROW(extract_features(seq, dir / "bad", bad), Error);
+  bad = near;
+  bad.features.sweep_reach = 0;
+  EXPECT_THROW(extract_features(seq, dir / "bad", bad), Error);
   fs::remove_all(dir);
 }

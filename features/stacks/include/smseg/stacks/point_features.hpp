@@ -62,6 +62,12 @@ struct FeatureOptions {
   int future_frames = 100;  ///< frames of camera motion applied to a point's last position (thesis: 100)
   bool appearance = false;  ///< also the image's own channels (appearance.hpp: colour, oriented gradients, position)
   bool dense = false;       ///< stereo: also the dense geometry channels (dense.hpp: depth, height, facing, edges)
+  /// Monocular dense channels (a plane sweep): the neighbour frames each side are the nearest at least
+  /// sweep_baseline metres from the frame's camera, looked for within sweep_reach frames
+  /// (SweepNeighbourOptions, plane_sweep.hpp). A video far denser than the training runs can take its
+  /// neighbours at their baseline, so that its depth is measured as theirs is (docs/camvid.md).
+  double sweep_baseline = 0.5;
+  int sweep_reach = 4;
   void validate() const;    ///< Error naming the option when out of range
 };
 
