@@ -47,6 +47,17 @@ for name in ("sm_six", "sm_dense", "sm_context", "combined_forest", "combined_co
     assert s["runs"][name]["smooth_ms_per_frame"] == 0, name
 print("summary.json: ok")
 PY
+# The 15 Hz runs (val in training, the test split here) sweep 4 m baselines; the 1 Hz run the default.
+python3 - "$tmp/out/work" <<'PY'
+import glob, json, os, sys
+found = glob.glob(os.path.join(sys.argv[1], "*", "*", "stacks.json"))
+assert len(found) == 3, found
+for stacks in found:
+    features = json.load(open(stacks))["options"]["features"]
+    fast = "0016E5_08190" not in stacks
+    assert (features.get("sweep_baseline"), features.get("sweep_reach")) == ((4.0, 24) if fast else (None, None)), (stacks, features)
+print("sweep baselines: ok")
+PY
 
 # Bad input: one line naming the file, exit 2, nothing half-made.
 set +e
