@@ -55,6 +55,14 @@ Sequence thirteen_frames(const std::string& scene, const fs::path& dir) {
   return synth::make_sequence(so, dir);
 }
 
+// extract-features --dense --motion sfm, quiet: a monocular run's plane-sweep channels.
+ExtractOptions monocular_dense_options() {
+  ExtractOptions eo = test::quiet_extract_options();
+  eo.features.dense = true;
+  eo.motion = MotionMethod::Sfm;
+  return eo;
+}
+
 // One pixel of channel k of a stored frame (its summed-area table), frames W pixels wide.
 double stored_pixel(const FrameStack& st, int k, int y, int x, int W) {
   const double* S = st.sat(k);
@@ -235,10 +243,7 @@ TEST(PlaneSweep, NeighboursAreTheNearestFarEnoughPosedFramesOnEachSide) {
 TEST(PlaneSweep, MonocularExtractionWritesDenseChannelsAtTheSceneScale) {
   const fs::path dir = test::temp_dir("plane_sweep_extract");
   const Sequence seq = test::small_corridor(dir / "seq", 24, 6);
-  ExtractOptions eo = test::quiet_extract_options();
-  eo.features.dense = true;
-  eo.motion = MotionMethod::Sfm;
-  extract_features(seq, dir / "work", eo);
+  extract_features(seq, dir / "work", monocular_dense_options());
   const StackManifest m = load_stack_manifest(dir / "work");
   ASSERT_EQ(m.features.size(), 6 + dense_feature_names().size());
   EXPECT_TRUE(std::equal(dense_feature_names().begin(), dense_feature_names().end(), m.features.begin() + 6));
@@ -271,9 +276,7 @@ TEST(PlaneSweep, MonocularExtractionWritesDenseChannelsAtTheSceneScale) {
 TEST(PlaneSweep, TheSweepBaselineChoosesTheNeighboursAndIsRecorded) {
   const fs::path dir = test::temp_dir("plane_sweep_baseline");
   const Sequence seq = test::small_corridor(dir / "seq", 24, 6);
-  ExtractOptions near = test::quiet_extract_options();
-  near.features.dense = true;
-  near.motion = MotionMethod::Sfm;
+  ExtractOptions near = monocular_dense_options();
   near.frames = FrameRange::parse("12:13", "--frames");
   ExtractOptions far = near;
   far.features.sweep_baseline = 1000;  // never reached: the widest frame within the reach, 8 either side
