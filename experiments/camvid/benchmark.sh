@@ -9,15 +9,16 @@
 # Runs, all with Ks = 400, Kt = 20000, M = 7, seed 1 and every other option at its default. The two
 # headline runs are the best sets measured on val (docs/camvid.md, "The benchmark's defaults"):
 #   sm               structure and motion (no image appearance): the six point features fH fC fOx fOy fD fR
-#                    and the five dense geometry channels of --dense (a plane sweep over the SfM poses:
-#                    fZV fZI fZH fZU fZE; runs filmed faster than 2 Hz sweep 4 m baselines, like the 1 Hz
-#                    runs' one second), --balance sqrt, evaluated with --smooth graphcut
+#                    and five of the six dense geometry channels of --dense (a plane sweep over the SfM poses:
+#                    fZV fZI fZH fZU fZE, not fZC: see sm_path; runs filmed faster than 2 Hz sweep 4 m
+#                    baselines, like the 1 Hz runs' one second), --balance sqrt, evaluated with --smooth graphcut
 #                    --smooth-contrast off --lambda 3 (plain Potts: the smoothing reads nothing of the image)
 #   combined         S+M + appearance: the six, the nine --appearance channels and the texton tests,
 #                    --balance sqrt, auto-context (below), evaluated with --smooth graphcut
 # and one row per lever on its own (the ablation):
 #   sm_six           the six point features only
 #   sm_dense         the six and the five dense geometry channels (no balance, no smoothing)
+#   sm_path          sm with the sixth dense channel, fZC (each pixel's distance to the camera path)
 #   sm_context       auto-context on sm_six: add-context writes the sm_six forest's class posteriors as 11
 #                    more channels (out of 4 folds on the training runs, from the forest on the test runs),
 #                    and a second forest, with sm_six's options, trains on the six features and them
@@ -25,7 +26,8 @@
 #   combined_smooth  that forest evaluated with --smooth graphcut
 #   combined_context auto-context on it (its features, textons and --balance sqrt), not smoothed
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
-# OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_context": {...},
+# OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_path": {...},
+# "sm_context": {...},
 # "combined_forest": {...}, "combined_smooth": {...}, "combined_context": {...}}}, each with global_accuracy,
 # class_average_accuracy, mean_iou, per_class,
 # train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
@@ -119,7 +121,7 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
 
-echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), combined (+ appearance channels and textons, --balance sqrt)"
+echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), sm_path (sm + fZC), combined (+ appearance channels and textons, --balance sqrt)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
 six=fH,fC,fOx,fOy,fD,fR
@@ -131,6 +133,8 @@ python3 "$summary_py" measure "$out/measure/sm_six.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six "${common[@]}" -o "$out/forests/sm_six.json"
 python3 "$summary_py" measure "$out/measure/sm_dense.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$dense "${common[@]}" -o "$out/forests/sm_dense.json"
+python3 "$summary_py" measure "$out/measure/sm_path.json" -- \
+  "$bin/train-forest" "${train_works[@]}" --features $six,$dense,fZC --balance sqrt "${common[@]}" -o "$out/forests/sm_path.json"
 python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${common[@]}" \
   -o "$out/forests/combined.json"
@@ -161,6 +165,8 @@ mapfile -t combined_context_test < <(under "$out/context/combined-test" "${test_
 echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/sm.json" "${test_works[@]}" --smooth graphcut --smooth-contrast off --lambda 3 \
   --no-pictures -q -o "$out/eval/sm"
+"$bin/eval-forest" "$out/forests/sm_path.json" "${test_works[@]}" --smooth graphcut --smooth-contrast off --lambda 3 \
+  --no-pictures -q -o "$out/eval/sm_path"
 "$bin/eval-forest" "$out/forests/sm_six.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_six"
 "$bin/eval-forest" "$out/forests/sm_dense.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/sm_dense"
 "$bin/eval-forest" "$out/forests/combined.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined_forest"

@@ -23,6 +23,7 @@ RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add 
     ("combined", "combined", ["combined", "combined_context"], "S+M + appearance + auto-context + smoothing"),
     ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
     ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),
+    ("sm_path", "sm_path", ["sm_path"], "S+M as sm, + fZC distance to the camera path"),
     ("sm_context", "sm_context", ["sm_six", "sm_context"], "S+M six + auto-context"),
     ("combined_forest", "combined_forest", ["combined"], "S+M + appearance"),
     ("combined_smooth", "combined_smooth", ["combined"], "S+M + appearance + smoothing"),

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 #include <Eigen/Core>
 #include <Eigen/Geometry>
@@ -31,10 +32,40 @@ cv::Mat camera_points(const cv::Mat& depth, const Calibration& c) {
 
 Eigen::Vector3d eig(const cv::Vec3d& v) { return {v[0], v[1], v[2]}; }
 
+double distance_to_segment(const Eigen::Vector3d& p, const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
+  const Eigen::Vector3d ab = b - a;
+  const double len2 = ab.squaredNorm();
+  const double t = len2 > 0 ? std::clamp((p - a).dot(ab) / len2, 0.0, 1.0) : 0.0;
+  return (p - a - t * ab).norm();
+}
+
+// The path with the vertices dropped that lie within kPathTolerance of the chord between the ones kept:
+// a straight drive of 100 frames becomes one segment, so fZC costs a few distances per pixel, not 100.
+constexpr double kPathTolerance = 0.01;  // metres: well under the depth's own error
+
+CameraPath simplified_path(const CameraPath& path) {
+  if (path.size() <= 2) return path;
+  CameraPath out{path.front()};
+  std::size_t anchor = 0;
+  while (anchor + 1 < path.size()) {
+    std::size_t end = anchor + 1;
+    for (std::size_t k = anchor + 2; k < path.size(); ++k) {
+      bool straight = true;
+      for (std::size_t m = anchor + 1; m < k && straight; ++m)
+        straight = distance_to_segment(path[m], path[anchor], path[k]) <= kPathTolerance;
+      if (!straight) break;
+      end = k;
+    }
+    out.push_back(path[end]);
+    anchor = end;
+  }
+  return out;
+}
+
 }  // namespace
 
 const std::vector<std::string>& dense_feature_names() {
-  static const std::vector<std::string> names{"fZV", "fZI", "fZH", "fZU", "fZE"};
+  static const std::vector<std::string> names{"fZV", "fZI", "fZH", "fZU", "fZE", "fZC"};
   return names;
 }
 
@@ -66,25 +97,46 @@ cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& options
   return depth;
 }
 
+CameraPath camera_path_near(const std::vector<Pose>& poses, int frame, int future_frames, bool causal) {
+  const int n = static_cast<int>(poses.size());
+  if (frame < 0 || frame >= n) throw Error("", "frame", "no pose for frame " + std::to_string(frame));
+  const int first = causal ? std::max(0, frame - future_frames) : frame;
+  const int last = causal ? frame : std::min(n - 1, frame + future_frames);
+  CameraPath path;
+  for (int f = first; f <= last; ++f) path.push_back(pose_centre(poses[std::size_t(f)]));
+  return path;
+}
+
+double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path) {
+  if (path.empty()) throw Error("", "camera path", "empty");
+  if (path.size() == 1) return (p - path.front()).norm();
+  double best = std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k + 1 < path.size(); ++k) best = std::min(best, distance_to_segment(p, path[k], path[k + 1]));
+  return best;
+}
+
 void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
-                          std::vector<cv::Mat>& out, double height_shift) {
+                          std::vector<cv::Mat>& out, double height_shift, const CameraPath& path) {
   if (depth.empty() || depth.type() != CV_32FC1) throw Error("", "depth", "expected a non-empty CV_32FC1 depth map");
   if (!calibration.fx) throw Error("", "calibration", "dense channels need the focal length");
   const cv::Mat pts = camera_points(depth, calibration);
   const Eigen::Matrix3d R = pose_rotation(pose);
   const Eigen::Vector3d centre = pose_centre(pose);
   const Eigen::Vector3d up_in_camera = R.transpose() * Eigen::Vector3d::UnitY();
+  const CameraPath route = path.empty() ? CameraPath{centre} : simplified_path(path);
   const int W = depth.cols, H = depth.rows;
   cv::Mat valid(depth.size(), CV_64F, cv::Scalar(0)), inv(depth.size(), CV_64F, cv::Scalar(0)),
       height(depth.size(), CV_64F, cv::Scalar(0)), facing(depth.size(), CV_64F, cv::Scalar(0)),
-      edge(depth.size(), CV_64F, cv::Scalar(0));
+      edge(depth.size(), CV_64F, cv::Scalar(0)), to_path(depth.size(), CV_64F, cv::Scalar(0));
   const auto z = [&](int x, int y) { return depth.at<float>(y, x); };
   for (int y = 0; y < H; ++y)
     for (int x = 0; x < W; ++x) {
       if (!(z(x, y) > 0)) continue;
       valid.at<double>(y, x) = 1;
       inv.at<double>(y, x) = 1.0 / z(x, y);
-      height.at<double>(y, x) = (R * eig(pts.at<cv::Vec3d>(y, x)) + centre).y() + height_shift;
+      const Eigen::Vector3d world = R * eig(pts.at<cv::Vec3d>(y, x)) + centre;
+      height.at<double>(y, x) = world.y() + height_shift;
+      to_path.at<double>(y, x) = distance_to_path(world, route);
       const int s = kNormalStep;
       if (x >= s && x + s < W && y >= s && y + s < H && z(x - s, y) > 0 && z(x + s, y) > 0 && z(x, y - s) > 0 &&
           z(x, y + s) > 0) {
@@ -103,6 +155,7 @@ void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, 
   out.push_back(height);
   out.push_back(facing);
   out.push_back(edge);
+  out.push_back(to_path);
 }
 
 }  // namespace smseg::features

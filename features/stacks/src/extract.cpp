@@ -79,6 +79,14 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
 
 // Whether an earlier run's stacks.json describes stacks made the way this run makes them. Work folders
 // from before the input digest was recorded are judged without it.
+// The channels of a stack, in stacks.json's order: the six, appearance, dense geometry.
+std::vector<std::string> stack_channel_names(const FeatureOptions& o) {
+  std::vector<std::string> names = structure_feature_names();
+  if (o.appearance) names.insert(names.end(), appearance_feature_names().begin(), appearance_feature_names().end());
+  if (o.dense) names.insert(names.end(), dense_feature_names().begin(), dense_feature_names().end());
+  return names;
+}
+
 bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options) {
   Json old_options = old.options, new_options = options;
   if (!old_options.contains("input")) new_options.erase("input");
@@ -291,12 +299,15 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   // earlier run finished (listed in stacks.json) or was killed (stacks.json is written first, so the
   // files on disk were made under it).
   bool resume_from_files = false;
+  const std::vector<std::string> channels = stack_channel_names(opt.features);
   if (fs::exists(work / "stacks.json", ec)) {
     StackManifest old = load_stack_manifest(work);
-    const bool same = same_stacks(old, seq, options);
+    // The same options made fewer channels before fZC: such stacks are not this run's either.
+    const bool same = same_stacks(old, seq, options) && old.features == channels;
     if (!same && !opt.force)
       throw Error((work / "stacks.json").string(), "options",
-                  "this work folder was made from another sequence or with other options; use --force to rebuild it");
+                  "this work folder was made from another sequence, with other options or with other channels (an older "
+                  "extract-features); use --force to rebuild it");
     if (same && !opt.force) m = old;
     resume_from_files = same && old.options == options;
     if (!same) remove_foreign_stacks(work);
@@ -307,10 +318,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   m.sequence = fs::absolute(seq.root);
   m.sequence_name = seq.name;
   m.size = seq.size;
-  m.features = structure_feature_names();
-  if (opt.features.appearance)
-    m.features.insert(m.features.end(), appearance_feature_names().begin(), appearance_feature_names().end());
-  if (opt.features.dense) m.features.insert(m.features.end(), dense_feature_names().begin(), dense_feature_names().end());
+  m.features = channels;
   m.classes.clear();
   for (const auto& c : seq.classes) m.classes.push_back(c.name);
   m.options = options;
@@ -373,7 +381,8 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
     if (opt.features.dense)
       append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters,
-                           height_shift(camera_height, video.poses[f]));
+                           height_shift(camera_height, video.poses[f]),
+                           camera_path_near(video.poses, f, opt.features.future_frames, opt.features.causal));
   };
   Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
   struct Buffers {

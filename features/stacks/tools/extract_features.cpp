@@ -119,9 +119,9 @@ int main(int argc, char** argv) {
                "leaves them out (structure and motion only)");
   app.add_flag("--dense", opt.features.dense,
                "also dense geometry channels, after the others: fZV (valid), fZI (inverse depth), fZH (height),\n"
-               "fZU (surface facing up), fZE (depth edges), from semi-global matching (stereo) or a plane sweep\n"
-               "over the SfM's posed neighbour frames (mono); structure and motion, not appearance\n"
-               "(docs/stereo.md, docs/sfm.md)");
+               "fZU (surface facing up), fZE (depth edges), fZC (distance to the camera path), from semi-global\n"
+               "matching (stereo) or a plane sweep over the SfM's posed neighbour frames (mono); structure and\n"
+               "motion, not appearance (docs/stereo.md, docs/sfm.md)");
   app.add_option("--sweep-baseline", opt.features.sweep_baseline,
                  "--dense, monocular: metres between the frame's camera and each neighbour the plane sweep reads\n"
                  "(the nearest frame each side at least this far, within --sweep-reach frames); a video much\n"
@@ -136,7 +136,9 @@ int main(int argc, char** argv) {
                  "height, so a drifting monocular camera path does not shift them) or auto (camera for\n"
                  "structure from motion, plane for stereo)")
       ->capture_default_str();
-  app.add_option("--future-frames", opt.features.future_frames, "frames of camera motion applied to a point's last position (fC)")
+  app.add_option("--future-frames", opt.features.future_frames,
+                 "frames of camera motion applied to a point's last position (fC), and of the camera path\n"
+                 "ahead that fZC measures to (--dense)")
       ->capture_default_str();
   app.add_option("--preview", preview, "comma-separated frames to write false-colour feature pictures of (WORK/preview/)");
   app.add_flag("--force", opt.force, "rewrite frames already done (and a work folder made with other options)");

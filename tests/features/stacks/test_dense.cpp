@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/frontend/trajectory.hpp"
 #include "smseg/stacks/dense.hpp"
@@ -139,6 +140,43 @@ TEST(DenseChannels, FloorFacesUpWallDoesNotAndTheStepIsAnEdge) {
   for (const char* other : {"fZV", "fZI", "fZU", "fZE"}) EXPECT_EQ(at(shifted, other, 116, 80), at(r, other, 116, 80));
   std::vector<cv::Mat> none;
   EXPECT_THROW(append_dense_rasters(cv::Mat(), c, level, none), Error);
+  // fZC: the camera drives straight ahead (world +Z) 1 m above the floor, 10 m in 100 frames. The floor
+  // under the path is the camera height away; a wall point straight ahead its offset from the path.
+  CameraPath ahead;
+  for (int k = 0; k <= 100; ++k) ahead.emplace_back(0, 1, 0.1 * k);
+  std::vector<cv::Mat> driven;
+  append_dense_rasters(depth, c, level, driven, 0, ahead);
+  const double floor_x = -(80 - c.cx) / *c.fx * depth.at<float>(116, 80);  // world x = -camera x
+  EXPECT_NEAR(at(driven, "fZC", 116, 80), std::hypot(floor_x, 1.0), 1e-6);
+  const double wall_x = -(80 - c.cx) / *c.fx * 4, wall_y = 1 + (c.cy - 30) / *c.fy * 4;
+  EXPECT_NEAR(at(driven, "fZC", 30, 80), std::hypot(wall_x, wall_y - 1), 1e-6);
+  EXPECT_EQ(at(driven, "fZC", 5, 5), 0);  // invalid
+  for (const char* other : {"fZV", "fZI", "fZH", "fZU", "fZE"}) EXPECT_EQ(at(driven, other, 30, 80), at(r, other, 30, 80));
+  // Without a path, the camera's own centre: the wall point's distance to the camera.
+  EXPECT_NEAR(at(r, "fZC", 30, 80), std::sqrt(wall_x * wall_x + (wall_y - 1) * (wall_y - 1) + 16), 1e-6);
+}
+
+// The path fZC measures to is a polyline, not its vertices: at 1 Hz a car's centres are metres apart,
+// and a point beside the road between two of them is as near the path as one beside a vertex.
+TEST(DenseChannels, DistanceToTheCameraPathIsToItsSegments) {
+  const CameraPath straight{{0, 0, 0}, {0, 0, 5}, {0, 0, 10}};
+  EXPECT_NEAR(distance_to_path({3, 0, 2.5}, straight), 3, 1e-12);   // between vertices
+  EXPECT_NEAR(distance_to_path({0, 4, 13}, straight), 5, 1e-12);    // past the end: to the last centre
+  EXPECT_NEAR(distance_to_path({1, 0, -1}, straight), std::sqrt(2.0), 1e-12);
+  EXPECT_NEAR(distance_to_path({2, 0, 7}, CameraPath{{0, 0, 0}}), std::sqrt(53.0), 1e-12);
+  const CameraPath turn{{0, 0, 0}, {0, 0, 10}, {10, 0, 10}};  // ahead, then right
+  EXPECT_NEAR(distance_to_path({6, 0, 8}, turn), 2, 1e-12);        // nearer the second leg
+  EXPECT_THROW(distance_to_path({0, 0, 0}, CameraPath{}), Error);
+
+  std::vector<Pose> poses(5);
+  for (int f = 0; f < 5; ++f) poses[std::size_t(f)].t = {0, 0, double(f)};
+  const CameraPath next = camera_path_near(poses, 1, 2, false), past = camera_path_near(poses, 3, 10, true);
+  ASSERT_EQ(next.size(), 3u);  // frames 1..3
+  EXPECT_EQ(next.front().z(), 1);
+  EXPECT_EQ(next.back().z(), 3);
+  ASSERT_EQ(past.size(), 4u);  // frames 0..3, clipped to the video
+  EXPECT_EQ(camera_path_near(poses, 4, 100, false).size(), 1u);
+  EXPECT_THROW(camera_path_near(poses, 5, 1, false), Error);
 }
 
 TEST(DenseChannels, ExtractWritesThemAfterTheSix) {
@@ -156,13 +194,33 @@ TEST(DenseChannels, ExtractWritesThemAfterTheSix) {
   const FrameStack stack = FrameStack::open(m, f, false);
   std::vector<cv::Mat> want;
   const TracksFile tracks = read_tracks(dir / "work" / "tracks.json");
+  ASSERT_EQ(tracks.result.first_frame, 0);
   append_dense_rasters(dense_depth(seq, f, dense_stereo_options(eo.front_end.stereo)), seq.calibration,
-                       tracks.result.poses.at(std::size_t(f - tracks.result.first_frame)), want);
+                       tracks.result.poses.at(std::size_t(f)), want, 0,
+                       camera_path_near(tracks.result.poses, f, eo.features.future_frames, false));
   const int W = seq.size.width, H = seq.size.height;
   for (int k = 0; k < int(dense_feature_names().size()); ++k) {
     const double total = stack.sat(6 + k)[std::size_t(H) * std::size_t(W + 1) + std::size_t(W)];
     EXPECT_NEAR(total, cv::sum(want[std::size_t(k)])[0], 1e-4 * (1 + std::abs(total))) << dense_feature_names()[std::size_t(k)];
   }
+  // A work folder from before fZC (the same options, one dense channel fewer) is not resumed as if it
+  // were this run's: refused without --force, rebuilt with it.
+  Json old = read_json(dir / "work" / "stacks.json");
+  old["features"].erase(old["features"].size() - 1);
+  write_json_atomic(dir / "work" / "stacks.json", old);
+  EXPECT_THROW(
+      {
+        try {
+          extract_features(seq, dir / "work", eo);
+        } catch (const Error& e) {
+          EXPECT_NE(std::string(e.what()).find("other channels"), std::string::npos) << e.what();
+          throw;
+        }
+      },
+      Error);
+  eo.force = true;
+  extract_features(seq, dir / "work", eo);
+  EXPECT_EQ(load_stack_manifest(dir / "work").features, m.features);
   fs::remove_all(dir);
 }
 

@@ -16,6 +16,10 @@
 //         in the world), 1 floor, 0 wall, -1 ceiling; 0 where the normal is unknown
 //   fZE   depth discontinuity: |log Z(x+1) - log Z(x-1)| + |log Z(y+1) - log Z(y-1)|, clamped to 1, 0
 //         where a neighbour is invalid (object outlines)
+//   fZC   distance (metres) from the pixel's 3D point to the camera path: the polyline through the camera
+//         centres of the frame and the next `future_frames` frames (fC's path; with --causal the frame
+//         and the ones before it), 0 where invalid. Road under the path is about the camera height away,
+//         pavement and parked cars a few metres, facades further (thesis 2.3.2's fC, for every pixel)
 // All of them come from the stereo geometry and the camera path, none from image appearance: they
 // count as structure and motion (issue 14). Monocular runs get their depth from a plane sweep over
 // the SfM's posed neighbour frames instead (plane_sweep.hpp); the channels are the same.
@@ -23,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Core>
 #include <opencv2/core.hpp>
 
 #include "smseg/frontend/stereo.hpp"
@@ -30,7 +35,7 @@
 
 namespace smseg::features {
 
-/// {"fZV", "fZI", "fZH", "fZU", "fZE"}, in raster order.
+/// {"fZV", "fZI", "fZH", "fZU", "fZE", "fZC"}, in raster order.
 const std::vector<std::string>& dense_feature_names();
 
 /// The matcher of the dense depth: SGBM, 7x7 blocks, eight paths, `num_disparities` and `min_disparity` of the front
@@ -41,10 +46,21 @@ StereoOptions dense_stereo_options(const StereoOptions& front_end);
 /// disparity. Error for a sequence without a focal length or baseline.
 cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& dense_options);
 
+/// The camera path fZC measures against: an ordered list of world camera centres (at least one).
+using CameraPath = std::vector<Eigen::Vector3d>;
+
+/// The centres of frames `frame`..`frame` + future_frames (causal: `frame` - future_frames..`frame`) of
+/// `poses`, clipped to the video.
+CameraPath camera_path_near(const std::vector<Pose>& poses, int frame, int future_frames, bool causal);
+
+/// Distance from `p` to the polyline through `path` (to its one point when it has one).
+double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path);
+
 /// Appends the dense rasters of a depth map (dense_depth) seen from `pose` (camera-to-world) to `out`,
 /// in dense_feature_names() order, each CV_64FC1 of the depth's size. height_shift is added to every
-/// fZH (world Y): HeightReference::Camera's reference height minus the camera's own, else 0.
+/// fZH (world Y): HeightReference::Camera's reference height minus the camera's own, else 0. fZC
+/// measures to `path` (camera_path_near); an empty path means the camera's own centre.
 void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
-                          std::vector<cv::Mat>& out, double height_shift = 0);
+                          std::vector<cv::Mat>& out, double height_shift = 0, const CameraPath& path = {});
 
 }  // namespace smseg::features
