@@ -77,8 +77,6 @@ Json options_json(const Sequence& seq, const ExtractOptions& o) {
           {"input", {{"sequence_json_fnv1a64", sequence_digest(seq)}}}};
 }
 
-// Whether an earlier run's stacks.json describes stacks made the way this run makes them. Work folders
-// from before the input digest was recorded are judged without it.
 // The channels of a stack, in stacks.json's order: the six, appearance, dense geometry.
 std::vector<std::string> stack_channel_names(const FeatureOptions& o) {
   std::vector<std::string> names = structure_feature_names();
@@ -87,10 +85,14 @@ std::vector<std::string> stack_channel_names(const FeatureOptions& o) {
   return names;
 }
 
-bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options) {
+// Whether an earlier run's stacks.json describes stacks made the way this run makes them. Work folders
+// from before the input digest was recorded are judged without it. The channel list counts too: the
+// same options made five dense channels before fZC.
+bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options,
+                 const std::vector<std::string>& channels) {
   Json old_options = old.options, new_options = options;
   if (!old_options.contains("input")) new_options.erase("input");
-  if (old_options != new_options || old.size != seq.size) return false;
+  if (old_options != new_options || old.size != seq.size || old.features != channels) return false;
   // An old manifest may name a folder that can no longer be resolved (too long, a loop of links):
   // then it is not this sequence.
   std::error_code ec_old, ec_new;
@@ -302,8 +304,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const std::vector<std::string> channels = stack_channel_names(opt.features);
   if (fs::exists(work / "stacks.json", ec)) {
     StackManifest old = load_stack_manifest(work);
-    // The same options made fewer channels before fZC: such stacks are not this run's either.
-    const bool same = same_stacks(old, seq, options) && old.features == channels;
+    const bool same = same_stacks(old, seq, options, channels);
     if (!same && !opt.force)
       throw Error((work / "stacks.json").string(), "options",
                   "this work folder was made from another sequence, with other options or with other channels (an older "
