@@ -154,6 +154,17 @@ TEST(DenseChannels, FloorFacesUpWallDoesNotAndTheStepIsAnEdge) {
   for (const char* other : {"fZV", "fZI", "fZH", "fZU", "fZE"}) EXPECT_EQ(at(driven, other, 30, 80), at(r, other, 30, 80));
   // Without a path, the camera's own centre: the wall point's distance to the camera.
   EXPECT_NEAR(at(r, "fZC", 30, 80), std::sqrt(wall_x * wall_x + (wall_y - 1) * (wall_y - 1) + 16), 1e-6);
+  // A dogleg: 3 m ahead, then 3 m to the side. The channel merges collinear centres before measuring;
+  // it must keep the corner: the chord from start to end passes 1.7 m further from the wall point.
+  CameraPath dogleg;
+  for (int k = 0; k <= 30; ++k) dogleg.emplace_back(0, 1, 0.1 * k);
+  for (int k = 1; k <= 30; ++k) dogleg.emplace_back(0.1 * k, 1, 3);
+  std::vector<cv::Mat> turned;
+  append_dense_rasters(depth, c, level, turned, 0, dogleg);
+  const Eigen::Vector3d wall(wall_x, wall_y, 4), floor(floor_x, 0, depth.at<float>(116, 80));
+  EXPECT_NEAR(at(turned, "fZC", 30, 80), distance_to_path(wall, dogleg), 1e-6);
+  EXPECT_NEAR(at(turned, "fZC", 116, 80), distance_to_path(floor, dogleg), 1e-6);
+  EXPECT_GT(distance_to_path(wall, CameraPath{dogleg.front(), dogleg.back()}), distance_to_path(wall, dogleg) + 1.5);
 }
 
 // The path fZC measures to is a polyline, not its vertices: at 1 Hz a car's centres are metres apart,
