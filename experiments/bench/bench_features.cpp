@@ -1,6 +1,7 @@
 // Rasterising the six structure-and-motion features and building their summed-area tables for a
 // 320x240 frame with ~500 tracked points (issue target: 300 frames/s or more on one core); the plane
-// sweep of extract-features --dense on monocular runs, on CamVid val frames (480x360) with its SfM poses.
+// sweep of extract-features --dense on monocular runs and the dense channels made from its depth, on
+// CamVid val frames (480x360) with its SfM poses.
 // Run: build/bin/bench_features --benchmark_out=bench_features.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
@@ -11,6 +12,7 @@
 #include "camvid_setup.hpp"
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"
 
@@ -102,6 +104,32 @@ void BM_PlaneSweepCamVid(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(plane_sweep_depth(reference, pose(f), views, camera));
 }
 BENCHMARK(BM_PlaneSweepCamVid)->Arg(2)->Arg(15)->Unit(benchmark::kMillisecond);
+
+// The dense channels of one val frame from its plane-sweep depth (neighbours 15 frames away, as the
+// benchmark's 4 m sweep): Arg 0 measures fZC to the camera's own centre, Arg 1 to the path of the next
+// 100 frames, as extract-features does (the cost of fZC's path is the difference).
+void BM_DenseRastersCamVid(benchmark::State& state) {
+  if (camvid_bench::unavailable()) return camvid_bench::skip(state);
+  const int f = 60, gap = 15;
+  const TracksFile tracks = read_tracks(camvid_bench::val_work() / "tracks.json");
+  const Sequence seq = load_sequence(camvid_bench::kCache / "sequences" / camvid_bench::kValRun);
+  const auto index = [&](int g) { return std::size_t(g - tracks.result.first_frame); };
+  const Calibration camera = sfm_camera(seq, tracks.result.summary.sfm.value().focal);
+  const std::vector<SweepView> views{{seq.load_left_gray(f - gap), tracks.result.poses.at(index(f - gap))},
+                                     {seq.load_left_gray(f + gap), tracks.result.poses.at(index(f + gap))}};
+  const Pose& pose = tracks.result.poses.at(index(f));
+  const cv::Mat depth = plane_sweep_depth(seq.load_left_gray(f), pose, views, camera);
+  const CameraPath path =
+      state.range(0) ? camera_path_near(tracks.result.poses, int(index(f)), 100, false) : CameraPath{};
+  state.counters["valid_share"] = double(cv::countNonZero(depth)) / double(depth.total());
+  std::vector<cv::Mat> rasters;
+  for (auto _ : state) {
+    rasters.clear();
+    append_dense_rasters(depth, camera, pose, rasters, 0, path);
+    benchmark::DoNotOptimize(rasters.data());
+  }
+}
+BENCHMARK(BM_DenseRastersCamVid)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 
