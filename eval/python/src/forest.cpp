@@ -1,6 +1,7 @@
 // The forest: trained on work folders exactly as train-forest trains it (the same open_stacks and
 // train_forest calls, so the same forest file for the same inputs and seed), applied to a frame's
-// arrays; and the same trainer on tabular data (tabular.hpp, as forest-peers runs it).
+// arrays; and the same trainer on tabular data (tabular.hpp, as forest-peers runs it). Both models pickle
+// as their forest file's text.
 #include <memory>
 #include <optional>
 #include <string>
@@ -11,6 +12,7 @@
 
 #include "bindings.hpp"
 #include "smseg/common/error.hpp"
+#include "smseg/common/io.hpp"
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/tabular.hpp"
 #include "smseg/forest/train.hpp"
@@ -44,7 +46,7 @@ struct WindowForest {
 
 struct WindowTrainArgs {
   std::vector<std::string> works;
-  std::string frames = "0:", windows = "uniform", score = "wehenkel-pavella";
+  std::string frames = "0:", windows = "uniform", criterion = "wehenkel-pavella";
   std::vector<std::string> learned_from, features;
   bool balance = false, progress = false;
   int n_jobs = 0;
@@ -55,7 +57,7 @@ std::shared_ptr<WindowForest> fit_window_forest(const WindowTrainArgs& a, forest
   const auto limit = limit_threads(a.n_jobs);
   p.windows.mode = forest::window_sampling_from_string(a.windows, "windows");
   p.balance = a.balance ? forest::Balance::Classes : forest::Balance::None;
-  p.score = forest::score_from_string(a.score, "score");
+  p.score = forest::score_from_string(a.criterion, "criterion");
   if (p.windows.mode == forest::WindowSampling::Learned) {
     if (a.learned_from.empty()) throw Error("", "learned_from", "windows='learned' needs the forests to learn from");
     std::vector<forest::Forest> earlier;
@@ -112,45 +114,64 @@ py::tuple classify(WindowForest& model, const DoubleArray& sat, const std::optio
                         array_from_vector(std::move(dists), {f.height, f.width, c.num_classes()}));
 }
 
-/// Trees grown on rows of attribute values (tabular.hpp).
+/// Trees grown on rows of attribute values (tabular.hpp), held as a forest file holds them.
 struct TabularForest {
-  std::vector<forest::Tree> trees;
-  int num_classes = 0;
-  std::size_t columns = 0;
+  forest::Forest forest;
+  std::size_t columns() const { return forest.features.size(); }
+  int num_classes() const { return static_cast<int>(forest.classes.size()); }
 };
 
 std::shared_ptr<TabularForest> fit_tabular(const FloatArray& X, const ByteArray& y, int num_classes, int n_estimators, int n_min, std::uint64_t seed,
-                                           const std::string& score, int n_jobs) {
+                                           const std::string& criterion, int n_jobs) {
   if (X.ndim() != 2) throw Error("X", "shape", "expected a 2-D array (samples, features)");
   if (y.ndim() != 1 || y.shape(0) != X.shape(0))
     throw Error("y", "shape", "expected one label per row of X (" + std::to_string(X.shape(0)) + ")");
   if (n_estimators < 1) throw Error("", "n_estimators", "must be >= 1");
   if (n_min < 1) throw Error("", "n_min", "must be >= 1");
-  const forest::Score s = forest::score_from_string(score, "score");
+  const forest::Score s = forest::score_from_string(criterion, "criterion");
   const auto limit = limit_threads(n_jobs);
+  const auto columns = static_cast<std::size_t>(X.shape(1));
+  std::vector<forest::Tree> trees;
+  {
+    py::gil_scoped_release unlocked;  // X and y stay alive (the caller holds them); the rows are read in place
+    trees = forest::grow_tabular_forest({X.data(), static_cast<std::size_t>(X.size())}, columns,
+                                        {y.data(), static_cast<std::size_t>(y.size())}, num_classes, n_estimators,
+                                        n_min, seed, s, "X");
+  }
   auto model = std::make_shared<TabularForest>();
-  model->num_classes = num_classes;
-  model->columns = static_cast<std::size_t>(X.shape(1));
-  py::gil_scoped_release unlocked;  // X and y stay alive (the caller holds them); the rows are read in place
-  model->trees = forest::grow_tabular_forest({X.data(), static_cast<std::size_t>(X.size())}, model->columns,
-                                             {y.data(), static_cast<std::size_t>(y.size())}, num_classes,
-                                             n_estimators, n_min, seed, s, "X");
+  model->forest = forest::tabular_forest(std::move(trees), columns, num_classes, n_min, seed, s);
   return model;
 }
 
 /// Mean normalised leaf distributions per row: (rows, classes), rows summing to 1.
 py::array_t<double> tabular_proba(const TabularForest& model, const FloatArray& X) {
-  if (X.ndim() != 2 || static_cast<std::size_t>(X.shape(1)) != model.columns)
-    throw Error("X", "shape", "expected a 2-D array with " + std::to_string(model.columns) + " columns (as in fit)");
+  if (X.ndim() != 2 || static_cast<std::size_t>(X.shape(1)) != model.columns())
+    throw Error("X", "shape", "expected a 2-D array with " + std::to_string(model.columns()) + " columns (as in fit)");
   const auto rows = static_cast<std::size_t>(X.shape(0));
-  const auto C = static_cast<std::size_t>(model.num_classes);
+  const auto C = static_cast<std::size_t>(model.num_classes());
   std::vector<double> out(rows * C), acc;
-  const double trees = static_cast<double>(model.trees.size());
+  const double trees = static_cast<double>(model.forest.trees.size());
   for (std::size_t r = 0; r < rows; ++r) {
-    forest::tabular_posterior(model.trees, X.data() + r * model.columns, model.num_classes, acc);
+    forest::tabular_posterior(model.forest.trees, X.data() + r * model.columns(), model.num_classes(), acc);
     for (std::size_t k = 0; k < C; ++k) out[r * C + k] = acc[k] / trees;
   }
   return array_from_vector(std::move(out), {static_cast<py::ssize_t>(rows), static_cast<py::ssize_t>(C)});
+}
+
+/// pickle support for a class holding a forest: its state is the forest file's text (format
+/// "smseg-forest", versioned), read back with every check a forest file gets, so a pickle written by
+/// another version of smseg loads or is refused in one line ("pickle: version: unsupported ...").
+template <class Model>
+auto pickle_as_forest_file() {
+  return py::pickle([](const Model& m) { return py::make_tuple(forest::forest_to_json(m.forest).dump()); },
+                    [](const py::tuple& state) {
+                      if (state.size() != 1 || !py::isinstance<py::str>(state[0]))
+                        throw Error("pickle", "state", "expected the forest file's text");
+                      const std::string text = state[0].cast<std::string>();
+                      auto model = std::make_shared<Model>();
+                      model->forest = forest::forest_from_json(parse_json(text, "pickle"), "pickle");
+                      return model;
+                    });
 }
 
 }  // namespace
@@ -171,30 +192,39 @@ void bind_forest(py::module_& m) {
       .def_property_readonly("height", [](const WindowForest& w) { return w.forest.height; })
       .def_property_readonly("textons", [](const WindowForest& w) { return w.forest.textons; })
       .def_property_readonly("n_trees", [](const WindowForest& w) { return w.forest.trees.size(); })
-      .def("to_json", [](const WindowForest& w) { return to_python(forest::forest_to_json(w.forest)); });
+      .def("to_json", [](const WindowForest& w) { return to_python(forest::forest_to_json(w.forest)); })
+      .def(pickle_as_forest_file<WindowForest>());
 
   m.def("fit_window_forest", [](std::vector<std::string> works, std::string frames, int K, int Ks, int Kt, int M,
                                 int n_min, std::uint64_t seed, std::string windows, std::vector<std::string> learned_from,
-                                bool balance, std::string score, bool textons, std::vector<std::string> features,
+                                bool balance, std::string criterion, bool textons, std::vector<std::string> features,
                                 int n_jobs, bool progress) {
     forest::TrainParams p;
     p.K = K, p.Ks = Ks, p.Kt = Kt, p.M = M, p.n_min = n_min, p.seed = seed, p.textons = textons;
-    return fit_window_forest({std::move(works), std::move(frames), std::move(windows), std::move(score),
+    return fit_window_forest({std::move(works), std::move(frames), std::move(windows), std::move(criterion),
                               std::move(learned_from), std::move(features), balance, progress, n_jobs}, p);
   }, py::arg("works"), py::arg("frames"), py::arg("K"), py::arg("Ks"), py::arg("Kt"), py::arg("M"), py::arg("n_min"),
-     py::arg("seed"), py::arg("windows"), py::arg("learned_from"), py::arg("balance"), py::arg("score"),
+     py::arg("seed"), py::arg("windows"), py::arg("learned_from"), py::arg("balance"), py::arg("criterion"),
      py::arg("textons"), py::arg("features"), py::arg("n_jobs"), py::arg("progress"));
 
   py::class_<TabularForest, std::shared_ptr<TabularForest>>(m, "TabularForest")
       .def("predict_proba", &tabular_proba, py::arg("X"))
-      .def_property_readonly("n_trees", [](const TabularForest& t) { return t.trees.size(); })
+      .def_property_readonly("n_trees", [](const TabularForest& t) { return t.forest.trees.size(); })
       .def_property_readonly("n_nodes", [](const TabularForest& t) {
         std::size_t n = 0;
-        for (const auto& tree : t.trees) n += tree.nodes.size();
+        for (const auto& tree : t.forest.trees) n += tree.nodes.size();
         return n;
-      });
+      })
+      .def_property_readonly("n_features", &TabularForest::columns)
+      .def_property_readonly("n_classes", &TabularForest::num_classes)
+      .def_property_readonly("feature_importances", [](const TabularForest& t) {
+        auto imp = forest::impurity_importances(t.forest.trees, t.forest.num_attributes());
+        return array_from_vector(std::move(imp), {static_cast<py::ssize_t>(t.columns())});
+      })
+      .def("to_json", [](const TabularForest& t) { return to_python(forest::forest_to_json(t.forest)); })
+      .def(pickle_as_forest_file<TabularForest>());
   m.def("fit_tabular", &fit_tabular, py::arg("X"), py::arg("y"), py::arg("num_classes"), py::arg("n_estimators"),
-        py::arg("n_min"), py::arg("seed"), py::arg("score"), py::arg("n_jobs"));
+        py::arg("n_min"), py::arg("seed"), py::arg("criterion"), py::arg("n_jobs"));
 }
 
 }  // namespace smseg::python
