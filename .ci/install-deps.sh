@@ -10,7 +10,7 @@ SMSEG_PACKAGES=(
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev libgoogle-glog-dev libsuitesparse-dev
-  python3-dev python3-pybind11 python3-pytest python3-sklearn
+  python3-dev python3-pybind11 python3-pytest python3-sklearn python3-pandas  # pandas: the DataFrame checks of check_estimator
   slurmctld slurmd slurm-client munge   # the Slurm tests' one-node cluster (tests/slurm)
 )
 

@@ -1,5 +1,8 @@
-"""The forest as scikit-learn-like estimators: get_params / set_params (so sklearn.base.clone works),
-fit, predict, predict_proba. (No score method: `score` is the split-score parameter, as in the tools.)"""
+"""The forest as scikit-learn estimators. Where scikit-learn is installed they are its estimators
+(BaseEstimator, ClassifierMixin: get_params / set_params / clone, score as the mean accuracy, its own
+input validation and messages, check_estimator passes); without it the same methods come from the
+small stand-ins below, with numpy's checks. Fitted models pickle (and go through joblib) as their
+forest file's text: a pickle written by another version of smseg loads or is refused in one line."""
 import inspect
 import os
 
@@ -9,21 +12,27 @@ from . import _smseg
 from ._smseg import Error
 from .data import as_frame_arrays
 
+try:
+    from sklearn.base import BaseEstimator as _Estimator, ClassifierMixin as _Classifier
+    from sklearn.utils.multiclass import check_classification_targets
+    from sklearn.utils.validation import check_is_fitted
+    try:
+        from sklearn.utils.validation import validate_data as _validate_data  # scikit-learn >= 1.6
+    except ImportError:
+        _validate_data = None
+    HAVE_SKLEARN = True
+except ImportError:  # the stand-ins below
+    HAVE_SKLEARN = False
+
 
 class _Params:
     """get_params / set_params / repr from the constructor's keyword arguments, as scikit-learn's
-    BaseEstimator does (without needing scikit-learn)."""
+    BaseEstimator does; stands in for it where scikit-learn is not installed."""
 
     @classmethod
     def _param_names(cls):
         signature = inspect.signature(cls.__init__)
         return sorted(p.name for p in signature.parameters.values() if p.name != "self")
-
-    def _keep(self, args):
-        """Stores the constructor's arguments as they are, as attributes of the same names (scikit-learn's
-        convention: clone() rebuilds an estimator from get_params())."""
-        for name in self._param_names():
-            setattr(self, name, args[name])
 
     def get_params(self, deep=True):
         return {name: getattr(self, name) for name in self._param_names()}
@@ -40,24 +49,80 @@ class _Params:
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
         return f"{type(self).__name__}({args})"
 
-    def _check_fitted(self):
-        if getattr(self, "model_", None) is None:
-            raise Error(f"{type(self).__name__}: not fitted: call fit (or load) first")
+
+class _Accuracy:
+    """score(X, y): the mean accuracy of predict(X), as scikit-learn's ClassifierMixin defines it."""
+
+    def score(self, X, y, sample_weight=None):
+        right = np.asarray(self.predict(X) == np.asarray(y), dtype=float)
+        return float(np.average(right, weights=sample_weight))
 
 
-class ExtraTreesWindowClassifier(_Params):
+if not HAVE_SKLEARN:
+    _Estimator, _Classifier = _Params, _Accuracy
+
+    def check_classification_targets(y):
+        if y.dtype.kind == "f" and np.any(y != np.round(y)):
+            raise Error("y: Unknown label type: continuous values (expected classes)")
+
+
+def _check_fitted(estimator):
+    """scikit-learn's NotFittedError (a ValueError) where it is installed, smseg.Error otherwise."""
+    if HAVE_SKLEARN:
+        check_is_fitted(estimator, "model_")
+    elif getattr(estimator, "model_", None) is None:
+        raise Error(f"{type(estimator).__name__}: not fitted: call fit (or load) first")
+
+
+_NO_Y = "no_validation"  # scikit-learn's marker: only X is checked
+
+
+def _table(estimator, X, y=_NO_Y, reset=True):
+    """X (and y) of a tabular estimator checked as scikit-learn checks them: X 2-D, real, finite, not
+    empty, float32 (the trainer's type); y one label per row; n_features_in_ set when reset, compared
+    otherwise. Returns X, or (X, y) when y is given (a y of None is an error)."""
+    if HAVE_SKLEARN:
+        kwargs = dict(reset=reset, dtype=np.float32)
+        if _validate_data is not None:
+            return _validate_data(estimator, X, y, **kwargs)
+        return estimator._validate_data(X, y, **kwargs)
+    X = np.asarray(X, dtype=np.float32)
+    if X.ndim != 2:
+        raise Error(f"X: shape: expected a 2-D array (samples, features), got {X.ndim} dimensions")
+    if X.shape[0] == 0 or X.shape[1] == 0:
+        raise Error(f"X: shape: {X.shape}: needs at least one sample and one feature")
+    if not np.all(np.isfinite(X)):
+        raise Error("X: values: not all finite (NaN or infinity)")
+    if reset:
+        estimator.n_features_in_ = X.shape[1]
+    elif X.shape[1] != estimator.n_features_in_:
+        raise Error(f"X: shape: {X.shape[1]} features, but the model was fitted on {estimator.n_features_in_}")
+    if isinstance(y, str) and y == _NO_Y:
+        return X
+    if y is None:
+        raise Error(f"{type(estimator).__name__}: y: fit needs the labels (got None)")
+    y = np.asarray(y)
+    if y.ndim != 1 or len(y) != len(X):
+        raise Error(f"y: shape: expected one label per row of X ({len(X)})")
+    return X, y
+
+
+class ExtraTreesWindowClassifier(_Estimator):
     """train-forest as an estimator: extremely randomized trees over sampling windows on feature stacks.
 
     n_estimators: trees (train-forest -M); k: windows and tests per tree (-K; ks, kt override each);
     windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance: draw
-    tests per class (--balance classes); n_min, score, textons, features: as train-forest's options;
+    tests per class (--balance classes); criterion: the split score, train-forest's --score
+    ("wehenkel-pavella" | "information-gain"); n_min, textons, features: as train-forest's options;
     seed: same seed and inputs, same forest file as train-forest; n_jobs: threads (0: all cores; the
     forest does not depend on it). predict returns class positions (indices into classes_).
     """
 
     def __init__(self, n_estimators=7, k=400, windows="uniform", balance=False, seed=1, n_jobs=0, ks=None,
-                 kt=None, n_min=5, score="wehenkel-pavella", textons=False, features=None, learned_from=None):
-        self._keep(locals())
+                 kt=None, n_min=5, criterion="wehenkel-pavella", textons=False, features=None, learned_from=None):
+        self.n_estimators, self.k, self.windows, self.balance, self.seed = n_estimators, k, windows, balance, seed
+        self.n_jobs, self.ks, self.kt, self.n_min, self.criterion = n_jobs, ks, kt, n_min, criterion
+        self.textons, self.features, self.learned_from = textons, features, learned_from
 
     def fit(self, stacks, frames="0:", progress=False):
         """Trains on the labelled frames inside `frames` ("A:B", half-open) of one or more work folders."""
@@ -66,7 +131,7 @@ class ExtraTreesWindowClassifier(_Params):
             works=[os.fspath(w) for w in works], frames=frames, K=int(self.k), Ks=int(self.ks or 0),
             Kt=int(self.kt or 0), M=int(self.n_estimators), n_min=int(self.n_min), seed=int(self.seed),
             windows=self.windows, learned_from=[os.fspath(f) for f in (self.learned_from or [])],
-            balance=bool(self.balance), score=self.score, textons=bool(self.textons),
+            balance=bool(self.balance), criterion=self.criterion, textons=bool(self.textons),
             features=list(self.features or []), n_jobs=int(self.n_jobs), progress=bool(progress))
         self._set_fitted_attributes()
         return self
@@ -76,7 +141,7 @@ class ExtraTreesWindowClassifier(_Params):
         self.features_ = list(self.model_.features)
 
     def _classify(self, stack):
-        self._check_fitted()
+        _check_fitted(self)
         sat, gray = as_frame_arrays(stack)
         return self.model_.classify(sat, gray if self.model_.textons else None)
 
@@ -92,7 +157,7 @@ class ExtraTreesWindowClassifier(_Params):
 
     def save(self, path):
         """Writes the forest file (the format train-forest writes and eval-forest reads)."""
-        self._check_fitted()
+        _check_fitted(self)
         self.model_.save(os.fspath(path))
 
     @classmethod
@@ -101,48 +166,50 @@ class ExtraTreesWindowClassifier(_Params):
         model = _smseg.WindowForest.load(os.fspath(path))
         p = model.to_json()["params"]
         est = cls(n_estimators=p["M"], k=p["K"], windows=p["windows"]["mode"], balance=p["balance"] == "classes",
-                  seed=p["seed"], ks=p["Ks"], kt=p["Kt"], n_min=p["n_min"], score=p["score"], textons=p["textons"])
+                  seed=p["seed"], ks=p["Ks"], kt=p["Kt"], n_min=p["n_min"], criterion=p["score"], textons=p["textons"])
         est.model_ = model
         est._set_fitted_attributes()
         return est
 
 
-class ExtraTreesClassifier(_Params):
+class ExtraTreesClassifier(_Classifier, _Estimator):
     """Our trainer on tabular data, to compare with scikit-learn's ExtraTreesClassifier: every tree is
     grown from all rows (no bootstrap) with one random threshold per column at each node, the best
-    score splitting (score: "wehenkel-pavella" | "information-gain"); n_min: nodes with fewer rows
-    become leaves. fit(X, y): X 2-D float (rows, columns), y any labels (at most 254 classes)."""
+    split by criterion ("wehenkel-pavella", the thesis's normalised information gain, or
+    "information-gain", scikit-learn's "entropy"); n_min: nodes with fewer rows become leaves; seed:
+    same seed and data, same trees, whatever n_jobs (threads, 0: all cores).
 
-    def __init__(self, n_estimators=7, n_min=5, score="wehenkel-pavella", seed=1, n_jobs=0):
-        self._keep(locals())
+    fit(X, y): X 2-D real (rows, columns; used as float32), y any labels (at most 254 classes).
+    Fitted attributes: classes_, n_features_in_ (and feature_names_in_ for a DataFrame with scikit-
+    learn), feature_importances_, model_ (the trees)."""
 
-    @staticmethod
-    def _check_X(X):
-        X = np.asarray(X, dtype=np.float32)
-        if X.ndim != 2:
-            raise Error(f"X: shape: expected a 2-D array (samples, features), got {X.ndim} dimensions")
-        if not np.all(np.isfinite(X)):
-            raise Error("X: values: not all finite (NaN or infinity)")
-        return X
+    def __init__(self, n_estimators=7, n_min=5, criterion="wehenkel-pavella", seed=1, n_jobs=0):
+        self.n_estimators, self.n_min, self.criterion, self.seed, self.n_jobs = n_estimators, n_min, criterion, seed, n_jobs
 
     def fit(self, X, y):
-        X = self._check_X(X)
-        y = np.asarray(y)
-        if y.ndim != 1 or len(y) != len(X):
-            raise Error(f"y: shape: expected one label per row of X ({len(X)})")
-        self.classes_, y_index = np.unique(y, return_inverse=True)
-        if len(self.classes_) > 254:
-            raise Error(f"y: classes: {len(self.classes_)} classes, at most 254")
-        self.n_features_in_ = X.shape[1]
-        self.model_ = _smseg.fit_tabular(X, y_index.astype(np.uint8), len(self.classes_), int(self.n_estimators),
-                                         int(self.n_min), int(self.seed), self.score, int(self.n_jobs))
+        X, y = _table(self, X, y)
+        check_classification_targets(y)
+        classes, y_index = np.unique(y, return_inverse=True)
+        if len(classes) > 254:
+            raise Error(f"y: classes: {len(classes)} classes, at most 254")
+        self.model_ = _smseg.fit_tabular(X, y_index.astype(np.uint8), len(classes), int(self.n_estimators),
+                                         int(self.n_min), int(self.seed), self.criterion, int(self.n_jobs))
+        self.classes_ = classes
         return self
 
+    @property
+    def feature_importances_(self):
+        """Mean decrease in impurity (entropy) per column, summing to 1, as scikit-learn's forests
+        define it (all zeros when no tree splits)."""
+        _check_fitted(self)
+        return self.model_.feature_importances
+
     def predict_proba(self, X):
-        """(rows, classes) mean leaf distributions, columns in the order of classes_."""
-        self._check_fitted()
-        return self.model_.predict_proba(self._check_X(X))
+        """(rows, classes) mean leaf distributions, rows summing to 1, columns in the order of classes_."""
+        _check_fitted(self)
+        return self.model_.predict_proba(_table(self, X, reset=False))
 
     def predict(self, X):
         """The class of largest probability per row (ties: the first in classes_)."""
-        return self.classes_[np.argmax(self.predict_proba(X), axis=1)]
+        proba = self.predict_proba(X)  # first: it says "not fitted" before classes_ is read
+        return self.classes_[np.argmax(proba, axis=1)]

@@ -70,11 +70,11 @@ def test_sklearn_clone_and_params():
     twin = clone(clf)
     assert twin is not clf and twin.get_params() == params and not hasattr(twin, "model_")
     assert clf.set_params(seed=9) is clf and clf.seed == 9
-    with pytest.raises(ValueError, match="not a parameter"):
+    with pytest.raises(ValueError, match="trees"):
         clf.set_params(trees=3)
-    tab = smseg.ExtraTreesClassifier(n_estimators=4, n_min=2, score="information-gain", seed=5)
+    tab = smseg.ExtraTreesClassifier(n_estimators=4, n_min=2, criterion="information-gain", seed=5)
     assert clone(tab).get_params() == tab.get_params() == \
-        {"n_estimators": 4, "n_min": 2, "score": "information-gain", "seed": 5, "n_jobs": 0}
+        {"n_estimators": 4, "n_min": 2, "criterion": "information-gain", "seed": 5, "n_jobs": 0}
 
 
 def test_tabular_classifier_learns_and_is_deterministic():
