@@ -1,6 +1,7 @@
 """smseg from Python: feature stacks as numpy arrays, the forest of extremely randomized trees over
-sampling windows as a scikit-learn-like estimator, the same trainer on tabular data, feature extraction
-and evaluation. See the README's "Use it as a library" section.
+sampling windows as a scikit-learn estimator, the same trainer on tabular data (a scikit-learn
+classifier that passes its check_estimator), models that pickle, feature extraction and evaluation.
+See the README's "Use it as a library" section.
 
 Bad input raises smseg.Error (a ValueError) whose message is the one line the command-line tools print
 after "<tool>: error: ".
