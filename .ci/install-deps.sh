@@ -11,6 +11,8 @@ SMSEG_PACKAGES=(
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev libgoogle-glog-dev libsuitesparse-dev
   python3-dev python3-pybind11 python3-pytest python3-sklearn python3-pandas  # pandas: the DataFrame checks of check_estimator
+  python3-venv python3-pip python3-setuptools python3-wheel   # `pip install .` offline (tests/package/check_pip.sh)
+  dpkg-dev   # dpkg-shlibdeps: the Depends of `cpack -G DEB` (tests/package/check_deb.sh)
   slurmctld slurmd slurm-client munge   # the Slurm tests' one-node cluster (tests/slurm)
 )
 
