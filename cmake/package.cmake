@@ -275,5 +275,10 @@ endforeach()
     math(EXPR next "${Python3_VERSION_MINOR} + 1")
     set(CPACK_DEBIAN_PACKAGE_DEPENDS "python3 (>= ${v}), python3 (<< ${Python3_VERSION_MAJOR}.${next}), python3-numpy")
   endif()
+  # The headers, static libraries and CMake package are for building against smseg, which also needs
+  # the outside packages' headers and configs: suggested, not required (the tools and the Python module
+  # run without them). scikit-learn: the estimators are its estimators where it is installed.
+  set(CPACK_DEBIAN_PACKAGE_SUGGESTS
+      "cmake, pkg-config, libeigen3-dev, libopencv-dev, libopencv-contrib-dev, libpcl-dev, libtbb-dev, nlohmann-json3-dev, libcli11-dev, libceres-dev, libgoogle-glog-dev, libsuitesparse-dev, libmaxflow-dev, python3-sklearn")
   include(CPack)
 endfunction()
