@@ -5,7 +5,7 @@
 set -euo pipefail
 
 SMSEG_PACKAGES=(
-  build-essential cmake pkg-config ccache
+  build-essential cmake pkg-config ccache universal-ctags  # ctags: tests/architecture/function_sizes.py
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
