@@ -5,6 +5,7 @@
 #include <set>
 #include <utility>
 
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/common/io.hpp"
 
@@ -237,7 +238,9 @@ Point build_point(const Raw& raw, const Experiment& ex) {
   }
 
   // Front end, per side: train_X / test_X override X.
-  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, motions{"stereo", "sfm"}, trackers{"klt", "descriptors"};
+  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, trackers{"klt", "descriptors"};
+  std::vector<std::string> motions;  // the front ends' names (front_ends.hpp)
+  for (const features::FrontEnd* f : features::front_ends()) motions.emplace_back(f->name());
   const auto side_fe = [&](const std::string& side) {
     FrontEnd fe;
     const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
@@ -382,8 +385,6 @@ std::string Point::describe() const {
   if (!label.empty()) s = label + (s.empty() ? "" : " " + s);
   return s.empty() ? "point " + std::to_string(index) : s;
 }
-
-bool motion_available(const std::string& motion) { return motion == "stereo" || motion == "sfm"; }
 
 std::string json_hash(const json& j) {
   const std::string s = j.dump();

@@ -64,13 +64,11 @@ json synth_json(const features::synth::SynthOptions& o) {
 }
 
 features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
-  if (!motion_available(fe.motion))
-    throw Error("", "motion", "the \"" + fe.motion + "\" front end is not available in this build");
   features::ExtractOptions o;
   o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
   o.front_end.tracker = features::parse_frame_tracker(fe.tracker, "tracker");
   o.front_end.tracking.detector = features::default_keypoints(o.front_end.tracker);
-  o.motion = features::parse_motion_method(fe.motion, "motion");
+  o.motion = fe.motion;
   o.features.causal = fe.causal;
   o.progress = progress;
   return o;

@@ -52,7 +52,8 @@ features::ExtractOptions extract_options(const py::dict& o) {
   std::string gravity = "level";
   take(o, "gravity", gravity);
   opt.front_end.gravity.method = features::parse_gravity_method(gravity, "gravity");
-  opt.motion = features::parse_motion_method(motion, "motion");
+  features::check_motion_name(motion, "motion");
+  opt.motion = motion;
   opt.front_end.stereo.method = features::parse_stereo_method(stereo, "stereo");
   opt.front_end.tracker = features::parse_stereo_tracker(tracker, "tracker");
   opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, opt.front_end.tracker, "keypoints");

@@ -25,25 +25,10 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 
-bool uses_sfm(const Sequence& seq, const ExtractOptions& o) {
-  return o.motion == MotionMethod::Sfm || (o.motion == MotionMethod::Auto && seq.kind == SequenceKind::Mono);
-}
-
-// The SfM options as run: the camera height from the extract options when not set.
-SfmOptions effective_sfm(const ExtractOptions& o) {
-  SfmOptions s = o.sfm;
-  if (!s.camera_height) s.camera_height = o.front_end.camera_height;
-  s.progress = o.progress;
-  return s;
-}
-
-// The feature options as run: heights from the ground under each camera for monocular SfM (a long
-// monocular drive's camera path drifts up and down against its one ground plane: docs/camvid.md,
-// "Heights from the ground under the camera"), from the ground plane for stereo.
-FeatureOptions effective_features(const Sequence& seq, const ExtractOptions& o) {
+// The feature options as run: HeightReference::Auto as the front end measures heights.
+FeatureOptions effective_features(const FrontEnd& front_end, const ExtractOptions& o) {
   FeatureOptions f = o.features;
-  if (f.height_reference == HeightReference::Auto)
-    f.height_reference = uses_sfm(seq, o) ? HeightReference::Camera : HeightReference::Plane;
+  if (f.height_reference == HeightReference::Auto) f.height_reference = front_end.auto_height_reference();
   return f;
 }
 
@@ -62,18 +47,11 @@ std::string sequence_digest(const Sequence& seq) {
   return hex;
 }
 
-Json options_json(const Sequence& seq, const ExtractOptions& o) {
-  Json fe;
-  if (uses_sfm(seq, o)) {
-    const SfmOptions s = effective_sfm(o);
-    fe = {{"method", "sfm"}, {"sfm", sfm_options_to_json(s)}};
-    if (s.camera_height) fe["camera_height"] = *s.camera_height;
-  } else {
-    fe = front_end_options_to_json(o.front_end);
-  }
+Json options_json(const Sequence& seq, const FrontEnd& front_end, const ExtractOptions& o) {
+  Json fe = front_end.options_json(o);
   if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
   return {{"front_end", fe},
-          {"features", feature_options_json(effective_features(seq, o))},
+          {"features", feature_options_json(effective_features(front_end, o))},
           {"input", {{"sequence_json_fnv1a64", sequence_digest(seq)}}}};
 }
 
@@ -168,22 +146,6 @@ std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, c
 
 }  // namespace
 
-MotionMethod parse_motion_method(const std::string& name, const std::string& field) {
-  if (name == "auto") return MotionMethod::Auto;
-  if (name == "stereo") return MotionMethod::Stereo;
-  if (name == "sfm") return MotionMethod::Sfm;
-  throw Error("", field, "expected auto, stereo or sfm, got '" + name + "'");
-}
-
-const char* motion_method_name(MotionMethod m) {
-  switch (m) {
-    case MotionMethod::Auto: return "auto";
-    case MotionMethod::Stereo: return "stereo";
-    case MotionMethod::Sfm: return "sfm";
-  }
-  return "?";
-}
-
 Json feature_options_json(const FeatureOptions& o) {
   Json j = {{"causal", o.causal}, {"future_frames", o.future_frames}};
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
@@ -270,17 +232,9 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
 
 ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
   opt.features.validate();
-  const bool sfm = uses_sfm(seq, opt);
-  if (sfm && opt.front_end.gravity.method != GravityMethod::Level)
-    throw Error(seq.manifest.string(), "gravity",
-                "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
-                "ground plane");
-  if (sfm)
-    effective_sfm(opt).validate();
-  else if (seq.kind != SequenceKind::Stereo)
-    throw Error(seq.manifest.string(), "kind",
-                "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
-                "--motion sfm or auto)");
+  const FrontEnd& front_end = front_end_for(seq, opt);
+  front_end.check(seq, opt);
+  const bool monocular = front_end.monocular();  // dense depth from a plane sweep over posed neighbours
   if (opt.frames.begin >= seq.frame_count())
     throw Error("", "--frames", opt.frames.str() + " selects none of the " + std::to_string(seq.frame_count()) +
                                    " frames of " + seq.manifest.string());
@@ -289,7 +243,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
       throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
                                        std::to_string(seq.frame_count() - 1) + ")");
   ExtractReport report;
-  const Json options = options_json(seq, opt);
+  const Json options = options_json(seq, front_end, opt);
 
   // A work folder made with other options is rebuilt only when asked.
   StackManifest m;
@@ -331,20 +285,18 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
 
   // The front end always sees the whole sequence: fC needs the future path.
   const auto t0 = std::chrono::steady_clock::now();
-  FrontEndOptions fe_opt = opt.front_end;
-  fe_opt.progress = opt.progress;
-  const FrontEndResult fe = sfm ? run_mono_front_end(seq, effective_sfm(opt)) : run_stereo_front_end(seq, fe_opt);
+  const FrontEndResult fe = front_end.run(seq, opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
   if (fe.tracks.empty())
     throw Error(seq.manifest.string(), "",
                 std::string("the front end kept no tracked 3D point in any of the ") + std::to_string(seq.frame_count()) +
-                    " frames (" + (sfm ? "a camera that does not move? blank frames?" : "blank frames? too few frames?") +
+                    " frames (" + std::string(front_end.no_tracks_hint()) +
                     "): there is nothing to compute features from");
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
-  const int min_frames = sfm ? effective_sfm(opt).filters.min_frames : opt.front_end.filters.min_frames;
+  const int min_frames = front_end.min_track_frames(opt);
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
-  const FeatureOptions features = effective_features(seq, opt);
+  const FeatureOptions features = effective_features(front_end, opt);
   const PointAttributes attrs = compute_point_attributes(video, features);
   const std::optional<double> camera_height = reference_camera_height(features, video.poses);
   report.cloud = track_cloud(fe, video, attrs);
@@ -370,9 +322,9 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   // The channels after the six, in stacks.json's order: appearance, then dense geometry (stereo
   // matching, or a plane sweep over the SfM's posed neighbours).
   const StereoOptions dense_stereo = dense_stereo_options(opt.front_end.stereo);
-  const SweepInputs sweep = sfm && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{};
+  const SweepInputs sweep = monocular && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{};
   const auto frame_depth = [&](int f) {
-    if (!sfm) return dense_depth(seq, f, dense_stereo);
+    if (!monocular) return dense_depth(seq, f, dense_stereo);
     std::vector<SweepView> views;
     const SweepNeighbourOptions choice{opt.features.sweep_reach, opt.features.sweep_baseline};
     for (int g : sweep_neighbours(f, sweep.usable, video.poses, choice)) views.push_back({seq.load_left_gray(g), video.poses[g]});
@@ -381,7 +333,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
     if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
     if (opt.features.dense)
-      append_dense_rasters(frame_depth(f), sfm ? sweep.calibration : seq.calibration, video.poses[f], rasters,
+      append_dense_rasters(frame_depth(f), monocular ? sweep.calibration : seq.calibration, video.poses[f], rasters,
                            height_shift(camera_height, video.poses[f]),
                            camera_path_near(video.poses, f, opt.features.future_frames, opt.features.causal));
   };

@@ -42,8 +42,9 @@ int main(int argc, char** argv) {
   app.add_option("--frames", frames, "frames whose stacks are written, A:B half-open (the front end sees all)")
       ->capture_default_str();
   app.add_option("--motion", motion,
-                 "tracks and camera motion: auto (stereo for stereo sequences, sfm for mono ones) | stereo | sfm "
-                 "(monocular structure from motion on the left images)")
+                 "the front end tracks and camera motion come from: " + front_end_choices() +
+                     " (auto: stereo for stereo sequences, sfm, monocular structure from motion on the left "
+                     "images, for mono ones)")
       ->capture_default_str();
   app.add_option("--stereo", stereo, "disparity: bm (block matching) | sgbm (semi-global) | given (from the sequence)")
       ->capture_default_str();
@@ -150,7 +151,8 @@ int main(int argc, char** argv) {
     opt.front_end.stereo.method = parse_stereo_method(stereo, "--stereo");
     opt.front_end.tracker = parse_stereo_tracker(tracker, "--tracker");
     opt.front_end.tracking.detector = parse_keypoint_method(detector, opt.front_end.tracker, "--keypoints");
-    opt.motion = parse_motion_method(motion, "--motion");
+    check_motion_name(motion, "--motion");
+    opt.motion = motion;
     opt.sfm.tracking.detector = detector == "auto" ? KeypointMethod::Sift : parse_keypoint_method(detector, "--keypoints");
     opt.sfm.tracking.gftt_quality = opt.front_end.tracking.gftt_quality;
     if (app.count("--max-keypoints")) opt.sfm.tracking.max_keypoints = opt.front_end.tracking.max_keypoints;

@@ -429,7 +429,7 @@ TEST_F(SfmCorridor, ExtractFeaturesRunsMonoSequencesThroughSfmAndRecordsItsOptio
   EXPECT_EQ(r2.summary.sfm->focal_source, "option");
   EXPECT_EQ(r2.summary.sfm->focal, 250.0);
   // Stereo motion on a mono sequence is an error naming the manifest's kind.
-  eo.motion = MotionMethod::Stereo;
+  eo.motion = "stereo";
   try {
     extract_features(s, work, eo);
     FAIL();

@@ -60,7 +60,7 @@ Sequence thirteen_frames(const std::string& scene, const fs::path& dir) {
 ExtractOptions monocular_dense_options() {
   ExtractOptions eo = test::quiet_extract_options();
   eo.features.dense = true;
-  eo.motion = MotionMethod::Sfm;
+  eo.motion = "sfm";
   return eo;
 }
 

@@ -101,9 +101,6 @@ Experiment load_experiment(const fs::path& file, bool quick);
 /// The same from JSON already read (`file` names it in errors; relative paths resolve against its folder).
 Experiment experiment_from_json(const nlohmann::json& j, const fs::path& file, bool quick);
 
-/// Whether the front end can run `motion` ("stereo" always; "sfm" once extract_features has it).
-bool motion_available(const std::string& motion);
-
 /// A stable 16-hex-digit hash of a JSON value (FNV-1a 64 of its compact dump): cache keys.
 std::string json_hash(const nlohmann::json& j);
 

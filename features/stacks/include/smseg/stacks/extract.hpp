@@ -1,7 +1,8 @@
 #pragma once
 // The whole front end of a sequence into feature stacks (`extract-features`): tracks and camera
-// motion from stereo (run_stereo_front_end) or from the left images alone by monocular structure from
-// motion (run_mono_front_end, sfm.hpp: always for mono sequences, on request for stereo ones), then the structure-and-motion features of each frame as summed-area
+// motion from the front end that ExtractOptions::motion names (front_ends.hpp: stereo, or monocular
+// structure from motion on the left images alone; "auto": stereo for stereo sequences, SfM for mono
+// ones), then the structure-and-motion features of each frame as summed-area
 // tables, written as a work folder (stack.hpp), plus WORK/tracks.json (tracks, camera path and the
 // front-end summary, tracks_io.hpp) and WORK/path.png (top-down camera path and cloud; the ground-truth
 // path too when the sequence has one, aligned at the first frame). Parallel over frames; resumable.
@@ -14,17 +15,15 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/sfm/sfm.hpp"
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/stack.hpp"
 
 namespace smseg::features {
 
-/// Where tracks and camera motion come from. Auto: stereo for stereo sequences, SfM for mono ones.
-enum class MotionMethod { Auto, Stereo, Sfm };
-MotionMethod parse_motion_method(const std::string& name, const std::string& field);  ///< auto | stereo | sfm
-const char* motion_method_name(MotionMethod m);
-
 struct ExtractOptions {
-  MotionMethod motion = MotionMethod::Auto;
+  /// The front end tracks and camera motion come from, by name (front_ends.hpp: "stereo", "sfm"), or
+  /// "auto": the one for the sequence's kind (stereo for stereo sequences, SfM for mono ones).
+  std::string motion = "auto";
   FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)
   SfmOptions sfm;              ///< the monocular front end (its camera_height defaults to front_end's)
   FeatureOptions features;     ///< causal fC, future frames
@@ -52,7 +51,8 @@ PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_cou
 Json feature_options_json(const FeatureOptions& options);
 
 /// Runs everything for `seq` into the work folder `work`. A work folder made with other options is an
-/// Error unless force is set (then it is rebuilt). MotionMethod::Stereo on a mono sequence is an Error. Frames whose stacks exist are skipped unless force.
+/// Error unless force is set (then it is rebuilt). A front end that cannot run on the sequence (stereo on
+/// a mono one) is an Error. Frames whose stacks exist are skipped unless force.
 ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& options);
 
 /// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.

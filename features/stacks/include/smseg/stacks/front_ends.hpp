@@ -1,0 +1,60 @@
+#pragma once
+// The front ends of feature extraction, behind one interface and registered by name: what a front end
+// takes (a sequence and the extraction options), what it gives (tracks, poses and a summary:
+// FrontEndResult), and what the rest of extraction needs to know of it (the options it records in
+// stacks.json, its track-length filter, how heights and dense depth are measured on its output).
+// extract-features --motion, the Python extract_features(motion=...), run-experiment's "motion" and
+// extract_features() all choose one by name through this registry; "auto" picks by the sequence's
+// kind. A new front end is one more implementation in front_ends.cpp.
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "smseg/common/io.hpp"
+#include "smseg/frontend/motion.hpp"
+#include "smseg/sequence/sequence.hpp"
+#include "smseg/stacks/point_features.hpp"
+
+namespace smseg::features {
+
+struct ExtractOptions;
+
+class FrontEnd {
+ public:
+  virtual ~FrontEnd() = default;
+  /// The name options choose it by ("stereo", "sfm").
+  virtual std::string_view name() const = 0;
+  /// Whether "auto" picks it for this sequence.
+  virtual bool is_default_for(const Sequence& seq) const = 0;
+  /// Error naming the manifest (or the option) when it cannot run on this sequence with these options.
+  virtual void check(const Sequence& seq, const ExtractOptions& o) const = 0;
+  virtual FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const = 0;
+  /// Its options as stacks.json and tracks.json record them ("front_end"), without the camera height
+  /// that the sequence gives (extraction adds it).
+  virtual Json options_json(const ExtractOptions& o) const = 0;
+  /// The track-length filter it applies (the causal rule uses a track from this many frames on).
+  virtual int min_track_frames(const ExtractOptions& o) const = 0;
+  /// What HeightReference::Auto means on its output.
+  virtual HeightReference auto_height_reference() const = 0;
+  /// Whether its camera is one (dense depth then comes from a plane sweep over posed neighbour frames,
+  /// not from stereo matching).
+  virtual bool monocular() const = 0;
+  /// What most often leaves it without a single track, for the error that says so.
+  virtual std::string_view no_tracks_hint() const = 0;
+};
+
+/// Every front end, in the order help texts list them.
+const std::vector<const FrontEnd*>& front_ends();
+/// "auto | stereo | sfm": what a motion option accepts.
+std::string front_end_choices();
+/// The front end of that name; Error naming `field` and the choices when there is none. "auto" is not
+/// a front end (front_end_for resolves it).
+const FrontEnd& front_end_named(const std::string& name, const std::string& field);
+/// Error naming `field` unless `name` is "auto" or a front end's name.
+void check_motion_name(const std::string& name, const std::string& field);
+/// The front end that options.motion chooses for this sequence ("auto": the one that is default for its
+/// kind).
+const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options);
+
+}  // namespace smseg::features

@@ -1,0 +1,107 @@
+// The two front ends behind the FrontEnd interface (front_ends.hpp): stereo (frontend's
+// run_stereo_front_end) and monocular structure from motion (sfm's run_mono_front_end), and the
+// registry that options choose them from by name.
+#include "smseg/stacks/front_ends.hpp"
+
+#include "smseg/common/error.hpp"
+#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/sfm/sfm.hpp"
+#include "smseg/stacks/extract.hpp"
+
+namespace smseg::features {
+
+namespace {
+
+class StereoFrontEnd final : public FrontEnd {
+ public:
+  std::string_view name() const override { return "stereo"; }
+  bool is_default_for(const Sequence& seq) const override { return seq.kind == SequenceKind::Stereo; }
+  void check(const Sequence& seq, const ExtractOptions&) const override {
+    if (seq.kind != SequenceKind::Stereo)
+      throw Error(seq.manifest.string(), "kind",
+                  "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
+                  "--motion sfm or auto)");
+  }
+  FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const override {
+    FrontEndOptions fe = o.front_end;
+    fe.progress = o.progress;
+    return run_stereo_front_end(seq, fe);
+  }
+  Json options_json(const ExtractOptions& o) const override { return front_end_options_to_json(o.front_end); }
+  int min_track_frames(const ExtractOptions& o) const override { return o.front_end.filters.min_frames; }
+  HeightReference auto_height_reference() const override { return HeightReference::Plane; }
+  bool monocular() const override { return false; }
+  std::string_view no_tracks_hint() const override { return "blank frames? too few frames?"; }
+};
+
+class SfmFrontEnd final : public FrontEnd {
+ public:
+  std::string_view name() const override { return "sfm"; }
+  bool is_default_for(const Sequence& seq) const override { return seq.kind == SequenceKind::Mono; }
+  void check(const Sequence& seq, const ExtractOptions& o) const override {
+    if (o.front_end.gravity.method != GravityMethod::Level)
+      throw Error(seq.manifest.string(), "gravity",
+                  "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
+                  "ground plane");
+    as_run(o).validate();
+  }
+  FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const override {
+    return run_mono_front_end(seq, as_run(o));
+  }
+  Json options_json(const ExtractOptions& o) const override {
+    const SfmOptions s = as_run(o);
+    Json fe = {{"method", "sfm"}, {"sfm", sfm_options_to_json(s)}};
+    if (s.camera_height) fe["camera_height"] = *s.camera_height;
+    return fe;
+  }
+  int min_track_frames(const ExtractOptions& o) const override { return as_run(o).filters.min_frames; }
+  // A long monocular drive's camera path drifts up and down against its one ground plane: heights are
+  // measured from the ground under each camera (docs/camvid.md, "Heights from the ground under the
+  // camera").
+  HeightReference auto_height_reference() const override { return HeightReference::Camera; }
+  bool monocular() const override { return true; }
+  std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
+
+ private:
+  // The SfM options as run: the camera height from the extraction options when not set.
+  static SfmOptions as_run(const ExtractOptions& o) {
+    SfmOptions s = o.sfm;
+    if (!s.camera_height) s.camera_height = o.front_end.camera_height;
+    s.progress = o.progress;
+    return s;
+  }
+};
+
+}  // namespace
+
+const std::vector<const FrontEnd*>& front_ends() {
+  static const StereoFrontEnd stereo;
+  static const SfmFrontEnd sfm;
+  static const std::vector<const FrontEnd*> all{&stereo, &sfm};
+  return all;
+}
+
+std::string front_end_choices() {
+  std::string s = "auto";
+  for (const FrontEnd* f : front_ends()) s += " | " + std::string(f->name());
+  return s;
+}
+
+const FrontEnd& front_end_named(const std::string& name, const std::string& field) {
+  for (const FrontEnd* f : front_ends())
+    if (f->name() == name) return *f;
+  throw Error("", field, "expected " + front_end_choices() + ", got '" + name + "'");
+}
+
+void check_motion_name(const std::string& name, const std::string& field) {
+  if (name != "auto") front_end_named(name, field);
+}
+
+const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options) {
+  if (options.motion != "auto") return front_end_named(options.motion, "motion");
+  for (const FrontEnd* f : front_ends())
+    if (f->is_default_for(seq)) return *f;
+  throw Error(seq.manifest.string(), "kind", "no front end runs on this kind of sequence");
+}
+
+}  // namespace smseg::features
