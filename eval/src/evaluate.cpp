@@ -10,6 +10,7 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
+#include "smseg/common/names.hpp"
 #include "smseg/eval/render.hpp"
 #include "smseg/forest/classify.hpp"
 #include "smseg/common/progress.hpp"
@@ -106,12 +107,11 @@ void prefault(const forest::FrameData& frame) {
 
 }  // namespace
 
-std::string to_string(VoteRule v) { return v == VoteRule::Sum ? "sum" : "majority"; }
+constexpr std::array<EnumName<VoteRule>, 2> kVoteRuleNames{{{VoteRule::Sum, "sum"}, {VoteRule::Majority, "majority"}}};
 
+std::string to_string(VoteRule v) { return name_of(kVoteRuleNames, v); }
 VoteRule vote_rule_from_string(const std::string& s, const std::string& option) {
-  if (s == "sum") return VoteRule::Sum;
-  if (s == "majority") return VoteRule::Majority;
-  throw Error("", option, "\"" + s + "\" is not a vote rule (sum or majority)");
+  return value_named(kVoteRuleNames, s, option);
 }
 
 int superpixels_from_string(const std::string& s, const std::string& option) {

@@ -12,6 +12,7 @@
 #include <tbb/parallel_for.h>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/names.hpp"
 #include "smseg/graphcut/graphcut.hpp"
 
 namespace smseg::eval {
@@ -54,12 +55,12 @@ double capped_cost(double p, double p_min, double cap) { return p <= p_min ? cap
 
 }  // namespace
 
-std::string to_string(SmoothMethod m) { return m == SmoothMethod::GraphCut ? "graphcut" : "none"; }
+constexpr std::array<EnumName<SmoothMethod>, 2> kSmoothMethodNames{
+    {{SmoothMethod::None, "none"}, {SmoothMethod::GraphCut, "graphcut"}}};
 
+std::string to_string(SmoothMethod m) { return name_of(kSmoothMethodNames, m); }
 SmoothMethod smooth_method_from_string(const std::string& s, const std::string& option) {
-  if (s == "none") return SmoothMethod::None;
-  if (s == "graphcut") return SmoothMethod::GraphCut;
-  throw Error("", option, "\"" + s + "\" is not a smoothing method (none or graphcut)");
+  return value_named(kSmoothMethodNames, s, option);
 }
 
 void SmoothOptions::validate() const {

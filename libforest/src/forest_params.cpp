@@ -3,6 +3,7 @@
 #include <set>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/names.hpp"
 #include "smseg/forest/data.hpp"
 #include "smseg/forest/params.hpp"
 
@@ -53,24 +54,15 @@ void Dataset::validate(bool need_labels, bool need_gray, const std::string& sour
   }
 }
 
-std::string to_string(Balance b) {
-  return b == Balance::Classes ? "classes" : b == Balance::Sqrt ? "sqrt" : "none";
-}
+constexpr std::array<EnumName<Balance>, 3> kBalanceNames{
+    {{Balance::None, "none"}, {Balance::Classes, "classes"}, {Balance::Sqrt, "sqrt"}}};
+constexpr std::array<EnumName<Score>, 2> kScoreNames{
+    {{Score::WehenkelPavella, "wehenkel-pavella"}, {Score::InformationGain, "information-gain"}}};
 
-Balance balance_from_string(const std::string& s, const std::string& field) {
-  if (s == "none") return Balance::None;
-  if (s == "classes") return Balance::Classes;
-  if (s == "sqrt") return Balance::Sqrt;
-  throw Error("", field, "is \"" + s + "\", expected none, classes or sqrt");
-}
-
-std::string to_string(Score s) { return s == Score::InformationGain ? "information-gain" : "wehenkel-pavella"; }
-
-Score score_from_string(const std::string& s, const std::string& field) {
-  if (s == "wehenkel-pavella") return Score::WehenkelPavella;
-  if (s == "information-gain") return Score::InformationGain;
-  throw Error("", field, "is \"" + s + "\", expected wehenkel-pavella or information-gain");
-}
+std::string to_string(Balance b) { return name_of(kBalanceNames, b); }
+Balance balance_from_string(const std::string& s, const std::string& field) { return value_named(kBalanceNames, s, field); }
+std::string to_string(Score s) { return name_of(kScoreNames, s); }
+Score score_from_string(const std::string& s, const std::string& field) { return value_named(kScoreNames, s, field); }
 
 void TrainParams::validate(const std::string& source) const {
   auto bad = [&](const char* field, const std::string& why) { throw Error(source, field, why); };

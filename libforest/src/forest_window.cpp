@@ -4,24 +4,17 @@
 #include <numeric>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/names.hpp"
 #include "smseg/forest/window.hpp"
 
 namespace smseg::forest {
 
-std::string to_string(WindowSampling mode) {
-  switch (mode) {
-    case WindowSampling::Uniform: return "uniform";
-    case WindowSampling::Thesis: return "thesis-biased";
-    case WindowSampling::Learned: return "learned";
-  }
-  return "uniform";
-}
+constexpr std::array<EnumName<WindowSampling>, 3> kWindowSamplingNames{
+    {{WindowSampling::Uniform, "uniform"}, {WindowSampling::Thesis, "thesis-biased"}, {WindowSampling::Learned, "learned"}}};
 
+std::string to_string(WindowSampling mode) { return name_of(kWindowSamplingNames, mode); }
 WindowSampling window_sampling_from_string(const std::string& s, const std::string& field) {
-  if (s == "uniform") return WindowSampling::Uniform;
-  if (s == "thesis-biased") return WindowSampling::Thesis;
-  if (s == "learned") return WindowSampling::Learned;
-  throw Error("", field, "is \"" + s + "\", expected uniform, thesis-biased or learned");
+  return value_named(kWindowSamplingNames, s, field);
 }
 
 WindowHistograms WindowHistograms::zeros(const WindowBounds& b) {

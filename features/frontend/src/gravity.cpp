@@ -8,6 +8,7 @@
 #include <Eigen/Geometry>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/names.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
 namespace smseg::features {
@@ -85,13 +86,15 @@ std::vector<Eigen::Vector3d> ground_candidates(const std::vector<Pose>& poses, i
 
 }  // namespace
 
-GravityMethod parse_gravity_method(const std::string& name, const std::string& field) {
-  if (name == "level") return GravityMethod::Level;
-  if (name == "estimate") return GravityMethod::Estimate;
-  throw Error("", field, "unknown gravity method '" + name + "' (expected level or estimate)");
-}
+namespace {
+constexpr std::array<EnumName<GravityMethod>, 2> kGravityMethodNames{
+    {{GravityMethod::Level, "level"}, {GravityMethod::Estimate, "estimate"}}};
+}  // namespace
 
-const char* gravity_method_name(GravityMethod m) { return m == GravityMethod::Estimate ? "estimate" : "level"; }
+GravityMethod parse_gravity_method(const std::string& name, const std::string& field) {
+  return value_named(kGravityMethodNames, name, field);
+}
+const char* gravity_method_name(GravityMethod m) { return name_of(kGravityMethodNames, m); }
 
 void GravityOptions::validate() const {
   if (!(max_tilt_deg > 0 && max_tilt_deg <= 45)) throw Error("", "gravity.max_tilt_deg", "must be in (0, 45] degrees");

@@ -1,5 +1,7 @@
 #include "smseg/frontend/stereo.hpp"
 
+#include "smseg/common/names.hpp"
+
 #include <cmath>
 #include <string>
 
@@ -63,21 +65,15 @@ cv::Mat fixed_to_float(const cv::Mat& raw) {
 
 }  // namespace
 
-StereoMethod parse_stereo_method(const std::string& name, const std::string& field) {
-  if (name == "bm") return StereoMethod::BM;
-  if (name == "sgbm") return StereoMethod::SGBM;
-  if (name == "given") return StereoMethod::Given;
-  throw Error("", field, "unknown stereo method '" + name + "' (expected bm, sgbm or given)");
-}
+namespace {
+constexpr std::array<EnumName<StereoMethod>, 3> kStereoMethodNames{
+    {{StereoMethod::BM, "bm"}, {StereoMethod::SGBM, "sgbm"}, {StereoMethod::Given, "given"}}};
+}  // namespace
 
-const char* stereo_method_name(StereoMethod m) {
-  switch (m) {
-    case StereoMethod::BM: return "bm";
-    case StereoMethod::SGBM: return "sgbm";
-    case StereoMethod::Given: return "given";
-  }
-  return "?";
+StereoMethod parse_stereo_method(const std::string& name, const std::string& field) {
+  return value_named(kStereoMethodNames, name, field);
 }
+const char* stereo_method_name(StereoMethod m) { return name_of(kStereoMethodNames, m); }
 
 void StereoOptions::validate() const {
   if (method == StereoMethod::Given) return;  // the matcher's parameters are not used

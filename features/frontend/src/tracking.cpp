@@ -1,5 +1,6 @@
 #include "smseg/frontend/tracking.hpp"
 
+#include "smseg/common/names.hpp"
 #include "smseg/frontend/stereo.hpp"
 
 #include <algorithm>
@@ -13,31 +14,23 @@
 
 namespace smseg::features {
 
+namespace {
+constexpr std::array<EnumName<KeypointMethod>, 4> kKeypointMethodNames{{{KeypointMethod::Sift, "sift"},
+                                                                       {KeypointMethod::Orb, "orb"},
+                                                                       {KeypointMethod::Akaze, "akaze"},
+                                                                       {KeypointMethod::Gftt, "gftt"}}};
+constexpr std::array<EnumName<FrameTracker>, 2> kFrameTrackerNames{
+    {{FrameTracker::Descriptors, "descriptors"}, {FrameTracker::Klt, "klt"}}};
+}  // namespace
+
 KeypointMethod parse_keypoint_method(const std::string& name, const std::string& field) {
-  if (name == "sift") return KeypointMethod::Sift;
-  if (name == "orb") return KeypointMethod::Orb;
-  if (name == "akaze") return KeypointMethod::Akaze;
-  if (name == "gftt") return KeypointMethod::Gftt;
-  throw Error("", field, "unknown keypoint detector '" + name + "' (expected sift, orb, akaze or gftt)");
+  return value_named(kKeypointMethodNames, name, field);
 }
-
-const char* keypoint_method_name(KeypointMethod m) {
-  switch (m) {
-    case KeypointMethod::Sift: return "sift";
-    case KeypointMethod::Orb: return "orb";
-    case KeypointMethod::Akaze: return "akaze";
-    case KeypointMethod::Gftt: return "gftt";
-  }
-  return "?";
-}
-
+const char* keypoint_method_name(KeypointMethod m) { return name_of(kKeypointMethodNames, m); }
 FrameTracker parse_frame_tracker(const std::string& name, const std::string& field) {
-  if (name == "descriptors") return FrameTracker::Descriptors;
-  if (name == "klt") return FrameTracker::Klt;
-  throw Error("", field, "unknown tracker '" + name + "' (expected descriptors or klt)");
+  return value_named(kFrameTrackerNames, name, field);
 }
-
-const char* frame_tracker_name(FrameTracker t) { return t == FrameTracker::Klt ? "klt" : "descriptors"; }
+const char* frame_tracker_name(FrameTracker t) { return name_of(kFrameTrackerNames, t); }
 
 FrameTracker parse_stereo_tracker(const std::string& name, const std::string& field) {
   return name == "auto" ? FrameTracker::Klt : parse_frame_tracker(name, field);

@@ -1,34 +1,24 @@
 // The monocular SfM's options and summaries: names, JSON, validation (see sfm.hpp).
 #include "smseg/sfm/sfm.hpp"
 
+#include "smseg/common/names.hpp"
 #include "sfm_matching.hpp"
 
 namespace smseg::features {
 
-const char* focal_source_name(FocalSource s) {
-  switch (s) {
-    case FocalSource::Option: return "option";
-    case FocalSource::Manifest: return "manifest";
-    case FocalSource::Estimated: return "estimated";
-    case FocalSource::Fallback: return "fallback";
-  }
-  return "?";
-}
+namespace {
+constexpr std::array<EnumName<FocalSource>, 4> kFocalSourceNames{{{FocalSource::Option, "option"},
+                                                                 {FocalSource::Manifest, "manifest"},
+                                                                 {FocalSource::Estimated, "estimated"},
+                                                                 {FocalSource::Fallback, "fallback"}}};
+constexpr std::array<EnumName<SfmTracker>, 3> kSfmTrackerNames{
+    {{SfmTracker::Auto, "auto"}, {SfmTracker::Klt, "klt"}, {SfmTracker::Descriptors, "descriptors"}}};
+}  // namespace
 
-const char* sfm_tracker_name(SfmTracker t) {
-  switch (t) {
-    case SfmTracker::Auto: return "auto";
-    case SfmTracker::Klt: return "klt";
-    case SfmTracker::Descriptors: return "descriptors";
-  }
-  return "?";
-}
-
+const char* focal_source_name(FocalSource s) { return name_of(kFocalSourceNames, s); }
+const char* sfm_tracker_name(SfmTracker t) { return name_of(kSfmTrackerNames, t); }
 SfmTracker parse_sfm_tracker(const std::string& name, const std::string& field) {
-  if (name == "auto") return SfmTracker::Auto;
-  if (name == "klt") return SfmTracker::Klt;
-  if (name == "descriptors") return SfmTracker::Descriptors;
-  throw Error("", field, "expected auto, klt or descriptors, got '" + name + "'");
+  return value_named(kSfmTrackerNames, name, field);
 }
 
 SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {

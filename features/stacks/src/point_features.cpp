@@ -1,5 +1,7 @@
 #include "smseg/stacks/point_features.hpp"
 
+#include "smseg/common/names.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -55,20 +57,12 @@ const std::vector<std::string>& structure_feature_names() {
   return names;
 }
 
-std::string to_string(HeightReference h) {
-  switch (h) {
-    case HeightReference::Auto: return "auto";
-    case HeightReference::Plane: return "plane";
-    case HeightReference::Camera: return "camera";
-  }
-  return "?";
-}
+constexpr std::array<EnumName<HeightReference>, 3> kHeightReferenceNames{
+    {{HeightReference::Auto, "auto"}, {HeightReference::Plane, "plane"}, {HeightReference::Camera, "camera"}}};
 
+std::string to_string(HeightReference h) { return name_of(kHeightReferenceNames, h); }
 HeightReference height_reference_from_string(const std::string& s, const std::string& option) {
-  if (s == "auto") return HeightReference::Auto;
-  if (s == "plane") return HeightReference::Plane;
-  if (s == "camera") return HeightReference::Camera;
-  throw Error("", option, "\"" + s + "\" is not a height reference (auto, plane or camera)");
+  return value_named(kHeightReferenceNames, s, option);
 }
 
 // The cameras' median height (world Y of their centres) over the frames: HeightReference::Camera's
