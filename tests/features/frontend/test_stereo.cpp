@@ -5,6 +5,9 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <string>
+
+#include <unistd.h>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -248,7 +251,7 @@ TEST(Middlebury, ScoresAHandMadeCase) {
 }
 
 TEST(Middlebury, PfmRoundTripKeepsRowOrderAndInfinity) {
-  const fs::path dir = fs::temp_directory_path() / "smseg_test_stereo_pfm";
+  const fs::path dir = fs::temp_directory_path() / ("smseg_test_stereo_pfm_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   const float inf = std::numeric_limits<float>::infinity();
   const cv::Mat m = (cv::Mat_<float>(2, 3) << 1, 2, 3, 4.5f, inf, -6);
@@ -270,7 +273,7 @@ TEST(Middlebury, PfmRoundTripKeepsRowOrderAndInfinity) {
 }
 
 TEST(Middlebury, CalibParsingToleratesWhitespace) {
-  const fs::path dir = fs::temp_directory_path() / "smseg_test_stereo_calib";
+  const fs::path dir = fs::temp_directory_path() / ("smseg_test_stereo_calib_" + std::to_string(::getpid()));
   fs::create_directories(dir);
   write_file_atomic(dir / "calib.txt",
                     "cam0=[ 1038.018 0 322.037 ; 0 1038.018 243.393 ; 0 0 1 ] \n"

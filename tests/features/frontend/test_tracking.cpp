@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <filesystem>
+#include <string>
+
+#include <unistd.h>
 
 #include <oneapi/tbb/global_control.h>
 #include <opencv2/imgcodecs.hpp>
@@ -263,7 +266,8 @@ struct Synthetic {
 Synthetic make_wall_video(const std::string& name, int frames, std::vector<int> blank_frames = {},
                           bool flat_right = false) {
   Synthetic s;
-  s.dir = fs::temp_directory_path() / ("smseg_test_frontend_" + name);
+  // The process id keeps two suites run at once on one machine (a user's and CI's) out of each other's files.
+  s.dir = fs::temp_directory_path() / ("smseg_test_frontend_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(s.dir);
   fs::create_directories(s.dir);
   const int W = 320, H = 240;
