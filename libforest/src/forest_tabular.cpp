@@ -127,9 +127,10 @@ std::vector<double> impurity_importances(const std::vector<Tree>& trees, int num
                                                    weighted_entropy(counts[static_cast<std::size_t>(n.left)]) -
                                                    weighted_entropy(counts[static_cast<std::size_t>(n.right)]);
     }
-    // Dividing by the root's count first (as scikit-learn does) changes nothing after normalising.
+    // Dividing by the root's count first (as scikit-learn does) changes nothing after normalising, and
+    // the mean over trees is their sum normalised.
     normalise(mine);
-    for (std::size_t a = 0; a < forest.size(); ++a) forest[a] += mine[a] / static_cast<double>(trees.size());
+    for (std::size_t a = 0; a < forest.size(); ++a) forest[a] += mine[a];
   }
   normalise(forest);
   return forest;
