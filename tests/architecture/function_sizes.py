@@ -49,8 +49,10 @@ def functions(root):
 
 
 def is_tool_main(where):
+    """main() of a tool: a file in a tools/ folder, or in train/ (whose folder is its tools')."""
     path, rest = where.split(":", 1)
-    return rest.split(" ", 1)[1] == "main" and "/tools/" in f"/{path}" or path.startswith("train/") and rest.endswith(" main")
+    in_tools = "/tools/" in f"/{path}" or path.startswith("train/")
+    return in_tools and rest.split(" ", 1)[1] == "main"
 
 
 def report(found, top):
