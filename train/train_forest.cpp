@@ -4,6 +4,7 @@
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/option_names.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/stacks/stack.hpp"
 #include "smseg/forest/slurm_train.hpp"
@@ -67,11 +68,6 @@ void check_points(const smseg::features::StackSet& set, bool quiet) {
   if (!quiet) std::cerr << "train-forest: warning: " << which << "; they teach the trees only the class prior\n";
 }
 
-/// TrainParams' fields (as its validate() and the training's memory plan name them) -> the options.
-const smseg::OptionNames kOptionOf = {{"K", "-K"},         {"Ks", "--Ks"},       {"Kt", "--Kt"},
-                                      {"M", "-M"},         {"n_min", "--n-min"}, {"memory_mb", "--memory-mb"},
-                                      {"score", "--score"}, {"windows", "--windows"}};
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -87,7 +83,7 @@ int main(int argc, char** argv) {
       "paths must be on a file system the nodes share. See docs/distributed.md.",
       "train-forest"};
   std::vector<std::string> works;
-  std::string frames = "0:", features_opt, windows = "uniform", learned_from, balance = "none", out, corpus;
+  std::string frames = "0:", features_opt, learned_from, out, corpus;
   forest::TrainParams p;
   int threads = 0, corpus_tree = 0;
   bool quiet = false;
@@ -100,12 +96,7 @@ int main(int argc, char** argv) {
   app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
   app.add_option("--train-frames", frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
       ->capture_default_str();
-  // The ranges are TrainParams::validate's, checked by the parser so that a bad value is bad usage.
-  app.add_option("-K", p.K, "sets Ks = Kt (thesis 400)")->capture_default_str()->check(CLI::Range(1, 100000000));
-  app.add_option("--Ks", p.Ks, "sampling windows per tree, 1..1000000 (default: K)")->check(CLI::Range(1, 1000000));
-  app.add_option("--Kt", p.Kt, "tests (training pixels) per tree, 1..100000000 (default: K)")
-      ->check(CLI::Range(1, 100000000));
-  app.add_option("-M", p.M, "number of trees, 1..100000")->capture_default_str()->check(CLI::Range(1, 100000));
+  forest::train_params_table().add_to(app, p);
   app.add_option("--trees", tree_range,
                  "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
   app.add_option("--merge", merge, "join these forest parts (from --trees) into the forest -o; no training")
@@ -122,30 +113,16 @@ int main(int argc, char** argv) {
   app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
   app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
   app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
-  app.add_option("--n-min", p.n_min, "nodes with fewer tests become leaves")->capture_default_str()->check(CLI::Range(1, 100000000));
-  app.add_option("--seed", p.seed, "random seed (each tree derives its own from it)")->capture_default_str()
-      ->check(smseg::kDecimalDigits);
   app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
-  app.add_flag("--textons", p.textons, "add the texton tests fP, fPs, fPd, fPda on the greyscale image");
-  app.add_option("--windows", windows, "window sampling: uniform | thesis-biased | learned (thesis 4.5.3)")
-      ->capture_default_str();
   app.add_option("--learned-from", learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
-  app.add_option("--balance", balance, "none | classes | sqrt: draw tests per class so no class swamps the rest (classes: each class\n"
-                 "equally often; sqrt: in proportion to the square root of its pixel count)")
-      ->capture_default_str();
-  std::string score = "wehenkel-pavella";
-  app.add_option("--score", score, "split score: wehenkel-pavella (the thesis) | information-gain")
-      ->capture_default_str();
-  app.add_option("--memory-mb", p.memory_mb, "memory budget of training in MiB: trees are built in batches that fit; refused if one tree does not")
-      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
-      ->capture_default_str();
   add_threads_option(app, threads, "the forest does not depend on it");
   app.add_option("--export-corpus", corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
   app.add_option("--corpus-tree", corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
   app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
 
-  return run_tool(app, argc, argv, threads, [&] { return naming_options(kOptionOf, [&] {
+  const OptionNames option_of = forest::train_params_table().option_names();
+  return run_tool(app, argc, argv, threads, [&] { return naming_options(option_of, [&] {
     // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
     // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
     // the same folder) and of other hosts are left alone.
@@ -155,9 +132,6 @@ int main(int argc, char** argv) {
     if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty() || no_wait ||
                       slurm.mode.dry_run))
       throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
-    p.windows.mode = forest::window_sampling_from_string(windows, "--windows");
-    p.balance = forest::balance_from_string(balance, "--balance");
-    p.score = forest::score_from_string(score, "--score");
     if (p.windows.mode == forest::WindowSampling::Learned) {
       const auto files = smseg::split_comma_list(learned_from);
       if (files.empty()) throw Error("", "--learned-from", "--windows learned needs the forests to learn from");
@@ -168,7 +142,7 @@ int main(int argc, char** argv) {
       throw Error("", "--learned-from", "only with --windows learned");
     }
     p.progress = !quiet;
-    validate_options(kOptionOf, [&] { p.validate(""); });
+    validate_options(option_of, [&] { p.validate(""); });
     if (!corpus.empty() && (corpus_tree < 0 || corpus_tree >= p.M))
       throw UsageError("", "--corpus-tree", "is " + std::to_string(corpus_tree) + ", expected 0.." + std::to_string(p.M - 1));
     std::optional<forest::TreeRange> trees;

@@ -5,9 +5,11 @@
 #include <set>
 #include <utility>
 
+#include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/common/io.hpp"
+#include "smseg/common/options.hpp"
 
 namespace smseg::experiments {
 
@@ -17,14 +19,28 @@ namespace {
 
 // Every parameter of a point, in nesting order: sweeps over earlier parameters are outer loops, so
 // that points sharing a forest (same data and training parameters) follow each other.
+/// The config keys of a table's fields.
+template <class S>
+std::vector<std::string> config_keys(const options::Table<S>& table) {
+  std::vector<std::string> keys;
+  for (const auto& f : table.fields())
+    if (f.on(options::kConfig)) keys.push_back(f.config_key);
+  return keys;
+}
+
 const std::vector<std::string>& known_params() {
-  static const std::vector<std::string> names{
-      "train", "test", "train_frames", "test_frames", "features",
-      "stereo", "train_stereo", "test_stereo", "motion", "train_motion", "test_motion",
-      "tracker", "train_tracker", "test_tracker",
-      "causal", "train_causal", "test_causal",
-      "K", "Ks", "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score",
-      "grid", "superpixels", "votes", "vote", "trees", "tolerance", "eval_seed", "label"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n{"train", "test", "train_frames", "test_frames", "features",
+                               "stereo", "train_stereo", "test_stereo", "motion", "train_motion", "test_motion",
+                               "tracker", "train_tracker", "test_tracker",
+                               "causal", "train_causal", "test_causal"};
+    for (const auto& k : config_keys(features::extract_options_table()))
+      for (const char* side : {"", "train_", "test_"}) n.push_back(side + k);
+    for (const auto& k : config_keys(forest::train_params_table())) n.push_back(k);
+    for (const char* k : {"grid", "superpixels", "votes", "vote", "trees", "tolerance", "eval_seed", "label"})
+      n.push_back(k);
+    return n;
+  }();
   return names;
 }
 
@@ -60,6 +76,8 @@ class Raw {
   [[noreturn]] void fail(const std::string& key, const std::string& reason) const {
     throw Error(file_.string(), where(key), reason);
   }
+  /// The value of `key` for a table's reader, its errors naming where it was set.
+  JsonView view(const std::string& key) const { return JsonView(values_.at(key).first, file_, where(key)); }
   const json* get(const std::string& key) const {
     const auto it = values_.find(key);
     return it == values_.end() || it->second.first.is_null() ? nullptr : &it->second.first;
@@ -208,6 +226,13 @@ SequenceSource parse_source(const JsonView& v, const fs::path& base) {
   raw.fail(head, (field.empty() ? "" : field + ": ") + e.reason());
 }
 
+/// The fields of `table` that the point sets (null values leave the default).
+template <class S>
+void read_fields(const options::Table<S>& table, S& s, const Raw& raw) {
+  for (const auto& f : table.fields())
+    if (f.on(options::kConfig) && raw.get(f.config_key)) f.read(s, raw.view(f.config_key));
+}
+
 Point build_point(const Raw& raw, const Experiment& ex) {
   Point p;
   p.label = raw.str("label", "");
@@ -251,25 +276,21 @@ Point build_point(const Raw& raw, const Experiment& ex) {
     fe.motion = raw.choice(m, "stereo", motions);
     fe.tracker = raw.choice(t, "klt", trackers);
     fe.causal = raw.boolean(c, false);
+    features::ExtractOptions check;  // each value read once here, so that its error names where it was set
+    for (const auto& k : config_keys(features::extract_options_table())) {
+      const std::string key = raw.has(side + "_" + k) ? side + "_" + k : k;
+      if (!raw.get(key)) continue;
+      features::extract_options_table().find_on(k, options::kConfig)->read(check, raw.view(key));
+      fe.options[k] = *raw.get(key);
+    }
     return fe;
   };
   p.train_front_end = side_fe("train");
   p.test_front_end = side_fe("test");
 
   auto& tp = p.train_params;
-  tp.K = raw.integer("K", tp.K);
-  tp.Ks = raw.integer("Ks", tp.Ks);
-  tp.Kt = raw.integer("Kt", tp.Kt);
-  tp.M = raw.integer("M", tp.M);
-  tp.n_min = raw.integer("n_min", tp.n_min);
-  const int seed = raw.integer("seed", 1);
-  if (seed < 0) raw.fail("seed", "must be >= 0");
-  tp.seed = static_cast<std::uint64_t>(seed);
-  tp.textons = raw.boolean("textons", false);
+  read_fields(forest::train_params_table(), tp, raw);
   try {
-    tp.windows.mode = forest::window_sampling_from_string(raw.str("windows", "uniform"), "windows");
-    tp.balance = forest::balance_from_string(raw.str("balance", "none"), "balance");
-    tp.score = forest::score_from_string(raw.str("score", "wehenkel-pavella"), "score");
     if (tp.windows.mode != forest::WindowSampling::Learned) tp.validate("config");
     else {
       forest::TrainParams check = tp;  // learned histograms come from the pilot forest at run time
@@ -331,16 +352,6 @@ Point build_point(const Raw& raw, const Experiment& ex) {
             {"test_causal", side_json(p.test, p.test_front_end, "causal")},
             {"train_tracker", side_json(p.train, p.train_front_end, "tracker")},
             {"test_tracker", side_json(p.test, p.test_front_end, "tracker")},
-            {"K", tp.K},
-            {"Ks", tp.ks()},
-            {"Kt", tp.kt()},
-            {"M", tp.M},
-            {"n_min", tp.n_min},
-            {"seed", tp.seed},
-            {"windows", forest::to_string(tp.windows.mode)},
-            {"balance", forest::to_string(tp.balance)},
-            {"textons", tp.textons},
-            {"score", forest::to_string(tp.score)},
             {"grid", eo.grid},
             {"superpixels", superpixels},
             {"votes", eo.votes},
@@ -349,6 +360,18 @@ Point build_point(const Raw& raw, const Experiment& ex) {
             {"tolerance", eo.tolerance},
             {"eval_seed", eo.seed},
             {"label", p.label}};
+  p.json.update(forest::train_params_table().to_json(tp, options::kConfig));
+  // Extraction keys only where a side sets them: points of older configs keep their identity.
+  for (const auto& k : config_keys(features::extract_options_table())) {
+    if (!p.train_front_end.options.contains(k) && !p.test_front_end.options.contains(k)) continue;
+    const auto side_value = [&](const std::vector<std::string>& names, const FrontEnd& fe) -> json {
+      bool extracted = false;
+      for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
+      return extracted ? fe.options.value(k, json(nullptr)) : json(nullptr);
+    };
+    p.json["train_" + k] = side_value(p.train, p.train_front_end);
+    p.json["test_" + k] = side_value(p.test, p.test_front_end);
+  }
   return p;
 }
 
@@ -361,8 +384,11 @@ json FrontEnd::to_json() const {
 json Point::training_key() const {
   nlohmann::json k;
   for (const char* key : {"train", "train_frames", "features", "train_stereo", "train_motion", "train_causal",
-                          "train_tracker", "K", "Ks", "Kt", "M", "n_min", "seed", "windows", "balance", "textons", "score"})
+                          "train_tracker"})
     k[key] = json.at(key);
+  for (const auto& key : config_keys(features::extract_options_table()))
+    if (json.contains("train_" + key)) k["train_" + key] = json.at("train_" + key);
+  for (const auto& key : config_keys(forest::train_params_table())) k[key] = json.at(key);
   return k;
 }
 

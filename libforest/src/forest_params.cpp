@@ -4,6 +4,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/common/names.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/forest/data.hpp"
 #include "smseg/forest/params.hpp"
 
@@ -120,35 +121,66 @@ WindowHistograms histograms_from_json(const JsonView& j) {
   return h;
 }
 
+const options::Table<TrainParams>& train_params_table() {
+  using T = TrainParams;
+  static const options::Table<T> table = [] {
+    options::Table<T> t("training");
+    // The ranges are validate()'s: a bad value is refused by the parser (bad usage) or the reader.
+    t.number("K", "-K", "sets Ks = Kt (thesis 400)", +[](T& p) -> int& { return p.K; }, 1, 100000000)
+        .in_python_as("k");
+    // Ks = Kt = 0 (the default) stand for K; a file or a config holds the value itself.
+    t.number("Ks", "--Ks", "sampling windows per tree", +[](T& p) -> int& { return p.Ks; }, 1, 1000000)
+        .default_shown_as("K")
+        .written_as([](const T& p) { return nlohmann::json(p.ks()); })
+        .in_python_as("ks");
+    t.number("Kt", "--Kt", "tests (training pixels) per tree", +[](T& p) -> int& { return p.Kt; }, 1, 100000000)
+        .default_shown_as("K")
+        .written_as([](const T& p) { return nlohmann::json(p.kt()); })
+        .in_python_as("kt");
+    t.number("M", "-M", "number of trees", +[](T& p) -> int& { return p.M; }, 1, 100000).in_python_as("n_estimators");
+    t.number("n_min", "--n-min", "nodes with fewer tests become leaves", +[](T& p) -> int& { return p.n_min; }, 1,
+             100000000);
+    t.number("seed", "--seed", "random seed (each tree derives its own from it)",
+             +[](T& p) -> std::uint64_t& { return p.seed; }, std::uint64_t{0},
+             std::numeric_limits<std::uint64_t>::max());
+    // Files record the whole window sampling (its shares and learned histograms), params_to_json.
+    t.named("windows", "--windows", "window sampling (thesis 4.5.3)",
+            +[](T& p) -> WindowSampling& { return p.windows.mode; }, "uniform | thesis-biased | learned",
+            &window_sampling_from_string, +[](const WindowSampling& w) { return to_string(w); })
+        .only(options::kCommandLine | options::kConfig | options::kPython);
+    t.choice("balance", "--balance",
+             "draw tests per class so no class swamps the rest (classes: each class equally often; sqrt: in "
+             "proportion to the square root of its pixel count)",
+             +[](T& p) -> Balance& { return p.balance; }, kBalanceNames);
+    t.flag("textons", "--textons", "add the texton tests fP, fPs, fPd, fPda on the greyscale image",
+           +[](T& p) -> bool& { return p.textons; });
+    t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", +[](T& p) -> Score& { return p.score; },
+             kScoreNames)
+        .optional_in_files()  // files written before the option: the thesis's score
+        .in_python_as("criterion");
+    // Does not change the forest: not recorded; run-experiment sets it itself.
+    t.number("memory_mb", "--memory-mb",
+             "memory budget of training in MiB: trees are built in batches that fit; refused if one tree does not",
+             +[](T& p) -> std::size_t& { return p.memory_mb; }, std::size_t{1}, std::size_t{1} << 30)
+        .only(options::kCommandLine);
+    return t;
+  }();
+  return table;
+}
+
 nlohmann::json params_to_json(const TrainParams& p) {
+  nlohmann::json j = train_params_table().to_json(p, options::kFile);
   nlohmann::json w = {{"mode", to_string(p.windows.mode)},
                       {"thesis_dy_share", p.windows.thesis_dy_share},
                       {"thesis_size_share", p.windows.thesis_size_share}};
   if (p.windows.mode == WindowSampling::Learned) w["learned"] = histograms_to_json(p.windows.learned);
-  return {{"K", p.K},         {"Ks", p.ks()},   {"Kt", p.kt()},
-          {"M", p.M},         {"n_min", p.n_min}, {"seed", p.seed},
-          {"windows", w},     {"balance", to_string(p.balance)},
-          {"textons", p.textons}, {"score", to_string(p.score)}};
+  j["windows"] = w;
+  return j;
 }
 
 TrainParams params_from_json(const JsonView& j) {
   TrainParams p;
-  auto as_int = [&](const char* key) {
-    const auto v = j.integer(key);
-    if (v < -2147483647 || v > 2147483647) j.fail("out of range", key);
-    return static_cast<int>(v);
-  };
-  p.K = as_int("K");
-  p.Ks = as_int("Ks");
-  p.Kt = as_int("Kt");
-  p.M = as_int("M");
-  p.n_min = as_int("n_min");
-  {
-    const JsonView s = j.at("seed");
-    if (!s.json().is_number_unsigned() && !(s.json().is_number_integer() && s.json().get<std::int64_t>() >= 0))
-      s.fail("expected an unsigned integer");
-    p.seed = s.json().get<std::uint64_t>();
-  }
+  train_params_table().read(p, j, options::kFile);
   const JsonView w = j.at("windows");
   try {
     p.windows.mode = window_sampling_from_string(w.str("mode"), "mode");
@@ -158,19 +190,6 @@ TrainParams params_from_json(const JsonView& j) {
   p.windows.thesis_dy_share = w.num("thesis_dy_share");
   p.windows.thesis_size_share = w.num("thesis_size_share");
   if (p.windows.mode == WindowSampling::Learned) p.windows.learned = histograms_from_json(w.at("learned"));
-  try {
-    p.balance = balance_from_string(j.str("balance"), "balance");
-  } catch (const Error& e) {
-    j.fail(e.reason(), "balance");
-  }
-  p.textons = j.boolean("textons");
-  if (j.has("score")) {  // absent in files written before the option: the default
-    try {
-      p.score = score_from_string(j.str("score"), "score");
-    } catch (const Error& e) {
-      j.fail(e.reason(), "score");
-    }
-  }
   try {
     p.validate(j.file().string());
   } catch (const Error& e) {

@@ -10,6 +10,11 @@
 #include "smseg/forest/window.hpp"
 #include "smseg/common/io.hpp"
 
+namespace smseg::options {
+template <class S>
+class Table;
+}
+
 namespace smseg::forest {
 
 /// How training keeps the dominant class from swamping the others.
@@ -57,6 +62,11 @@ struct TrainParams {
   void validate(const std::string& source = "training parameters") const;
 };
 
+/// TrainParams' fields, declared once (options.hpp): train-forest's options, forest.json's "params",
+/// run-experiment's training keys, the Python estimator's parameters.
+const options::Table<TrainParams>& train_params_table();
+
+/// forest.json's "params": the table's fields on files, and the whole window sampling.
 nlohmann::json params_to_json(const TrainParams& p);
 TrainParams params_from_json(const JsonView& j);
 
