@@ -14,6 +14,7 @@
 
 #include "smseg/eval/sweep.hpp"
 #include "smseg/stacks/extract.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/forest/train.hpp"
@@ -65,12 +66,16 @@ json synth_json(const features::synth::SynthOptions& o) {
 
 features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
   features::ExtractOptions o;
+  features::extract_options_table().read(o, JsonView(fe.options, "experiment config"), options::kConfig);
+  o.resolve();
   o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
+  // A config's tracker is the stereo front end's (the SfM keeps its own "auto"), with its keypoints.
   o.front_end.tracker = features::parse_frame_tracker(fe.tracker, "tracker");
-  o.front_end.tracking.detector = features::default_keypoints(o.front_end.tracker);
+  if (o.keypoints == "auto") o.front_end.tracking.detector = features::default_keypoints(o.front_end.tracker);
   o.motion = fe.motion;
   o.features.causal = fe.causal;
   o.progress = progress;
+  o.validate();
   return o;
 }
 

@@ -12,6 +12,8 @@
 #include <pybind11/stl/filesystem.h>  // str and os.PathLike arguments as paths
 #include <pybind11/pybind11.h>
 
+#include "smseg/common/error.hpp"
+
 namespace smseg::python {
 
 namespace py = pybind11;
@@ -39,6 +41,29 @@ py::array_t<T> array_from_vector(std::vector<T>&& values, std::vector<py::ssize_
 /// Our JSON as Python objects (dicts, lists, numbers; NaN as float('nan')).
 inline py::object to_python(const nlohmann::json& j) {
   return py::module_::import("json").attr("loads")(j.dump());
+}
+
+/// Keyword arguments as one JSON object, what the options tables read (options.hpp). numpy scalars
+/// count as numbers and paths as strings; a value JSON cannot hold (NaN, infinity, an object) is an
+/// Error naming its keyword.
+inline nlohmann::json keywords_json(const py::dict& keywords) {
+  const py::object dumps = py::module_::import("json").attr("dumps");
+  const py::cpp_function plain([](const py::object& o) -> py::object {
+    if (py::hasattr(o, "__fspath__")) return o.attr("__fspath__")();
+    if (py::hasattr(o, "item")) return o.attr("item")();
+    throw py::type_error("not a number, string, bool or list");
+  });
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [k, v] : keywords) {
+    const std::string key = py::str(k);
+    try {
+      j[key] = nlohmann::json::parse(dumps(v, py::arg("allow_nan") = false, py::arg("default") = plain).cast<std::string>());
+    } catch (const py::error_already_set&) {
+      throw Error("", key, "must be a finite number, a string, a bool or a list of them, got " +
+                               py::repr(v).cast<std::string>());
+    }
+  }
+  return j;
 }
 
 }  // namespace smseg::python

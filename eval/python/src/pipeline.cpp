@@ -12,6 +12,8 @@
 #include "bindings.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/common/io.hpp"
+#include "smseg/common/option_names.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/stacks/extract.hpp"
 
@@ -36,45 +38,25 @@ void take(const py::dict& options, const char* key, T& out) {
   if (options.contains(key)) out = options[key].cast<T>();
 }
 
-features::ExtractOptions extract_options(const py::dict& o) {
+/// extract-features' options from keywords (their declarations, extract_options_table), and the few
+/// that only the call has.
+features::ExtractOptions extract_options(const py::dict& keywords) {
+  const nlohmann::json j = keywords_json(keywords);
+  const JsonView v(j, "", "");
+  const auto& table = features::extract_options_table();
+  table.check_known(v, options::kPython, {"frames", "progress", "n_jobs", "verbose"});
   features::ExtractOptions opt;
-  std::string motion = "auto", stereo = "bm", keypoints = "auto", tracker = "auto", frames = ":";
-  take(o, "motion", motion);
-  take(o, "stereo", stereo);
-  take(o, "keypoints", keypoints);
-  take(o, "tracker", tracker);
-  take(o, "frames", frames);
-  take(o, "force", opt.force);
-  take(o, "progress", opt.progress);
-  take(o, "future_frames", opt.features.future_frames);
-  take(o, "appearance", opt.features.appearance);
-  take(o, "dense", opt.features.dense);
-  std::string gravity = "level";
-  take(o, "gravity", gravity);
-  opt.front_end.gravity.method = features::parse_gravity_method(gravity, "gravity");
-  features::check_motion_name(motion, "motion");
-  opt.motion = motion;
-  opt.front_end.stereo.method = features::parse_stereo_method(stereo, "stereo");
-  opt.front_end.tracker = features::parse_stereo_tracker(tracker, "tracker");
-  opt.front_end.tracking.detector = features::parse_keypoint_method(keypoints, opt.front_end.tracker, "keypoints");
-  opt.sfm.tracking.detector =
-      keypoints == "auto" ? features::KeypointMethod::Sift : features::parse_keypoint_method(keypoints, "keypoints");
-  if (o.contains("max_keypoints")) opt.front_end.tracking.max_keypoints = opt.sfm.tracking.max_keypoints = o["max_keypoints"].cast<int>();
-  opt.sfm.tracker = features::parse_sfm_tracker(tracker, "tracker");
-  if (o.contains("camera_height")) opt.front_end.camera_height = o["camera_height"].cast<double>();
-  if (o.contains("focal")) opt.sfm.focal = o["focal"].cast<double>();
-  opt.frames = features::FrameRange::parse(frames, "frames");
-  opt.front_end.validate();
-  opt.sfm.validate();
-  opt.features.validate();
+  table.read(opt, v, options::kPython);
+  if (v.has("frames")) opt.frames = features::FrameRange::parse(v.str("frames"), "frames");
+  if (v.has("progress")) opt.progress = v.boolean("progress");
+  validate_options(table.option_names(options::kPython), [&] {
+    opt.resolve();
+    opt.validate();
+  });
   return opt;
 }
 
 py::dict extract(const std::string& sequence_dir, const std::string& out_dir, const py::dict& options) {
-  check_keywords(options, {"motion", "stereo", "keypoints", "tracker", "max_keypoints", "camera_height", "focal",
-                           "frames", "future_frames", "appearance", "dense", "gravity", "force", "progress", "n_jobs",
-                           "verbose"},
-                 "extract_features");
   const features::ExtractOptions opt = extract_options(options);
   int n_jobs = 0;
   bool verbose = false;

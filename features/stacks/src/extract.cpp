@@ -14,6 +14,7 @@
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
@@ -147,14 +148,8 @@ std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, c
 }  // namespace
 
 Json feature_options_json(const FeatureOptions& o) {
-  Json j = {{"causal", o.causal}, {"future_frames", o.future_frames}};
+  Json j = feature_options_table().to_json(o, options::kFile);
   if (o.causal) j["causal_tracks"] = "from-min-frames";  // stacks made before the causal track rule differ
-  if (o.appearance) j["appearance"] = true;  // only when on: work folders from before keep their options
-  if (o.dense) j["dense"] = true;            // the same
-  const FeatureOptions defaults;
-  if (o.sweep_baseline != defaults.sweep_baseline) j["sweep_baseline"] = o.sweep_baseline;  // the same
-  if (o.sweep_reach != defaults.sweep_reach) j["sweep_reach"] = o.sweep_reach;              // the same
-  if (o.height_reference == HeightReference::Camera) j["height_reference"] = "camera";  // the same
   return j;
 }
 

@@ -23,8 +23,10 @@
 //              score ["wehenkel-pavella" | "information-gain"], features [[] = all of the stacks]
 //   evaluation grid [0 = per pixel], superpixels ["none" | "small" | "large" | N], votes [6],
 //              vote ["sum" | "majority"], trees [0 = all M], tolerance [3], eval_seed [1]
-//   front end  stereo ["bm" | "sgbm"], motion ["stereo" | "sfm"], causal [false], each also as
-//              train_X / test_X for one side only (train on one matcher's output, test on another's)
+//   front end  stereo ["bm" | "sgbm"], motion ["stereo" | "sfm"], tracker ["klt" | "descriptors"],
+//              causal [false], and every other option of extract-features by its key (extract_options_table:
+//              max_keypoints, dense, appearance, future_frames, ...; extract-features' defaults), each also
+//              as train_X / test_X for one side only (train on one matcher's output, test on another's)
 //   label      a name for the point's series in figures (cases)
 // "windows": "learned" draws windows from the chosen-window histograms of a pilot forest trained
 // first at the same point with uniform windows and seed + 1 (thesis 4.5.3, beyond it).
@@ -63,6 +65,9 @@ struct FrontEnd {
   std::string motion = "stereo";  ///< "stereo" | "sfm"
   bool causal = false;
   std::string tracker = "klt";    ///< the stereo front end's: "klt" (GFTT corners) | "descriptors" (SIFT, the thesis)
+  /// The other extraction keys the config sets for this side (extract_options_table's config keys:
+  /// max_keypoints, dense, future_frames ...), as written.
+  nlohmann::json options = nlohmann::json::object();
   nlohmann::json to_json() const;
   bool operator==(const FrontEnd&) const = default;
 };

@@ -8,6 +8,7 @@
 // path too when the sequence has one, aligned at the first frame). Parallel over frames; resumable.
 
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,12 @@ struct ExtractOptions {
   /// The front end tracks and camera motion come from, by name (front_ends.hpp: "stereo", "sfm"), or
   /// "auto": the one for the sequence's kind (stereo for stereo sequences, SfM for mono ones).
   std::string motion = "auto";
+  /// What the user chose for both front ends, by name ("auto": each front end's own default), made
+  /// into front_end's and sfm's options by resolve().
+  std::string keypoints = "auto";  ///< auto | sift | orb | akaze | gftt
+  std::string tracker = "auto";    ///< auto | klt | descriptors
+  std::optional<int> max_keypoints;  ///< unset: each front end's default
+  bool no_refine = false;          ///< stereo motion without the reprojection refinement
   FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)
   SfmOptions sfm;              ///< the monocular front end (its camera_height defaults to front_end's)
   FeatureOptions features;     ///< causal fC, future frames
@@ -31,7 +38,17 @@ struct ExtractOptions {
   bool force = false;          ///< rewrite frames already done
   std::vector<int> preview;    ///< frames to write false-colour PNGs of (WORK/preview/)
   bool progress = true;
+
+  /// Makes the choices above into front_end's and sfm's options (the surfaces call it after reading).
+  /// Error naming the choice ("keypoints") when they do not go together.
+  void resolve();
+  /// The front ends' and the features' validate(): Error naming the library's field.
+  void validate() const;
 };
+
+/// ExtractOptions' fields, declared once (options.hpp): extract-features' options, the keywords of
+/// Python's extract_features, run-experiment's extraction keys (the features' own also on stacks.json).
+const options::Table<ExtractOptions>& extract_options_table();
 
 struct ExtractReport {
   int frames_written = 0, frames_skipped = 0;

@@ -26,6 +26,11 @@
 
 #include "smseg/sequence/sequence.hpp"
 
+namespace smseg::options {
+template <class S>
+class Table;  // smseg/common/options.hpp
+}
+
 namespace smseg::features {
 
 /// One tracked point seen in one frame.
@@ -70,6 +75,10 @@ struct FeatureOptions {
   int sweep_reach = 4;
   void validate() const;    ///< Error naming the option when out of range
 };
+
+/// FeatureOptions' fields, declared once (options.hpp): extract-features' options, stacks.json's
+/// "features", run-experiment's keys, the Python keywords.
+const options::Table<FeatureOptions>& feature_options_table();
 
 /// Per-observation values that need the whole video (world position, fH, fC, fR), aligned with
 /// PointCloudVideo::observations.
