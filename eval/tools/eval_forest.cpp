@@ -9,6 +9,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/eval/sweep.hpp"
@@ -51,7 +52,7 @@ int main(int argc, char** argv) {
       "evaluates one point per value instead and appends one JSON line per point to OUT/sweep.jsonl (a\n"
       "rerun resumes: finished points are skipped). Void pixels never count.",
       "eval-forest"};
-  std::string forest_file, frames = "0:", out, superpixels, vote = "sum", costs, smooth = "none";
+  std::string forest_file, frames = "0:", out, costs;
   std::vector<std::string> works, sweeps;
   eval::EvalOptions opt;
   int threads = 0;
@@ -60,20 +61,7 @@ int main(int argc, char** argv) {
   app.add_option("WORK", works, "work folders (from extract-features)")->required();
   app.add_option("--test-frames", frames, "labelled frames to test, A:B half-open (110: = from 110 on)")
       ->capture_default_str();
-  app.add_option("--grid", opt.grid, "grid voting: cell size B in pixels (0: per pixel)")->capture_default_str();
-  app.add_option("--superpixels", superpixels,
-                 "superpixel voting: SLIC region size, small (" + std::to_string(eval::kSmallSuperpixels) +
-                     " px), large (" + std::to_string(eval::kLargeSuperpixels) +
-                     " px) or N px; superpixel time is reported apart (default: none)");
-  app.add_option("--votes", opt.votes, "V: random voting pixels per region (grid cell or superpixel)")
-      ->capture_default_str();
-  app.add_option("--vote", vote, "how voters decide: sum (of their distributions) or majority (of their labels)")
-      ->capture_default_str();
-  app.add_option("--trees", opt.trees, "use only the first m trees of the forest (0: all)")->capture_default_str();
-  app.add_option("--tolerance", opt.tolerance,
-                 "T of the boundary-tolerant accuracy: a wrong pixel within T px (Euclidean) of a true region of its "
-                 "output class counts as a near miss; also the match distance of the boundary F1")
-      ->capture_default_str();
+  eval::eval_options_table().add_to(app, opt);
   app.add_option("--costs", costs,
                  "class-to-class cost matrix, reports the mean cost per pixel: {\"format\": \"smseg-costs\", "
                  "\"version\": 1, \"classes\": [every class of the forest, any order], \"costs\": [[row per true "
@@ -82,49 +70,16 @@ int main(int argc, char** argv) {
                  "sweep instead of one evaluation: M=A:B (first m trees), B=A:B:S (grid size) or V=A:B "
                  "(votes); bounds inclusive; repeatable; one JSON line per point in OUT/sweep.jsonl, resumable; no "
                  "pictures or results.json");
-  app.add_option("--smooth", smooth,
-                 "none, or graphcut: the per-pixel output smoothed by alpha-expansion over the class posteriors "
-                 "(unary -log p) with a contrast-sensitive Potts term on the greyscale image (per pixel only; its "
-                 "time is reported apart)")
-      ->capture_default_str();
-  app.add_option("--lambda", opt.smooth.lambda, "weight of the graph-cut smoothness term (0: per-pixel MAP)")
-      ->capture_default_str();
-  app.add_option("--connectivity", opt.smooth.connectivity, "graph-cut grid: 4 or 8 neighbours")->capture_default_str();
-  app.add_option("--smooth-cycles", opt.smooth.cycles,
-                 "at most this many alpha-expansion cycles (each tries every label once)")
-      ->capture_default_str();
-  app.add_option("--smooth-window", opt.smooth.label_window,
-                 "graph cut: a pixel may take only the labels that are the per-pixel MAP label somewhere within "
-                 "this many pixels of it; the pixels with one such label keep it and leave the graph (0: every "
-                 "label everywhere)")
-      ->capture_default_str();
-  app.add_option("--smooth-bands", opt.smooth.bands,
-                 "graph cut with a label window: the frame's rows are cut into this many bands solved at once, "
-                 "then the seams between them (1: one energy over the whole frame); the labels depend on it, "
-                 "not on --threads")
-      ->capture_default_str();
-  std::string smooth_contrast = "on";
-  app.add_option("--smooth-contrast", smooth_contrast,
-                 "graph cut: on (the Potts weight falls with the greyscale image's contrast across an edge) or off "
-                 "(plain Potts: the smoothing reads nothing of the image, for structure-and-motion-only runs)")
-      ->check(CLI::IsMember({"on", "off"}))
-      ->capture_default_str();
-  app.add_option("--seed", opt.seed, "seed for where the voting pixels fall")->capture_default_str()
-      ->check(smseg::kDecimalDigits);
   add_threads_option(app, threads, "the results do not depend on it");
   app.add_flag("--no-pictures", no_pictures, "write results.json only");
   app.add_flag("-q,--quiet", quiet, "no progress and no table on stderr/stdout, just the summary line");
   app.add_option("-o,--out", out, "output folder")->required();
   return run_tool(app, argc, argv, threads, [&] {
     if (threads > 0) cv::setNumThreads(threads);  // SLIC runs on OpenCV's own thread pool
-    opt.frames = features::FrameRange::parse(frames, "--test-frames");
+    opt.frames = as_usage([&] { return features::FrameRange::parse(frames, "--test-frames"); });
     opt.progress = !quiet;
-    if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
-    opt.vote = eval::vote_rule_from_string(vote, "--vote");
-    opt.smooth.method = eval::smooth_method_from_string(smooth, "--smooth");
-    opt.smooth.contrast = smooth_contrast == "on";
     std::vector<eval::SweepSpec> specs;
-    for (const auto& s : sweeps) specs.push_back(eval::SweepSpec::parse(s, "--sweep"));
+    for (const auto& s : sweeps) specs.push_back(as_usage([&] { return eval::SweepSpec::parse(s, "--sweep"); }));
     as_usage([&] { opt.validate(); });
     // results.json and the pictures are built in a folder beside OUT and swapped in whole at the end, so
     // that OUT never mixes this run's pictures with another run's scores (killed or failed half-way).

@@ -37,8 +37,11 @@ const std::vector<std::string>& known_params() {
     for (const auto& k : config_keys(features::extract_options_table()))
       for (const char* side : {"", "train_", "test_"}) n.push_back(side + k);
     for (const auto& k : config_keys(forest::train_params_table())) n.push_back(k);
-    for (const char* k : {"grid", "superpixels", "votes", "vote", "trees", "tolerance", "eval_seed", "label"})
+    for (const auto& k : config_keys(eval::eval_options_table())) {
       n.push_back(k);
+      if (k == "grid") n.push_back("superpixels");  // the config's own: a name or a number
+    }
+    n.push_back("label");
     return n;
   }();
   return names;
@@ -217,6 +220,9 @@ SequenceSource parse_source(const JsonView& v, const fs::path& base) {
 
 /// Maps an Error from a library validator (field "K", "--grid", "windows.mode" ...) onto the config.
 [[noreturn]] void rethrow_as_param(const Error& e, const Raw& raw) {
+  for (const auto& names : {eval::eval_options_table().option_names(options::kConfig),
+                            forest::train_params_table().option_names(options::kConfig)})
+    if (const auto it = names.find(e.field()); it != names.end()) raw.fail(it->second, e.reason());
   std::string field = e.field();
   if (field.rfind("--", 0) == 0) field = field.substr(2);
   const std::string head = field.substr(0, field.find('.'));
@@ -303,16 +309,9 @@ Point build_point(const Raw& raw, const Experiment& ex) {
 
   auto& eo = p.eval;
   eo.frames = p.test_frames;
-  eo.grid = raw.integer("grid", 0);
-  eo.votes = raw.integer("votes", eo.votes);
-  eo.trees = raw.integer("trees", 0);
-  eo.tolerance = raw.integer("tolerance", eo.tolerance);
-  const int eval_seed = raw.integer("eval_seed", 1);
-  if (eval_seed < 0) raw.fail("eval_seed", "must be >= 0");
-  eo.seed = static_cast<std::uint64_t>(eval_seed);
+  read_fields(eval::eval_options_table(), eo, raw);
   json superpixels = "none";
   try {
-    eo.vote = eval::vote_rule_from_string(raw.str("vote", "sum"), "vote");
     if (const json* sp = raw.get("superpixels")) {
       if (sp->is_string() && sp->get<std::string>() == "none") {
         eo.superpixels = 0;
@@ -352,15 +351,11 @@ Point build_point(const Raw& raw, const Experiment& ex) {
             {"test_causal", side_json(p.test, p.test_front_end, "causal")},
             {"train_tracker", side_json(p.train, p.train_front_end, "tracker")},
             {"test_tracker", side_json(p.test, p.test_front_end, "tracker")},
-            {"grid", eo.grid},
             {"superpixels", superpixels},
-            {"votes", eo.votes},
-            {"vote", eval::to_string(eo.vote)},
-            {"trees", eo.trees > 0 ? eo.trees : tp.M},
-            {"tolerance", eo.tolerance},
-            {"eval_seed", eo.seed},
             {"label", p.label}};
   p.json.update(forest::train_params_table().to_json(tp, options::kConfig));
+  p.json.update(eval::eval_options_table().to_json(eo, options::kConfig));
+  p.json["trees"] = eo.trees > 0 ? eo.trees : tp.M;  // the trees used
   // Extraction keys only where a side sets them: points of older configs keep their identity.
   for (const auto& k : config_keys(features::extract_options_table())) {
     if (!p.train_front_end.options.contains(k) && !p.test_front_end.options.contains(k)) continue;

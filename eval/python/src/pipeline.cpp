@@ -1,7 +1,6 @@
 // Feature extraction and evaluation from Python, with the tools' option names (extract-features,
 // eval-forest) as keyword arguments; both return what the tools print or write, as dicts.
 #include <memory>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -21,28 +20,9 @@ namespace smseg::python {
 
 namespace {
 
-/// Error naming the first keyword that is not one of `known`.
-void check_keywords(const py::dict& options, const std::set<std::string>& known, const std::string& function) {
-  for (const auto& item : options) {
-    const auto key = py::str(item.first).cast<std::string>();
-    if (!known.count(key)) {
-      std::string list;
-      for (const auto& k : known) list += (list.empty() ? "" : ", ") + k;
-      throw Error("", key, "is not an option of " + function + " (options: " + list + ")");
-    }
-  }
-}
-
-template <class T>
-void take(const py::dict& options, const char* key, T& out) {
-  if (options.contains(key)) out = options[key].cast<T>();
-}
-
 /// extract-features' options from keywords (their declarations, extract_options_table), and the few
 /// that only the call has.
-features::ExtractOptions extract_options(const py::dict& keywords) {
-  const nlohmann::json j = keywords_json(keywords);
-  const JsonView v(j, "", "");
+features::ExtractOptions extract_options(const JsonView& v) {
   const auto& table = features::extract_options_table();
   table.check_known(v, options::kPython, {"frames", "progress", "n_jobs", "verbose"});
   features::ExtractOptions opt;
@@ -57,11 +37,11 @@ features::ExtractOptions extract_options(const py::dict& keywords) {
 }
 
 py::dict extract(const std::string& sequence_dir, const std::string& out_dir, const py::dict& options) {
-  const features::ExtractOptions opt = extract_options(options);
-  int n_jobs = 0;
-  bool verbose = false;
-  take(options, "n_jobs", n_jobs);
-  take(options, "verbose", verbose);
+  const nlohmann::json keywords = keywords_json(options);
+  const JsonView v(keywords, "", "");
+  const features::ExtractOptions opt = extract_options(v);
+  const int n_jobs = v.has("n_jobs") ? static_cast<int>(v.integer("n_jobs")) : 0;
+  const bool verbose = v.has("verbose") && v.boolean("verbose");
   features::set_solver_verbose(verbose);
   std::unique_ptr<tbb::global_control> limit;
   if (n_jobs > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, n_jobs);
@@ -82,41 +62,28 @@ py::dict extract(const std::string& sequence_dir, const std::string& out_dir, co
   return d;
 }
 
-eval::EvalOptions eval_options(const py::dict& o) {
+/// eval-forest's options from keywords (their declarations, eval_options_table), and the few that only
+/// the call has (out, pictures, n_jobs: evaluate reads them).
+eval::EvalOptions eval_options(const JsonView& v) {
+  const auto& table = eval::eval_options_table();
+  table.check_known(v, options::kPython, {"test_frames", "out", "pictures", "progress", "n_jobs"});
   eval::EvalOptions opt;
-  std::string frames = ":", vote = "sum", smooth = "none", superpixels;
-  take(o, "test_frames", frames);
-  take(o, "grid", opt.grid);
-  take(o, "votes", opt.votes);
-  take(o, "vote", vote);
-  take(o, "trees", opt.trees);
-  take(o, "tolerance", opt.tolerance);
-  take(o, "seed", opt.seed);
-  take(o, "smooth", smooth);
-  take(o, "lambda_", opt.smooth.lambda);
-  take(o, "progress", opt.progress);
-  if (o.contains("superpixels")) superpixels = py::str(o["superpixels"]).cast<std::string>();
-  opt.frames = features::FrameRange::parse(frames, "test_frames");
-  if (!superpixels.empty()) opt.superpixels = eval::superpixels_from_string(superpixels, "superpixels");
-  opt.vote = eval::vote_rule_from_string(vote, "vote");
-  opt.smooth.method = eval::smooth_method_from_string(smooth, "smooth");
+  table.read(opt, v, options::kPython);
+  if (v.has("test_frames")) opt.frames = features::FrameRange::parse(v.str("test_frames"), "test_frames");
+  if (v.has("progress")) opt.progress = v.boolean("progress");
+  validate_options(table.option_names(options::kPython), [&] { opt.validate(); });
   return opt;
 }
 
 py::object evaluate(const std::string& forest_file, const std::vector<std::string>& works, const py::dict& options) {
-  check_keywords(options, {"test_frames", "grid", "superpixels", "votes", "vote", "trees", "tolerance", "seed", "smooth",
-                           "lambda_", "out", "pictures", "progress", "n_jobs"},
-                 "evaluate");
-  eval::EvalOptions opt = eval_options(options);
-  std::string out;
-  bool pictures = false;
-  int n_jobs = 0;
-  take(options, "out", out);
-  take(options, "pictures", pictures);
-  take(options, "n_jobs", n_jobs);
+  const nlohmann::json keywords = keywords_json(options);
+  const JsonView v(keywords, "", "");
+  eval::EvalOptions opt = eval_options(v);
+  const std::string out = v.has("out") ? v.str("out") : "";
+  const bool pictures = v.has("pictures") && v.boolean("pictures");
+  const int n_jobs = v.has("n_jobs") ? static_cast<int>(v.integer("n_jobs")) : 0;
   if (pictures && out.empty()) throw Error("", "pictures", "needs out (the pictures go to out/frames)");
   if (pictures) opt.pictures = fs::path(out) / "frames";
-  opt.validate();
   std::unique_ptr<tbb::global_control> limit;
   if (n_jobs > 0) {
     limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, n_jobs);

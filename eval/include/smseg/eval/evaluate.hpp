@@ -27,6 +27,11 @@
 #include "smseg/forest/classify.hpp"
 #include "smseg/forest/forest.hpp"
 
+namespace smseg::options {
+template <class S>
+class Table;  // smseg/common/options.hpp
+}
+
 namespace smseg::eval {
 
 enum class VoteRule {
@@ -61,6 +66,10 @@ struct EvalOptions {
   std::string mode() const { return grid > 0 ? "grid" : superpixels > 0 ? "superpixels" : "pixel"; }
   void validate() const;  ///< Error naming the option
 };
+
+/// EvalOptions' fields, declared once (options.hpp): eval-forest's options, the keywords of Python's
+/// evaluate, run-experiment's evaluation keys (eval_options.cpp).
+const options::Table<EvalOptions>& eval_options_table();
 
 /// Timings of label_frame, seconds.
 struct LabelTimes {

@@ -22,7 +22,10 @@
 //              "thesis-biased" | "learned"], balance ["none" | "classes"], textons [false],
 //              score ["wehenkel-pavella" | "information-gain"], features [[] = all of the stacks]
 //   evaluation grid [0 = per pixel], superpixels ["none" | "small" | "large" | N], votes [6],
-//              vote ["sum" | "majority"], trees [0 = all M], tolerance [3], eval_seed [1]
+//              vote ["sum" | "majority"], trees [0 = all M], tolerance [3], eval_seed [1], and the
+//              graph-cut smoothing of the per-pixel output as eval-forest's (eval_options_table): smooth
+//              ["none" | "graphcut"], lambda, connectivity, smooth_cycles, smooth_window, smooth_bands,
+//              smooth_contrast ["on" | "off"]
 //   front end  stereo ["bm" | "sgbm"], motion ["stereo" | "sfm"], tracker ["klt" | "descriptors"],
 //              causal [false], and every other option of extract-features by its key (extract_options_table:
 //              max_keypoints, dense, appearance, future_frames, ...; extract-features' defaults), each also

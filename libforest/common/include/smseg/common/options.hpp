@@ -71,9 +71,10 @@ struct Field {
   std::string default_text;  ///< the default as help shows it, when not the value itself ("K")
   std::vector<std::string> library_names;  ///< how the libraries' validate() name it ("stereo.block_size")
   bool required_in_files = true;  ///< false: a file without it reads as the default (added later)
-  /// Left out of files when true (a value whose absence older files mean): what they record stays
-  /// the same for the values they could already hold, so their work folders still resume.
-  std::function<bool(const S&)> omitted_from_files;
+  /// Left out of files and of experiment records (a point's parameters) when true: a value whose
+  /// absence older records mean, so that what they record stays the same for the values they could
+  /// already hold (their work folders still resume, their points keep their identity).
+  std::function<bool(const S&)> omitted_from_records;
   std::function<CLI::Option*(CLI::App&, S&)> add_option;
   std::function<nlohmann::json(const S&)> write;
   std::function<void(S&, const JsonView&)> read;  ///< the value's view; an Error names its place
@@ -274,8 +275,8 @@ class Table {
       f.add_option = [p, access](CLI::App& app, S& s) { return p.add_option(app, access(s)); };
       f.write = [p, access](const S& s) { return p.write(access(const_cast<S&>(s))); };
       f.read = [p, access](S& s, const JsonView& v) { p.read(access(s), v); };
-      if (p.omitted_from_files)
-        f.omitted_from_files = [p, access](const S& s) { return p.omitted_from_files(access(const_cast<S&>(s))); };
+      if (p.omitted_from_records)
+        f.omitted_from_records = [p, access](const S& s) { return p.omitted_from_records(access(const_cast<S&>(s))); };
       add(std::move(f));
     }
     return *this;
@@ -300,9 +301,9 @@ class Table {
     fields_.back().required_in_files = false;
     return *this;
   }
-  /// Left out of files while `omit` holds (and read as the default when absent).
-  Table& omitted_from_files_when(std::function<bool(const S&)> omit) {
-    fields_.back().omitted_from_files = std::move(omit);
+  /// Left out of files and experiment records while `omit` holds (read as the default when absent).
+  Table& recorded_unless(std::function<bool(const S&)> omit) {
+    fields_.back().omitted_from_records = std::move(omit);
     fields_.back().required_in_files = false;
     return *this;
   }
@@ -315,6 +316,14 @@ class Table {
   Table& checked_as(std::string library_name) {
     fields_.back().library_names.push_back(std::move(library_name));
     return *this;
+  }
+  /// Left out of files and experiment records while it holds the struct's default (a field added
+  /// after the first records were written).
+  Table& recorded_unless_default() {
+    return recorded_unless([write = fields_.back().write](const S& s) {
+      static const S defaults{};
+      return write(s) == write(defaults);
+    });
   }
   /// Spelt this way in run-experiment configs.
   Table& in_configs_as(std::string key) {
@@ -359,7 +368,7 @@ class Table {
     nlohmann::json j = nlohmann::json::object();
     for (const auto& f : fields_) {
       if (!f.on(surface)) continue;
-      if (surface == kFile && f.omitted_from_files && f.omitted_from_files(s)) continue;
+      if (surface != kPython && f.omitted_from_records && f.omitted_from_records(s)) continue;
       j[key_on(f, surface)] = f.write(s);
     }
     return j;
