@@ -116,11 +116,15 @@ float text(float s, float t, float s0, float s1, float t0, float t1, float line,
   return cov_line * inside2(s, t, s0, end, t0, t1, fp) * words;
 }
 
+/// A material's three colours (linear) and its seed, as the patterns below read them.
+struct Paint {
+  Rgb a, b, c;
+  std::uint32_t seed;
+};
+
 /// Painted surface: nearly uniform (low texture), a faint large-scale mottle; optional baseboard.
-Rgb plain_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const std::uint32_t seed = m.seed;
+Rgb plain_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   float k = 1.0f + 0.10f * noise(s, t, 0.7f, seed, fp) + 0.05f * noise(s, t, 6.0f, seed + 1, fp) +
             0.04f * noise(s, t, 40.0f, seed + 2, fp);
   Rgb col = a * k;
@@ -129,11 +133,8 @@ Rgb plain_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Floor tiles of scale metres: a tint per tile, fine noise, grout lines in c.
-Rgb tiles_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb tiles_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   const float size = m.scale;
   const int ix = static_cast<int>(std::floor(s / size)), iy = static_cast<int>(std::floor(t / size));
   float tint = lattice(ix, iy, seed);
@@ -146,10 +147,8 @@ Rgb tiles_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Painted blocks of scale x scale2 metres, every other row offset by half a block; mortar in c.
-Rgb blocks_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb blocks_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float w = m.scale, h = m.scale2 > 0 ? m.scale2 : 0.2f;
   const int row = static_cast<int>(std::floor(t / h));
   const float s2 = s + ((row & 1) ? 0.5f * w : 0.0f);
@@ -163,10 +162,8 @@ Rgb blocks_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Ceiling tiles of scale metres: fine speckle, a grid of b.
-Rgb ceiling_tiles_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const std::uint32_t seed = m.seed;
+Rgb ceiling_tiles_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float size = m.scale;
   Rgb col = a * (1.0f + 0.25f * noise(s, t, 35.0f, seed, fp) + 0.2f * noise(s, t, 90.0f, seed + 1, fp) +
                  0.06f * noise(s, t, 1.5f, seed + 2, fp));
@@ -175,10 +172,8 @@ Rgb ceiling_tiles_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Carpet: mottled between a and b, a faint checker of scale metres.
-Rgb carpet_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const std::uint32_t seed = m.seed;
+Rgb carpet_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float size = m.scale;
   const int ix = static_cast<int>(std::floor(s / size)), iy = static_cast<int>(std::floor(t / size));
   float tint = ((ix + iy) & 1) ? 0.05f : -0.05f;
@@ -188,10 +183,8 @@ Rgb carpet_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Wood grain: warped stripes between a and b.
-Rgb wood_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const std::uint32_t seed = m.seed;
+Rgb wood_albedo(const Material& /* no size: the grain is in metres */, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float warp = 2.0f * vnoise(s * 1.3f, t * 4.0f, seed);
   const float f = 22.0f;
   const float grain = 0.5f + 0.5f * std::sin(6.2831853f * (t * f + warp)) * fade(f, fp);
@@ -200,10 +193,8 @@ Rgb wood_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// A poster of scale x scale2 metres: white margin, a title bar, a grid of coloured blocks and text.
-Rgb poster_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb poster_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   const Rgb paper = a;
   const float margin = 0.03f;
@@ -244,11 +235,8 @@ Rgb poster_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// A door of scale x scale2 metres: frame, panel (wood or paint), handle, kick plate, sign.
-Rgb door_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb door_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   Rgb panel = (seed & 1) ? mix(a, a * 0.75f, 0.5f + 0.5f * std::sin(6.2831853f * (s * 14.0f + 2.0f * vnoise(s * 2.0f, t * 0.5f, seed))) * fade(14.0f, fp))
                          : a * (1.0f + 0.06f * noise(s, t, 3.0f, seed, fp));
@@ -262,10 +250,8 @@ Rgb door_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Front of a bookshelf (scale x scale2): wood frame and shelves, rows of coloured spines.
-Rgb books_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb books_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   const int shelves = std::max(2, static_cast<int>(std::round(H / 0.38f)));
   const float gap = (H - 0.05f) / shelves;
@@ -292,11 +278,8 @@ Rgb books_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Cardboard of height scale2: noise, a tape band of b, a printed label of c.
-Rgb cardboard_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb cardboard_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   Rgb col = a * (1.0f + 0.15f * noise(s, t, 9.0f, seed, fp) + 0.12f * noise(s, t, 45.0f, seed + 1, fp));
   const float H = m.scale2 > 0 ? m.scale2 : 0.4f;
   col = mix(col, b, inside(t, 0.5f * H - 0.025f, 0.5f * H + 0.025f, fp));
@@ -305,11 +288,8 @@ Rgb cardboard_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// A whiteboard of scale x scale2 metres: four ink strokes, a frame of b.
-Rgb whiteboard_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb whiteboard_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   Rgb col = a * (1.0f + 0.05f * noise(s, t, 1.5f, seed, fp));
   for (int k = 0; k < 4; ++k) {
@@ -326,37 +306,30 @@ Rgb whiteboard_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// A ceiling light panel of scale x scale2 metres: a in a frame of b.
-Rgb light_panel_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
+Rgb light_panel_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   return mix(b, a, inside2(s, t, 0.03f, W - 0.03f, 0.03f, H - 0.03f, fp));
 }
 
 /// A checkerboard of period scale metres in both directions.
-Rgb checker_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
+Rgb checker_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   const float v = square(s, m.scale, fp) * square(t, m.scale, fp);
   return mix(b, a, 0.5f + 0.5f * v);
 }
 
 /// Fabric: a, or stripes of a and b of period scale2, with weave noise.
-Rgb fabric_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const std::uint32_t seed = m.seed;
+Rgb fabric_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  [[maybe_unused]] const auto& [a, b, c, seed] = paint;
   Rgb col = a;
   if (m.scale2 > 0) col = mix(a, b, 0.5f + 0.5f * square(t, m.scale2, fp));
   return col * (1.0f + 0.25f * noise(s, t, 40.0f, seed, fp) + 0.1f * noise(s, t, 6.0f, seed + 1, fp));
 }
 
 /// A monitor of scale x scale2 metres: a window of b with text, a bezel of c.
-Rgb screen_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb screen_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   const float W = m.scale, H = m.scale2;
   Rgb col = a;
   col = mix(col, b, inside2(s, t, 0.2f * W, 0.75f * W, 0.3f * H, 0.85f * H, fp));
@@ -365,11 +338,8 @@ Rgb screen_albedo(const Material& m, float s, float t, float fp) {
 }
 
 /// Cabinet front: drawers of scale metres high over a width of scale2, gaps and handles.
-Rgb drawers_albedo(const Material& m, float s, float t, float fp) {
-  const Rgb a = rgb(m.a);
-  const Rgb b = rgb(m.b);
-  const Rgb c = rgb(m.c);
-  const std::uint32_t seed = m.seed;
+Rgb drawers_albedo(const Material& m, const Paint& paint, float s, float t, float fp) {
+  const auto& [a, b, c, seed] = paint;
   const float h = m.scale, W = m.scale2 > 0 ? m.scale2 : 0.5f;
   Rgb col = a * (1.0f + 0.05f * noise(s, t, 4.0f, seed, fp) + 0.05f * noise(s, t, 40.0f, seed + 1, fp));
   col = mix(col, c, lines(t, h, 0.006f, fp));
@@ -381,39 +351,40 @@ Rgb drawers_albedo(const Material& m, float s, float t, float fp) {
 }  // namespace
 
 Rgb albedo(const Material& m, float s, float t, float fp) {
+  const Paint paint{rgb(m.a), rgb(m.b), rgb(m.c), m.seed};
   switch (m.kind) {
     case Material::Plain:
-      return plain_albedo(m, s, t, fp);
+      return plain_albedo(m, paint, s, t, fp);
     case Material::Tiles:
-      return tiles_albedo(m, s, t, fp);
+      return tiles_albedo(m, paint, s, t, fp);
     case Material::Blocks:
-      return blocks_albedo(m, s, t, fp);
+      return blocks_albedo(m, paint, s, t, fp);
     case Material::CeilingTiles:
-      return ceiling_tiles_albedo(m, s, t, fp);
+      return ceiling_tiles_albedo(m, paint, s, t, fp);
     case Material::Carpet:
-      return carpet_albedo(m, s, t, fp);
+      return carpet_albedo(m, paint, s, t, fp);
     case Material::Wood:
-      return wood_albedo(m, s, t, fp);
+      return wood_albedo(m, paint, s, t, fp);
     case Material::Poster:
-      return poster_albedo(m, s, t, fp);
+      return poster_albedo(m, paint, s, t, fp);
     case Material::Door:
-      return door_albedo(m, s, t, fp);
+      return door_albedo(m, paint, s, t, fp);
     case Material::Books:
-      return books_albedo(m, s, t, fp);
+      return books_albedo(m, paint, s, t, fp);
     case Material::Cardboard:
-      return cardboard_albedo(m, s, t, fp);
+      return cardboard_albedo(m, paint, s, t, fp);
     case Material::Whiteboard:
-      return whiteboard_albedo(m, s, t, fp);
+      return whiteboard_albedo(m, paint, s, t, fp);
     case Material::Light:
-      return light_panel_albedo(m, s, t, fp);
+      return light_panel_albedo(m, paint, s, t, fp);
     case Material::Checker:
-      return checker_albedo(m, s, t, fp);
+      return checker_albedo(m, paint, s, t, fp);
     case Material::Fabric:
-      return fabric_albedo(m, s, t, fp);
+      return fabric_albedo(m, paint, s, t, fp);
     case Material::Screen:
-      return screen_albedo(m, s, t, fp);
+      return screen_albedo(m, paint, s, t, fp);
     case Material::Drawers:
-      return drawers_albedo(m, s, t, fp);
+      return drawers_albedo(m, paint, s, t, fp);
   }
   return rgb(m.a);
 }
