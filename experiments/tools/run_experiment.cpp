@@ -69,6 +69,93 @@ int summary_after_gather(const smseg::experiments::Experiment& ex, const smseg::
   return summary(ex.name, report, out);
 }
 
+/// The command line: the config, where results go, and how the points run (here or on Slurm).
+struct Args {
+  std::string config, out, cache, points, slurm_dir;
+  smseg::experiments::RunOptions opt;
+  smseg::experiments::SlurmRun slurm;
+  bool quick = false, quiet = false, check = false, on_slurm = false, no_wait = false, gather = false;
+  int threads = 0, tasks = 0;
+};
+
+void add_options(CLI::App& app, Args& a) {
+  app.add_option("CONFIG", a.config, "experiment config (JSON, format smseg-experiment)")->required();
+  app.add_option("-o,--out", a.out, "results folder: config.json and experiment.jsonl (required unless --check)");
+  app.add_flag("--quick", a.quick, "run the config's quick form (its \"quick\" merge patch: a coarse grid on small data)");
+  app.add_option("--cache", a.cache, "folder for generated sequences and extracted work folders (default: OUT/../cache)");
+  app.add_option("--max-points", a.opt.max_points, "stop after this many new points (0: all); a rerun continues")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app.add_option("--memory-mb", a.opt.memory_mb, "memory budget of each training in MiB: trees are built in batches that fit; refused if one tree does not")
+      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
+      ->capture_default_str();
+  smseg::add_threads_option(app, a.threads, "results do not depend on it");
+  app.add_flag("--check", a.check, "validate the config and list its points, run nothing");
+  app.add_flag("-q,--quiet", a.quiet, "no progress on stderr, no line per point");
+  app.add_option("--points", a.points, "run only these points (comma-separated indices, as --check lists them)");
+  app.add_flag("--slurm", a.on_slurm,
+               "run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both");
+  app.add_option("--tasks", a.tasks, "with --slurm: array tasks (at least 1; more than the forests the points left need are not used)");
+  app.add_option("--slurm-dir", a.slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
+  app.add_option("--slurm-arg", a.slurm.sbatch_options,
+                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
+      ->allow_extra_args(false);
+  app.add_flag("--no-wait", a.no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes OUT");
+  app.add_flag("--slurm-dry-run", a.slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
+  app.add_option("--poll", a.slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  // The gather job's own command: the tasks' records (under --slurm-dir) into OUT. Not for users.
+  app.add_flag("--slurm-gather", a.gather)->group("");
+}
+
+/// UsageError for Slurm options without --slurm, or --slurm without what it needs.
+void check_slurm_options(const Args& a) {
+  using smseg::UsageError;
+  if (!a.on_slurm && (a.tasks != 0 || (!a.slurm_dir.empty() && !a.gather) || !a.slurm.sbatch_options.empty() ||
+                      a.no_wait || a.slurm.mode.dry_run))
+    throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
+  if (a.gather && (a.on_slurm || a.slurm_dir.empty() || a.out.empty()))
+    throw UsageError("", "--slurm-gather", "needs --slurm-dir and -o, not --slurm");
+  if (a.on_slurm) {
+    if (a.tasks < 1) throw UsageError("", "--tasks", "--slurm needs --tasks N, N >= 1");
+    if (!a.points.empty() || a.opt.max_points > 0) throw UsageError("", "--points, --max-points", "not with --slurm");
+    if (!(a.slurm.mode.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
+  }
+}
+
+/// --check: the experiment's name and its points.
+int list_points(const smseg::experiments::Experiment& ex, bool quick) {
+  std::cout << ex.name << (quick ? " (quick)" : "") << ": " << ex.points.size() << " points\n";
+  for (const auto& p : ex.points) std::cout << "  " << p.index << ": " << p.describe() << "\n";
+  return 0;
+}
+
+/// --slurm (submit the points left, wait unless --no-wait) or --slurm-gather (collect the tasks' records).
+int run_on_slurm(const smseg::experiments::Experiment& ex, Args& a, int argc, char** argv) {
+  using namespace smseg;
+  experiments::RunOptions nothing = a.opt;  // checks the results folder, lists the points left
+  nothing.points = std::vector<int>{};
+  const std::vector<int> left = experiments::run_experiment(ex, nothing).left;
+  if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), a.out);
+  a.slurm.dir = a.slurm_dir.empty() ? fs::path(a.out) / "slurm" : fs::path(a.slurm_dir);
+  if (a.gather) return summary(ex.name, experiments::gather_task_records(ex, left, a.slurm.dir, a.out), a.out);
+  a.slurm.mode.wait = !a.no_wait;
+  a.slurm.cache = fs::absolute(a.cache.empty() ? experiments::default_cache(a.out) : fs::path(a.cache));
+  const auto report = submit_to_slurm(ex, a.slurm, left, a.tasks, a.out, argc, argv, a.quiet);
+  return report ? summary_after_gather(ex, nothing, *report, a.out, a.slurm.dir) : 0;  // else: dry run, --no-wait
+}
+
+/// The line printed after each point: its accuracies, training time and size, and time per frame.
+void print_point(const smseg::experiments::Point& p, const nlohmann::json& rec, int total) {
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "[%d/%d] %s: global %s, class-average %s, mean IoU %s; train %.2f s, %.0f nodes per tree; %.1f ms per frame",
+                p.index + 1, total, p.describe().c_str(), pct(rec["global_accuracy"]).c_str(),
+                pct(rec["class_average_accuracy"]).c_str(), pct(rec["mean_iou"]).c_str(),
+                rec["train_seconds"].get<double>(), rec["nodes_per_tree"].get<double>(),
+                1000 * rec["seconds_per_frame"].get<double>());
+  std::cout << line << std::endl;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -86,93 +173,27 @@ int main(int argc, char** argv) {
       "be on a file system the nodes share (docs/distributed.md). The config format is in\n"
       "experiments/include/smseg/experiments/config.hpp and experiments/thesis/README.md.",
       "run-experiment"};
-  std::string config, out, cache;
-  experiments::RunOptions opt;
-  bool quick = false, quiet = false, check = false;
-  int threads = 0;
-  app.add_option("CONFIG", config, "experiment config (JSON, format smseg-experiment)")->required();
-  app.add_option("-o,--out", out, "results folder: config.json and experiment.jsonl (required unless --check)");
-  app.add_flag("--quick", quick, "run the config's quick form (its \"quick\" merge patch: a coarse grid on small data)");
-  app.add_option("--cache", cache, "folder for generated sequences and extracted work folders (default: OUT/../cache)");
-  app.add_option("--max-points", opt.max_points, "stop after this many new points (0: all); a rerun continues")
-      ->check(CLI::NonNegativeNumber)
-      ->capture_default_str();
-  app.add_option("--memory-mb", opt.memory_mb, "memory budget of each training in MiB: trees are built in batches that fit; refused if one tree does not")
-      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
-      ->capture_default_str();
-  add_threads_option(app, threads, "results do not depend on it");
-  app.add_flag("--check", check, "validate the config and list its points, run nothing");
-  app.add_flag("-q,--quiet", quiet, "no progress on stderr, no line per point");
-  std::string points;
-  app.add_option("--points", points, "run only these points (comma-separated indices, as --check lists them)");
-  experiments::SlurmRun slurm;
-  bool on_slurm = false;
-  int tasks = 0;
-  std::string slurm_dir;
-  app.add_flag("--slurm", on_slurm,
-               "run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both");
-  app.add_option("--tasks", tasks, "with --slurm: array tasks (at least 1; more than the forests the points left need are not used)");
-  app.add_option("--slurm-dir", slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
-  app.add_option("--slurm-arg", slurm.sbatch_options,
-                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
-      ->allow_extra_args(false);
-  bool no_wait = false, gather = false;
-  app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes OUT");
-  app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
-  app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
-  // The gather job's own command: the tasks' records (under --slurm-dir) into OUT. Not for users.
-  app.add_flag("--slurm-gather", gather)->group("");
-  return run_tool(app, argc, argv, threads, [&] {
-    if (threads > 0) cv::setNumThreads(threads);
-    if (!on_slurm && (tasks != 0 || (!slurm_dir.empty() && !gather) || !slurm.sbatch_options.empty() || no_wait ||
-                      slurm.mode.dry_run))
-      throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
-    if (gather && (on_slurm || slurm_dir.empty() || out.empty()))
-      throw UsageError("", "--slurm-gather", "needs --slurm-dir and -o, not --slurm");
-    if (on_slurm) {
-      if (tasks < 1) throw UsageError("", "--tasks", "--slurm needs --tasks N, N >= 1");
-      if (!points.empty() || opt.max_points > 0) throw UsageError("", "--points, --max-points", "not with --slurm");
-      if (!(slurm.mode.poll_seconds > 0.0)) throw UsageError("", "--poll", "must be a positive number of seconds");
-    }
-    const experiments::Experiment ex = experiments::load_experiment(config, quick);
-    if (check) {
-      std::cout << ex.name << (quick ? " (quick)" : "") << ": " << ex.points.size() << " points\n";
-      for (const auto& p : ex.points) std::cout << "  " << p.index << ": " << p.describe() << "\n";
-      return 0;
-    }
-    if (out.empty()) {
+  Args a;
+  add_options(app, a);
+  return run_tool(app, argc, argv, a.threads, [&] {
+    if (a.threads > 0) cv::setNumThreads(a.threads);
+    check_slurm_options(a);
+    const experiments::Experiment ex = experiments::load_experiment(a.config, a.quick);
+    if (a.check) return list_points(ex, a.quick);
+    if (a.out.empty()) {
       std::cerr << "run-experiment: --out is required (see run-experiment --help)\n";
       return 2;
     }
-    opt.out = out;
-    opt.cache = cache;
-    opt.progress = !quiet;
-    if (!points.empty())
-      opt.points = as_usage([&] { return experiments::points_from_string(points, static_cast<int>(ex.points.size())); });
-    if (on_slurm || gather) {
-      experiments::RunOptions nothing = opt;  // checks the results folder, lists the points left
-      nothing.points = std::vector<int>{};
-      const std::vector<int> left = experiments::run_experiment(ex, nothing).left;
-      if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), out);
-      slurm.dir = slurm_dir.empty() ? fs::path(out) / "slurm" : fs::path(slurm_dir);
-      if (gather) return summary(ex.name, experiments::gather_task_records(ex, left, slurm.dir, out), out);
-      slurm.mode.wait = !no_wait;
-      slurm.cache = fs::absolute(cache.empty() ? experiments::default_cache(out) : fs::path(cache));
-      const auto report = submit_to_slurm(ex, slurm, left, tasks, out, argc, argv, quiet);
-      return report ? summary_after_gather(ex, nothing, *report, out, slurm.dir) : 0;  // else: dry run, --no-wait
-    }
+    a.opt.out = a.out;
+    a.opt.cache = a.cache;
+    a.opt.progress = !a.quiet;
+    if (!a.points.empty())
+      a.opt.points =
+          as_usage([&] { return experiments::points_from_string(a.points, static_cast<int>(ex.points.size())); });
+    if (a.on_slurm || a.gather) return run_on_slurm(ex, a, argc, argv);
     const int total = static_cast<int>(ex.points.size());
-    if (!quiet)
-      opt.on_point = [&](const experiments::Point& p, const nlohmann::json& rec) {
-        char line[512];
-        std::snprintf(line, sizeof line,
-                      "[%d/%d] %s: global %s, class-average %s, mean IoU %s; train %.2f s, %.0f nodes per tree; %.1f ms per frame",
-                      p.index + 1, total, p.describe().c_str(), pct(rec["global_accuracy"]).c_str(),
-                      pct(rec["class_average_accuracy"]).c_str(), pct(rec["mean_iou"]).c_str(),
-                      rec["train_seconds"].get<double>(), rec["nodes_per_tree"].get<double>(),
-                      1000 * rec["seconds_per_frame"].get<double>());
-        std::cout << line << std::endl;
-      };
-    return summary(ex.name, experiments::run_experiment(ex, opt), out);
+    if (!a.quiet)
+      a.opt.on_point = [total](const experiments::Point& p, const nlohmann::json& rec) { print_point(p, rec, total); };
+    return summary(ex.name, experiments::run_experiment(ex, a.opt), a.out);
   });
 }

@@ -211,6 +211,54 @@ std::string html_escape(const std::string& s) {
   return o;
 }
 
+/// The results folders to export: RESULTS itself when it holds config.json, else its folders that do
+/// (sorted). Error when there are none.
+std::vector<fs::path> results_folders(const std::string& results) {
+  const fs::path root(results);
+  if (!fs::is_directory(root)) throw Error(results, "", "is not a folder");
+  std::vector<fs::path> dirs;
+  if (fs::exists(root / "config.json")) {
+    dirs.push_back(root);
+  } else {
+    for (const auto& e : fs::directory_iterator(root))
+      if (e.is_directory() && fs::exists(e.path() / "config.json")) dirs.push_back(e.path());
+    std::sort(dirs.begin(), dirs.end());
+  }
+  if (dirs.empty()) throw Error(results, "", "holds no run-experiment results (no config.json in it or its folders)");
+  return dirs;
+}
+
+/// The index pages, Markdown and HTML, built an experiment at a time.
+struct IndexPages {
+  std::string md, html;
+
+  IndexPages(const std::string& results, const std::string& out) {
+    md = "# Experiment notebooks\n\nMade by `export-notebooks " + results + " -o " + out +
+         "` from run-experiment results. Each notebook loads its experiment's JSON Lines and draws its "
+         "figures; run one with `jupyter nbconvert --to notebook --execute NAME.ipynb`.\n\n"
+         "| experiment | points | notebook | figures |\n|---|---|---|---|\n";
+    html = "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>Experiment notebooks</title></head><body>\n"
+           "<h1>Experiment notebooks</h1>\n";
+  }
+
+  /// One experiment: a table row in Markdown, a heading and its figures' thumbnails in HTML.
+  void add(const ExperimentResults& r) {
+    std::string figs, figs_html;
+    for (const auto& fig : r.figures) {
+      const std::string id = fig.at("id").get<std::string>(), png = r.name + "/" + png_name(fig);
+      figs += (figs.empty() ? "" : ", ") + std::string("[") + id + "](" + png + ")";
+      figs_html += "<figure style=\"display:inline-block;margin:4px\"><a href=\"" + png + "\"><img src=\"" + png +
+                   "\" width=\"320\" alt=\"Figure " + html_escape(id) + "\"></a><figcaption>Figure " +
+                   html_escape(id) + ": " + html_escape(fig.value("title", std::string())) + "</figcaption></figure>\n";
+    }
+    md += "| " + r.title + (r.quick ? " (quick)" : "") + " | " + std::to_string(r.records.size()) + " | [" + r.name +
+          ".ipynb](" + r.name + ".ipynb) | " + figs + " |\n";
+    html += "<h2>" + html_escape(r.title) + (r.quick ? " (quick)" : "") + "</h2>\n<p>" +
+            std::to_string(r.records.size()) + " points; notebook <a href=\"" + r.name + ".ipynb\">" + r.name +
+            ".ipynb</a></p>\n" + figs_html;
+  }
+};
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -233,29 +281,13 @@ int main(int argc, char** argv) {
   app.add_flag("--no-png", no_png, "write the notebooks and index only");
   app.add_flag("-q,--quiet", quiet, "no line per experiment");
   return run_tool(app, argc, argv, [&] {
-    const fs::path root(results);
-    if (!fs::is_directory(root)) throw Error(results, "", "is not a folder");
-    std::vector<fs::path> dirs;
-    if (fs::exists(root / "config.json")) {
-      dirs.push_back(root);
-    } else {
-      for (const auto& e : fs::directory_iterator(root))
-        if (e.is_directory() && fs::exists(e.path() / "config.json")) dirs.push_back(e.path());
-      std::sort(dirs.begin(), dirs.end());
-    }
-    if (dirs.empty()) throw Error(results, "", "holds no run-experiment results (no config.json in it or its folders)");
+    const std::vector<fs::path> dirs = results_folders(results);
     const fs::path out_dir = fs::absolute(out).lexically_normal();
     // Everything is written into a folder beside OUT and swapped in whole at the end: a killed or failed
     // export leaves OUT as it was, never notebooks of this run beside an index of the last one.
     FolderReplacement replacement(out_dir);
     const fs::path staging = replacement.staging();
-
-    std::string md = "# Experiment notebooks\n\nMade by `export-notebooks " + results + " -o " + out +
-                     "` from run-experiment results. Each notebook loads its experiment's JSON Lines and draws its "
-                     "figures; run one with `jupyter nbconvert --to notebook --execute NAME.ipynb`.\n\n"
-                     "| experiment | points | notebook | figures |\n|---|---|---|---|\n";
-    std::string html = "<!DOCTYPE html>\n<html><head><meta charset=\"utf-8\"><title>Experiment notebooks</title></head><body>\n"
-                       "<h1>Experiment notebooks</h1>\n";
+    IndexPages index(results, out);
     std::vector<std::string> names;
     for (const auto& dir : dirs) {
       const ExperimentResults r = load_results(dir);
@@ -271,26 +303,14 @@ int main(int argc, char** argv) {
       // The notebook names the JSON Lines from OUT; the drawing runs in the staging folder beside it.
       if (!no_png && !r.figures.empty())
         render_pngs(r, fs::relative(fs::absolute(r.jsonl), staging), staging, python);
-      std::string figs, figs_html;
-      for (const auto& fig : r.figures) {
-        const std::string id = fig.at("id").get<std::string>(), png = r.name + "/" + png_name(fig);
-        figs += (figs.empty() ? "" : ", ") + std::string("[") + id + "](" + png + ")";
-        figs_html += "<figure style=\"display:inline-block;margin:4px\"><a href=\"" + png + "\"><img src=\"" + png +
-                     "\" width=\"320\" alt=\"Figure " + html_escape(id) + "\"></a><figcaption>Figure " +
-                     html_escape(id) + ": " + html_escape(fig.value("title", std::string())) + "</figcaption></figure>\n";
-      }
-      md += "| " + r.title + (r.quick ? " (quick)" : "") + " | " + std::to_string(r.records.size()) + " | [" + r.name +
-            ".ipynb](" + r.name + ".ipynb) | " + figs + " |\n";
-      html += "<h2>" + html_escape(r.title) + (r.quick ? " (quick)" : "") + "</h2>\n<p>" +
-              std::to_string(r.records.size()) + " points; notebook <a href=\"" + r.name + ".ipynb\">" + r.name +
-              ".ipynb</a></p>\n" + figs_html;
+      index.add(r);
       if (!quiet)
         std::cout << r.name << ": " << r.records.size() << " points, " << r.figures.size() << " figures -> "
                   << (out_dir / (r.name + ".ipynb")).string() << "\n";
     }
-    html += "</body></html>\n";
-    write_file_atomic(staging / "index.md", md);
-    write_file_atomic(staging / "index.html", html);
+    index.html += "</body></html>\n";
+    write_file_atomic(staging / "index.md", index.md);
+    write_file_atomic(staging / "index.html", index.html);
     replacement.commit();
     if (!quiet) std::cout << "index: " << (out_dir / "index.html").string() << "\n";
     return 0;

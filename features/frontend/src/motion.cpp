@@ -4,6 +4,7 @@
 #include "pair_motion.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -136,35 +137,50 @@ void RansacOptions::validate() const {
   if (!(min_inlier_ratio >= 0 && min_inlier_ratio <= 1)) bad("min_inlier_ratio", "must be in 0..1");
 }
 
-MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
-                               const RansacOptions& o, std::uint64_t stream) {
-  if (p.size() != q.size()) throw Error("", "points", "estimate_motion needs as many target points as source points");
-  MotionEstimate est;
-  const int n = static_cast<int>(p.size());
-  est.points = n;
-  est.inlier_mask.assign(n, 0);
-  if (n < 3) return est;
-  std::vector<double> thr2(n);
-  for (int i = 0; i < n; ++i) {
+namespace {
+
+/// Squared inlier threshold per correspondence: the threshold grows with the depth past reference_depth.
+std::vector<double> inlier_thresholds2(const std::vector<Eigen::Vector3d>& p, const RansacOptions& o) {
+  std::vector<double> thr2(p.size());
+  for (std::size_t i = 0; i < p.size(); ++i) {
     const double scale = std::pow(std::max(1.0, p[i].z() / o.reference_depth), o.depth_exponent);
     const double t = o.inlier_threshold * scale;
     thr2[i] = t * t;
   }
+  return thr2;
+}
+
+/// A motion, its inlier count (-1: none fitted) and the inliers' summed squared error.
+struct Hypothesis {
+  RigidMotion motion;
+  int inliers = -1;
+  double sse = std::numeric_limits<double>::infinity();
+};
+
+/// Three distinct indices below n.
+std::array<int, 3> draw_three(SplitMix& rng, int n) {
+  const int a = rng.below(n);
+  int b = rng.below(n - 1);
+  if (b >= a) ++b;
+  int c = rng.below(n - 2);
+  if (c >= std::min(a, b)) ++c;
+  if (c >= std::max(a, b)) ++c;
+  return {a, b, c};
+}
+
+/// RANSAC over minimal samples of three: the hypothesis with the most inliers (then the least error),
+/// drawing until the confidence is reached (at most max_iterations non-degenerate samples).
+Hypothesis ransac_motion(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
+                         const std::vector<double>& thr2, const RansacOptions& o, std::uint64_t stream) {
+  const int n = static_cast<int>(p.size());
   SplitMix rng{mix(o.seed, stream)};
-  RigidMotion best;
-  int best_n = -1;
-  double best_sse = std::numeric_limits<double>::infinity();
+  Hypothesis best;
   long needed = o.max_iterations;
   std::vector<Eigen::Vector3d> sp(3), sq(3);
   int drawn = 0, attempts = 0;
   while (drawn < needed && attempts < 10 * o.max_iterations) {
     ++attempts;
-    const int a = rng.below(n);
-    int b = rng.below(n - 1);
-    if (b >= a) ++b;
-    int c = rng.below(n - 2);
-    if (c >= std::min(a, b)) ++c;
-    if (c >= std::max(a, b)) ++c;
+    const auto [a, b, c] = draw_three(rng, n);
     sp = {p[a], p[b], p[c]};
     sq = {q[a], q[b], q[c]};
     // Degenerate samples (collinear or coincident points) do not define a rotation.
@@ -174,29 +190,29 @@ MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std:
     const RigidMotion m = fit_rigid(sp, sq);
     double sse = 0;
     const int k = count_inliers(m, p, q, thr2, nullptr, &sse);
-    if (k > best_n || (k == best_n && sse < best_sse)) {
-      best_n = k;
-      best_sse = sse;
-      best = m;
-      const double w = static_cast<double>(k) / n;
-      if (w >= 1.0) {
-        needed = drawn;
-      } else if (w > 0) {
-        const double denom = std::log(1.0 - w * w * w);
-        if (denom < 0) {
-          const double it = std::ceil(std::log(1.0 - o.confidence) / denom);
-          needed = std::min<long>(o.max_iterations, static_cast<long>(std::max(1.0, it)));
-        }
+    if (!(k > best.inliers || (k == best.inliers && sse < best.sse))) continue;
+    best = {m, k, sse};
+    const double w = static_cast<double>(k) / n;
+    if (w >= 1.0) {
+      needed = drawn;
+    } else if (w > 0) {
+      const double denom = std::log(1.0 - w * w * w);
+      if (denom < 0) {
+        const double it = std::ceil(std::log(1.0 - o.confidence) / denom);
+        needed = std::min<long>(o.max_iterations, static_cast<long>(std::max(1.0, it)));
       }
     }
   }
-  if (best_n < 0) {  // every sample degenerate: fall back to the least-squares fit of everything
-    best = fit_rigid(p, q);
-  }
-  // Refit on the inliers until the inlier set stops growing.
-  std::vector<std::uint8_t> mask(n);
-  int k = count_inliers(best, p, q, thr2, &mask, &best_sse);
-  for (int round = 0; round < 5 && k >= 3; ++round) {
+  return best;
+}
+
+/// Refits best on its inliers until the inlier set stops growing; its inlier mask into mask.
+void refit_on_inliers(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
+                      const std::vector<double>& thr2, Hypothesis& best, std::vector<std::uint8_t>& mask) {
+  const int n = static_cast<int>(p.size());
+  mask.assign(n, 0);
+  best.inliers = count_inliers(best.motion, p, q, thr2, &mask, &best.sse);
+  for (int round = 0; round < 5 && best.inliers >= 3; ++round) {
     std::vector<Eigen::Vector3d> ip, iq;
     for (int i = 0; i < n; ++i)
       if (mask[i]) ip.push_back(p[i]), iq.push_back(q[i]);
@@ -204,16 +220,32 @@ MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std:
     std::vector<std::uint8_t> mask2(n);
     double sse2 = 0;
     const int k2 = count_inliers(refit, p, q, thr2, &mask2, &sse2);
-    if (k2 < k || (k2 == k && sse2 >= best_sse)) break;
-    best = refit;
-    k = k2;
-    best_sse = sse2;
+    if (k2 < best.inliers || (k2 == best.inliers && sse2 >= best.sse)) break;
+    best = {refit, k2, sse2};
     mask.swap(mask2);
   }
-  est.motion = best;
+}
+
+}  // namespace
+
+MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std::vector<Eigen::Vector3d>& q,
+                               const RansacOptions& o, std::uint64_t stream) {
+  if (p.size() != q.size()) throw Error("", "points", "estimate_motion needs as many target points as source points");
+  MotionEstimate est;
+  const int n = static_cast<int>(p.size());
+  est.points = n;
+  est.inlier_mask.assign(n, 0);
+  if (n < 3) return est;
+  const std::vector<double> thr2 = inlier_thresholds2(p, o);
+  Hypothesis best = ransac_motion(p, q, thr2, o, stream);
+  if (best.inliers < 0) best.motion = fit_rigid(p, q);  // every sample degenerate: the least-squares fit of all
+  std::vector<std::uint8_t> mask;
+  refit_on_inliers(p, q, thr2, best, mask);
+  const int k = best.inliers;
+  est.motion = best.motion;
   est.inliers = k;
   est.inlier_mask = std::move(mask);
-  est.rms = k > 0 ? std::sqrt(best_sse / k) : 0;
+  est.rms = k > 0 ? std::sqrt(best.sse / k) : 0;
   est.ok = k >= o.min_inliers && k >= o.min_inlier_ratio * n;
   return est;
 }
@@ -250,93 +282,85 @@ void RefineOptions::validate() const {
   if (!(second_min_share >= 0 && second_min_share <= 1)) bad("second_min_share", "must be in 0..1");
 }
 
-RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::Vector3d>& uvd_a,
-                          const std::vector<Eigen::Vector3d>& uvd_b, const StereoCamera& cam,
-                          const RefineOptions& o, const std::vector<std::uint8_t>& use,
-                          std::vector<std::uint8_t>* inliers, double* rms_px) {
-  if (uvd_a.size() != uvd_b.size() || (!use.empty() && use.size() != uvd_a.size()))
-    throw Error("", "points", "refine_motion needs as many measurements in both frames (and flags)");
-  const int n = static_cast<int>(uvd_a.size());
-  std::vector<Eigen::Vector3d> Xa(n), Xb(n);
-  std::vector<std::uint8_t> valid(n, 0);
-  for (int i = 0; i < n; ++i) {
-    if (!(uvd_a[i].z() > 0) || !(uvd_b[i].z() > 0) || !uvd_a[i].allFinite() || !uvd_b[i].allFinite()) continue;
-    Xa[i] = cam.backproject(uvd_a[i]);
-    Xb[i] = cam.backproject(uvd_b[i]);
-    valid[i] = 1;
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+/// The stereo measurements (u, v, d) of the correspondences in frames a and b, their back-projections,
+/// and which of them are usable (positive, finite disparities in both frames and not left out by `use`).
+struct StereoPairs {
+  const std::vector<Eigen::Vector3d>& uvd_a;
+  const std::vector<Eigen::Vector3d>& uvd_b;
+  const StereoCamera& cam;
+  const RefineOptions& o;
+  const std::vector<std::uint8_t>& use;
+  int n;
+  std::vector<Eigen::Vector3d> Xa, Xb;
+  std::vector<std::uint8_t> valid;
+  Eigen::Vector3d Dw;  ///< residual weights: the disparity residual by disparity_weight
+
+  StereoPairs(const std::vector<Eigen::Vector3d>& a, const std::vector<Eigen::Vector3d>& b, const StereoCamera& c,
+              const RefineOptions& opts, const std::vector<std::uint8_t>& used)
+      : uvd_a(a), uvd_b(b), cam(c), o(opts), use(used), n(static_cast<int>(a.size())), Xa(n), Xb(n), valid(n, 0),
+        Dw(1, 1, opts.disparity_weight) {
+    for (int i = 0; i < n; ++i) {
+      if (!(uvd_a[i].z() > 0) || !(uvd_b[i].z() > 0) || !uvd_a[i].allFinite() || !uvd_b[i].allFinite()) continue;
+      Xa[i] = cam.backproject(uvd_a[i]);
+      Xb[i] = cam.backproject(uvd_b[i]);
+      valid[i] = 1;
+    }
   }
-  const Eigen::Vector3d Dw(1, 1, o.disparity_weight);
-  // Robust cost of M over the used correspondences; optionally the normal equations.
-  auto evaluate = [&](const RigidMotion& M, Eigen::Matrix<double, 6, 6>* H, Eigen::Matrix<double, 6, 1>* g,
-                      int* used) {
+
+  /// Weighted symmetric residuals of correspondence i under M; false when a point falls behind a camera.
+  bool residuals(const RigidMotion& M, int i, Eigen::Vector3d& rf, Eigen::Vector3d& rb, Eigen::Vector3d& Y,
+                 Eigen::Vector3d& Z) const {
+    if (!symmetric_residuals(M, Xa[i], Xb[i], uvd_a[i], uvd_b[i], cam, rf, rb, Y, Z)) return false;
+    rf = rf.cwiseProduct(Dw);
+    rb = rb.cwiseProduct(Dw);
+    return true;
+  }
+
+  /// Adds correspondence i's Huber-weighted Gauss-Newton terms to H and g.
+  void add_normal_equations(const RigidMotion& M, int i, const Eigen::Vector3d& rf, const Eigen::Vector3d& rb,
+                            const Eigen::Vector3d& Y, const Eigen::Vector3d& Z, Matrix6d& H, Vector6d& g) const {
+    Eigen::Matrix<double, 3, 6> Jf, Jb;
+    Jf.leftCols<3>() = -skew(Y);
+    Jf.rightCols<3>().setIdentity();
+    Jf = Dw.asDiagonal() * projection_jacobian(cam, Y) * Jf;
+    const Eigen::Matrix3d Rt = M.R.transpose();
+    Jb.leftCols<3>() = Rt * skew(Xb[i]);
+    Jb.rightCols<3>() = -Rt;
+    Jb = Dw.asDiagonal() * projection_jacobian(cam, Z) * Jb;
+    const double wf = huber_weight(rf.norm(), o.huber_px), wb = huber_weight(rb.norm(), o.huber_px);
+    H += wf * Jf.transpose() * Jf + wb * Jb.transpose() * Jb;
+    g += wf * Jf.transpose() * rf + wb * Jb.transpose() * rb;
+  }
+
+  /// Robust cost of M over the used correspondences; optionally the normal equations and how many
+  /// correspondences counted.
+  double cost(const RigidMotion& M, Matrix6d* H, Vector6d* g, int* used) const {
     double cost = 0;
     int k = 0;
     if (H) H->setZero(), g->setZero();
     for (int i = 0; i < n; ++i) {
       if (!valid[i] || (!use.empty() && !use[i])) continue;
       Eigen::Vector3d rf, rb, Y, Z;
-      if (!symmetric_residuals(M, Xa[i], Xb[i], uvd_a[i], uvd_b[i], cam, rf, rb, Y, Z)) {
+      if (!residuals(M, i, rf, rb, Y, Z)) {
         cost += 2 * o.huber_px * o.huber_px * 10;  // behind a camera: a large constant penalty
         continue;
       }
       ++k;
-      rf = rf.cwiseProduct(Dw);
-      rb = rb.cwiseProduct(Dw);
       const double nf = rf.norm(), nb = rb.norm();
       for (double r : {nf, nb}) cost += r <= o.huber_px ? 0.5 * r * r : o.huber_px * (r - 0.5 * o.huber_px);
-      if (!H) continue;
-      Eigen::Matrix<double, 3, 6> Jf, Jb;
-      Jf.leftCols<3>() = -skew(Y);
-      Jf.rightCols<3>().setIdentity();
-      Jf = Dw.asDiagonal() * projection_jacobian(cam, Y) * Jf;
-      const Eigen::Matrix3d Rt = M.R.transpose();
-      Jb.leftCols<3>() = Rt * skew(Xb[i]);
-      Jb.rightCols<3>() = -Rt;
-      Jb = Dw.asDiagonal() * projection_jacobian(cam, Z) * Jb;
-      const double wf = huber_weight(nf, o.huber_px), wb = huber_weight(nb, o.huber_px);
-      *H += wf * Jf.transpose() * Jf + wb * Jb.transpose() * Jb;
-      *g += wf * Jf.transpose() * rf + wb * Jb.transpose() * rb;
+      if (H) add_normal_equations(M, i, rf, rb, Y, Z, *H, *g);
     }
     if (used) *used = k;
     return cost;
-  };
-  RigidMotion M = initial;
-  Eigen::Matrix<double, 6, 6> H;
-  Eigen::Matrix<double, 6, 1> g;
-  int used = 0;
-  double cost = evaluate(M, &H, &g, &used);
-  if (used >= 3) {
-    double lambda = 1e-4;
-    for (int it = 0; it < o.iterations; ++it) {
-      bool accepted = false;
-      for (int tries = 0; tries < 8 && !accepted; ++tries) {
-        Eigen::Matrix<double, 6, 6> A = H;
-        A.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
-        const Eigen::Matrix<double, 6, 1> delta = A.ldlt().solve(-g);
-        if (!delta.allFinite()) {
-          lambda *= 10;
-          continue;
-        }
-        const Eigen::Matrix3d dR = exp_so3(delta.head<3>());
-        RigidMotion C;
-        C.R = nearest_rotation(dR * M.R);
-        C.t = dR * M.t + delta.tail<3>();
-        const double c2 = evaluate(C, nullptr, nullptr, nullptr);
-        if (c2 <= cost) {
-          const bool converged = delta.norm() < 1e-10 || cost - c2 < 1e-12 * std::max(1.0, cost);
-          M = C;
-          lambda = std::max(1e-9, lambda / 3);
-          accepted = true;
-          if (converged) it = o.iterations;
-        } else {
-          lambda *= 4;
-        }
-      }
-      if (!accepted) break;
-      cost = evaluate(M, &H, &g, &used);
-    }
   }
-  if (inliers || rms_px) {
+
+  /// The correspondences whose weighted residuals are within inlier_px both ways, and their RMS.
+  void inliers_and_rms(const RigidMotion& M, std::vector<std::uint8_t>* inliers, double* rms_px) const {
     if (inliers) inliers->assign(n, 0);
     double sse = 0;
     int k = 0;
@@ -344,9 +368,7 @@ RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::V
     for (int i = 0; i < n; ++i) {
       if (!valid[i]) continue;
       Eigen::Vector3d rf, rb, Y, Z;
-      if (!symmetric_residuals(M, Xa[i], Xb[i], uvd_a[i], uvd_b[i], cam, rf, rb, Y, Z)) continue;
-      rf = rf.cwiseProduct(Dw);
-      rb = rb.cwiseProduct(Dw);
+      if (!residuals(M, i, rf, rb, Y, Z)) continue;
       if (rf.norm() > thr || rb.norm() > thr) continue;
       if (inliers) (*inliers)[i] = 1;
       sse += 0.5 * (rf.squaredNorm() + rb.squaredNorm());
@@ -354,6 +376,61 @@ RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::V
     }
     if (rms_px) *rms_px = k > 0 ? std::sqrt(sse / k) : 0;
   }
+};
+
+/// One Levenberg-Marquardt iteration from M (whose cost and normal equations are given): up to 8 damped
+/// steps until one does not raise the cost (then M and lambda updated, and converged set when the step
+/// or the gain is negligible); false when none did.
+bool lm_step(const StereoPairs& pairs, const Matrix6d& H, const Vector6d& g, double cost, RigidMotion& M,
+             double& lambda, bool& converged) {
+  for (int tries = 0; tries < 8; ++tries) {
+    Matrix6d A = H;
+    A.diagonal() += lambda * (H.diagonal().array() + 1e-9).matrix();
+    const Vector6d delta = A.ldlt().solve(-g);
+    if (!delta.allFinite()) {
+      lambda *= 10;
+      continue;
+    }
+    const Eigen::Matrix3d dR = exp_so3(delta.head<3>());
+    RigidMotion C;
+    C.R = nearest_rotation(dR * M.R);
+    C.t = dR * M.t + delta.tail<3>();
+    const double c2 = pairs.cost(C, nullptr, nullptr, nullptr);
+    if (c2 <= cost) {
+      converged = delta.norm() < 1e-10 || cost - c2 < 1e-12 * std::max(1.0, cost);
+      M = C;
+      lambda = std::max(1e-9, lambda / 3);
+      return true;
+    }
+    lambda *= 4;
+  }
+  return false;
+}
+
+}  // namespace
+
+RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::Vector3d>& uvd_a,
+                          const std::vector<Eigen::Vector3d>& uvd_b, const StereoCamera& cam,
+                          const RefineOptions& o, const std::vector<std::uint8_t>& use,
+                          std::vector<std::uint8_t>* inliers, double* rms_px) {
+  if (uvd_a.size() != uvd_b.size() || (!use.empty() && use.size() != uvd_a.size()))
+    throw Error("", "points", "refine_motion needs as many measurements in both frames (and flags)");
+  const StereoPairs pairs(uvd_a, uvd_b, cam, o, use);
+  RigidMotion M = initial;
+  Matrix6d H;
+  Vector6d g;
+  int used = 0;
+  double cost = pairs.cost(M, &H, &g, &used);
+  if (used >= 3) {
+    double lambda = 1e-4;
+    for (int it = 0; it < o.iterations; ++it) {
+      bool converged = false;
+      if (!lm_step(pairs, H, g, cost, M, lambda, converged)) break;
+      if (converged) it = o.iterations;
+      cost = pairs.cost(M, &H, &g, &used);
+    }
+  }
+  if (inliers || rms_px) pairs.inliers_and_rms(M, inliers, rms_px);
   return M;
 }
 

@@ -83,9 +83,17 @@ void summarise_tracks_and_motion(FrontEndResult& res, int n, const std::function
   s.inlier_ratio_min = good ? ratio_min : 0;
 }
 
-FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& o) {
-  const auto wall0 = Clock::now();
-  o.validate();
+namespace {
+
+/// Per frame: the left image, its disparity, the keypoints and the labels.
+struct FrameInput {
+  cv::Mat left, disparity, labels;
+  FrameKeypoints keypoints;
+};
+
+/// The camera height the world origin is put under: the option's, else the sequence's; the sequence
+/// must be a stereo one with a focal length and a baseline.
+double checked_camera_height(const Sequence& seq, const FrontEndOptions& o) {
   const std::string manifest = seq.manifest.string();
   if (seq.kind != SequenceKind::Stereo) throw Error(manifest, "kind", "the stereo front end needs a stereo sequence");
   if (!seq.calibration.fx || !(*seq.calibration.fx > 0))
@@ -97,24 +105,27 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
     throw Error(manifest, "camera_height",
                 "needed to put the world origin on the ground under the first camera (give it in the manifest "
                 "or as an option)");
-  const int first = o.first_frame;
-  const int last = seq.range_end(first, o.last_frame);
-  const int n = last - first;
-  const int norm = descriptor_norm(o.tracking.detector);
+  return *height;
+}
 
-  std::vector<FrameObservations> obs(n);
-  std::vector<std::vector<cv::DMatch>> matches(std::max(0, n - 1));
-  std::vector<double> t_disp(n), t_kp(n), t_match(std::max(0, n - 1));
-  long keypoints = 0;
-  Progress progress("front end", n, o.progress);
+/// The frames [first, first + n) of one front-end run, what the tracker makes of them (observations and
+/// matches between consecutive frames), and the time each stage took per frame.
+struct FrameStage {
+  const Sequence& seq;
+  const FrontEndOptions& o;
+  int first, n;
+  std::vector<FrameObservations> obs;
+  std::vector<std::vector<cv::DMatch>> matches;
+  std::vector<double> t_disp, t_kp, t_match;
+  Progress progress;
   std::atomic<int> done{0};
 
-  // Per frame, in parallel: the left image, its disparity (timed), the keypoints (timed) and the labels.
-  struct FrameInput {
-    cv::Mat left, disparity, labels;
-    FrameKeypoints keypoints;
-  };
-  auto load_frame = [&](int i) {
+  FrameStage(const Sequence& s, const FrontEndOptions& opts, int first_frame, int frames)
+      : seq(s), o(opts), first(first_frame), n(frames), obs(n), matches(std::max(0, n - 1)), t_disp(n), t_kp(n),
+        t_match(std::max(0, n - 1)), progress("front end", n, opts.progress) {}
+
+  /// Frame first + i: the left image, its disparity (timed), the keypoints (timed) and the labels.
+  FrameInput load_frame(int i) {
     const int f = first + i;
     FrameInput in;
     auto t0 = Clock::now();
@@ -127,7 +138,7 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
         apply_disparity_offset(in.disparity, seq.calibration.disparity_offset);
       } catch (const Error& e) {
         if (!e.file().empty()) throw;
-        throw Error(manifest, "frames[" + std::to_string(f) + "]", e.what());
+        throw Error(seq.manifest.string(), "frames[" + std::to_string(f) + "]", e.what());
       }
     }
     t_disp[i] = since(t0);
@@ -138,108 +149,143 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
     progress.tick();
     if (o.on_frame) o.on_frame(++done, n);
     return in;
-  };
-
-  if (o.tracker == FrameTracker::Klt) {
-    // A pipeline: frames loaded, matched in stereo and detected in parallel, then followed by KLT in
-    // order (each frame's points are those followed from the previous frame plus new ones). At most
-    // `tokens` frames are in flight.
-    int next = 0;
-    cv::Mat prev_img;
-    std::vector<cv::Point2f> prev_px;
-    const int tokens = 4 * std::max(1, tbb::this_task_arena::max_concurrency());
-    tbb::parallel_pipeline(
-        static_cast<std::size_t>(tokens),
-        tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
-                                    [&](tbb::flow_control& fc) {
-                                      if (next >= n) fc.stop();
-                                      return next++;
-                                    }) &
-            tbb::make_filter<int, std::pair<int, std::shared_ptr<FrameInput>>>(
-                tbb::filter_mode::parallel,
-                [&](int i) { return std::make_pair(i, std::make_shared<FrameInput>(load_frame(i))); }) &
-            tbb::make_filter<std::pair<int, std::shared_ptr<FrameInput>>, void>(
-                tbb::filter_mode::serial_in_order, [&](const std::pair<int, std::shared_ptr<FrameInput>>& item) {
-                  const auto& [i, in] = item;
-                  const auto t0 = Clock::now();
-                  std::vector<cv::Point2f> detected;
-                  detected.reserve(in->keypoints.keypoints.size());
-                  for (const auto& k : in->keypoints.keypoints) detected.push_back(k.pt);
-                  std::vector<cv::DMatch> m;
-                  prev_px = klt_step(prev_img, prev_px, in->left, detected, o.tracking.max_keypoints, o.klt, m);
-                  obs[i] = observe_points(prev_px, in->disparity, in->labels, seq.calibration);
-                  prev_img = in->left;
-                  if (i > 0) {
-                    matches[i - 1] = std::move(m);
-                    t_match[i - 1] = since(t0);
-                  }
-                }));
   }
+};
 
+/// The KLT tracker as a pipeline: frames loaded, matched in stereo and detected in parallel, then followed
+/// by KLT in order (each frame's points are those followed from the previous frame plus new ones). At
+/// most `tokens` frames are in flight.
+void track_klt(FrameStage& st) {
+  using Item = std::pair<int, std::shared_ptr<FrameInput>>;
+  const FrontEndOptions& o = st.o;
+  int next = 0;
+  cv::Mat prev_img;
+  std::vector<cv::Point2f> prev_px;
+  auto follow = [&](const Item& item) {
+    const auto& [i, in] = item;
+    const auto t0 = Clock::now();
+    std::vector<cv::Point2f> detected;
+    detected.reserve(in->keypoints.keypoints.size());
+    for (const auto& k : in->keypoints.keypoints) detected.push_back(k.pt);
+    std::vector<cv::DMatch> m;
+    prev_px = klt_step(prev_img, prev_px, in->left, detected, o.tracking.max_keypoints, o.klt, m);
+    st.obs[i] = observe_points(prev_px, in->disparity, in->labels, st.seq.calibration);
+    prev_img = in->left;
+    if (i > 0) {
+      st.matches[i - 1] = std::move(m);
+      st.t_match[i - 1] = since(t0);
+    }
+  };
+  const int tokens = 4 * std::max(1, tbb::this_task_arena::max_concurrency());
+  tbb::parallel_pipeline(static_cast<std::size_t>(tokens),
+                         tbb::make_filter<void, int>(tbb::filter_mode::serial_in_order,
+                                                     [&](tbb::flow_control& fc) {
+                                                       if (next >= st.n) fc.stop();
+                                                       return next++;
+                                                     }) &
+                             tbb::make_filter<int, Item>(tbb::filter_mode::parallel,
+                                                         [&](int i) {
+                                                           return std::make_pair(
+                                                               i, std::make_shared<FrameInput>(st.load_frame(i)));
+                                                         }) &
+                             tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order, follow));
+}
+
+/// Matches the descriptors of frames t and t + 1 (timed).
+void match_pair(FrameStage& st, int t, const cv::Mat& a, const cv::Mat& b) {
+  const auto t0 = Clock::now();
+  std::vector<cv::DMatch> m = match_symmetric(a, b, descriptor_norm(st.o.tracking.detector));
+  drop_far_matches(m, st.obs[t].pixels, st.obs[t + 1].pixels, st.o.tracking);
+  st.matches[t] = std::move(m);
+  st.t_match[t] = since(t0);
+}
+
+/// The descriptor tracker, kChunk frames at a time: frames loaded in parallel, then the pair joining the
+/// previous chunk matched, then the pairs inside this chunk in parallel.
+void track_descriptors(FrameStage& st) {
   cv::Mat prev_desc;  // descriptors of the last frame of the previous chunk
-  for (int c0 = 0; o.tracker == FrameTracker::Descriptors && c0 < n; c0 += kChunk) {
-    const int c1 = std::min(n, c0 + kChunk);
+  for (int c0 = 0; c0 < st.n; c0 += kChunk) {
+    const int c1 = std::min(st.n, c0 + kChunk);
     std::vector<cv::Mat> desc(c1 - c0);
     tbb::parallel_for(tbb::blocked_range<int>(c0, c1, 1), [&](const tbb::blocked_range<int>& r) {
       for (int i = r.begin(); i < r.end(); ++i) {
-        FrameInput in = load_frame(i);
-        obs[i] = observe_keypoints(in.keypoints.keypoints, in.disparity, in.labels, seq.calibration);
+        FrameInput in = st.load_frame(i);
+        st.obs[i] = observe_keypoints(in.keypoints.keypoints, in.disparity, in.labels, st.seq.calibration);
         desc[i - c0] = in.keypoints.descriptors;
       }
     });
-    // Descriptors. Matching: the pair joining the previous chunk, then the pairs inside this chunk.
-    auto match_pair = [&](int t, const cv::Mat& a, const cv::Mat& b) {
-      const auto t0 = Clock::now();
-      std::vector<cv::DMatch> m = match_symmetric(a, b, norm);
-      drop_far_matches(m, obs[t].pixels, obs[t + 1].pixels, o.tracking);
-      matches[t] = std::move(m);
-      t_match[t] = since(t0);
-    };
-    if (c0 > 0) match_pair(c0 - 1, prev_desc, desc[0]);
+    if (c0 > 0) match_pair(st, c0 - 1, prev_desc, desc[0]);
     tbb::parallel_for(tbb::blocked_range<int>(c0, c1 - 1, 1), [&](const tbb::blocked_range<int>& r) {
-      for (int t = r.begin(); t < r.end(); ++t) match_pair(t, desc[t - c0], desc[t + 1 - c0]);
+      for (int t = r.begin(); t < r.end(); ++t) match_pair(st, t, desc[t - c0], desc[t + 1 - c0]);
     });
     prev_desc = desc.back();
   }
-  progress.finish();
-  for (const auto& f : obs) keypoints += static_cast<long>(f.pixels.size());
+}
+
+/// Tracks from the observations and matches (frame indices the sequence's), the tracks the motion is
+/// estimated from into for_motion.
+std::vector<Track> sequence_tracks(const FrameStage& st, FilterCounts& counts, std::vector<Track>& for_motion) {
+  std::vector<Track> tracks = build_tracks(st.obs, st.matches, st.o.filters, counts, &for_motion);
+  if (st.first != 0) {
+    for (auto* list : {&tracks, &for_motion})
+      for (auto& tr : *list)
+        for (int& f : tr.frames) f += st.first;
+  }
+  return tracks;
+}
+
+/// Pair motions, the chained camera path and (with --gravity estimate) the levelled world.
+void estimate_path(FrontEndResult& res, const std::vector<Track>& for_motion, const FrameStage& st, double height) {
+  const FrontEndOptions& o = st.o;
+  res.pair_motions =
+      estimate_pair_motions(for_motion, st.first, st.n, o.motion, StereoCamera::from(st.seq.calibration), o.refine);
+  res.poses = chain_poses(res.pair_motions, height);
+  if (o.gravity.method == GravityMethod::Estimate) {
+    res.summary.gravity = estimate_gravity(res.poses, st.first, res.tracks, height, o.gravity);
+    level_world(res.poses, res.summary.gravity->up);
+  }
+}
+
+double mean_over(const std::vector<double>& v, int denom) {
+  double a = 0;
+  for (double x : v) a += x;
+  return denom > 0 ? a / denom : 0.0;
+}
+
+}  // namespace
+
+FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& o) {
+  const auto wall0 = Clock::now();
+  o.validate();
+  const double height = checked_camera_height(seq, o);
+  const int first = o.first_frame;
+  const int n = seq.range_end(first, o.last_frame) - first;
+  FrameStage st(seq, o, first, n);
+  if (o.tracker == FrameTracker::Klt) track_klt(st);
+  if (o.tracker == FrameTracker::Descriptors) track_descriptors(st);
+  st.progress.finish();
+  long keypoints = 0;
+  for (const auto& f : st.obs) keypoints += static_cast<long>(f.pixels.size());
 
   FrontEndResult res;
   res.first_frame = first;
   auto t0 = Clock::now();
   std::vector<Track> for_motion;
   FilterCounts counts;
-  res.tracks = build_tracks(obs, matches, o.filters, counts, &for_motion);
-  // Frame indices in the tracks are the sequence's.
-  if (first != 0) {
-    for (auto* list : {&res.tracks, &for_motion})
-      for (auto& tr : *list)
-        for (int& f : tr.frames) f += first;
-  }
+  res.tracks = sequence_tracks(st, counts, for_motion);
   const double t_tracks = since(t0);
   t0 = Clock::now();
-  res.pair_motions = estimate_pair_motions(for_motion, first, n, o.motion, StereoCamera::from(seq.calibration), o.refine);
-  res.poses = chain_poses(res.pair_motions, *height);
-  if (o.gravity.method == GravityMethod::Estimate) {
-    res.summary.gravity = estimate_gravity(res.poses, first, res.tracks, *height, o.gravity);
-    level_world(res.poses, res.summary.gravity->up);
-  }
+  estimate_path(res, for_motion, st, height);
   const double t_motion = since(t0);
 
-  // Summary.
   FrontEndSummary& s = res.summary;
   s.frames = n;
   s.keypoints = keypoints;
   s.filters = counts;
   summarise_tracks_and_motion(res, n);
-  auto mean = [](const std::vector<double>& v, int denom) {
-    double a = 0;
-    for (double x : v) a += x;
-    return denom > 0 ? a / denom : 0.0;
-  };
-  s.seconds.disparity = mean(t_disp, n);
-  s.seconds.keypoints = mean(t_kp, n);
-  s.seconds.matching = mean(t_match, n);
+  s.seconds.disparity = mean_over(st.t_disp, n);
+  s.seconds.keypoints = mean_over(st.t_kp, n);
+  s.seconds.matching = mean_over(st.t_match, n);
   s.seconds.tracks = n > 0 ? t_tracks / n : 0;
   s.seconds.motion = n > 0 ? t_motion / n : 0;
   s.seconds.total_wall = since(wall0);

@@ -191,12 +191,10 @@ Json summary_to_json(const FrontEndSummary& s) {
   return out;
 }
 
-FrontEndSummary summary_from_json(const JsonView& j) {
-  FrontEndSummary s;
-  s.frames = static_cast<int>(j.integer("frames"));
-  s.keypoints = j.integer("keypoints");
-  const JsonView f = j.at("filters");
-  FilterCounts& c = s.filters;
+namespace {
+
+FilterCounts filter_counts_from_json(const JsonView& f) {
+  FilterCounts c;
   c.observations = f.integer("observations");
   c.tracks = f.integer("tracks");
   c.removed_no_disparity_obs = f.at("no_disparity").integer("removed_observations");
@@ -214,6 +212,57 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   }
   c.kept_obs = f.integer("kept_observations");
   c.kept_tracks = f.integer("kept_tracks");
+  return c;
+}
+
+SfmSummary sfm_summary_from_json(const JsonView& m) {
+  SfmSummary f;
+  f.tracker = m.str("tracker");
+  f.focal = m.num("focal_px");
+  f.focal_source = m.str("focal_source");
+  f.focal_pairs = static_cast<int>(m.integer("focal_pairs"));
+  const auto init = integers(m.at("init_pair"), 2);
+  f.init_frame_a = static_cast<int>(init[0]);
+  f.init_frame_b = static_cast<int>(init[1]);
+  f.keyframes = static_cast<int>(m.integer("keyframes"));
+  f.posed_frames = static_cast<int>(m.integer("posed_frames"));
+  f.still_frames = static_cast<int>(m.integer("still_frames"));
+  f.bridged_frames = static_cast<int>(m.integer("bridged_frames"));
+  f.points_3d = m.integer("points_3d");
+  f.map_joins = m.has("map_joins") ? m.integer("map_joins") : 0;  // files before local-map matching
+  f.observations = m.integer("observations");
+  f.reprojection_rms_px = m.num("reprojection_rms_px");
+  f.scale = m.num("scale_m_per_unit");
+  f.ground_inliers = static_cast<int>(m.integer("ground_inliers"));
+  f.ground_candidates = static_cast<int>(m.integer("ground_candidates"));
+  f.seconds_sfm = m.at("seconds_per_frame").num("sfm");
+  f.seconds_ba = m.at("seconds_per_frame").num("bundle_adjustment");
+  return f;
+}
+
+GravityEstimate gravity_from_json(const JsonView& g) {
+  GravityEstimate e;
+  const auto vec = [&](const char* key) {
+    const auto v = numbers(g.at(key), 3, "3 numbers (a direction)");
+    return Eigen::Vector3d(v[0], v[1], v[2]);
+  };
+  e.up = vec("up_before_levelling");
+  e.path_up = vec("path_up");
+  e.source = g.str("source");
+  e.candidates = static_cast<int>(g.integer("candidates"));
+  e.inliers = static_cast<int>(g.integer("inliers"));
+  e.plane_below_first_camera = g.num("plane_below_first_camera_m");
+  e.correction_deg = g.num("correction_deg");
+  return e;
+}
+
+}  // namespace
+
+FrontEndSummary summary_from_json(const JsonView& j) {
+  FrontEndSummary s;
+  s.frames = static_cast<int>(j.integer("frames"));
+  s.keypoints = j.integer("keypoints");
+  s.filters = filter_counts_from_json(j.at("filters"));
   s.valid_points_per_frame_mean = j.at("valid_points_per_frame").num("mean");
   s.valid_points_per_frame_min = static_cast<int>(j.at("valid_points_per_frame").integer("min"));
   s.track_length_mean = j.at("track_length").num("mean");
@@ -232,45 +281,8 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   s.seconds.tracks = t.num("tracks");
   s.seconds.motion = t.num("motion");
   s.seconds.total_wall = j.num("seconds_total_wall");
-  if (const auto m = j.maybe("sfm")) {
-    SfmSummary f;
-    f.tracker = m->str("tracker");
-    f.focal = m->num("focal_px");
-    f.focal_source = m->str("focal_source");
-    f.focal_pairs = static_cast<int>(m->integer("focal_pairs"));
-    const auto init = integers(m->at("init_pair"), 2);
-    f.init_frame_a = static_cast<int>(init[0]);
-    f.init_frame_b = static_cast<int>(init[1]);
-    f.keyframes = static_cast<int>(m->integer("keyframes"));
-    f.posed_frames = static_cast<int>(m->integer("posed_frames"));
-    f.still_frames = static_cast<int>(m->integer("still_frames"));
-    f.bridged_frames = static_cast<int>(m->integer("bridged_frames"));
-    f.points_3d = m->integer("points_3d");
-    f.map_joins = m->has("map_joins") ? m->integer("map_joins") : 0;  // files before local-map matching
-    f.observations = m->integer("observations");
-    f.reprojection_rms_px = m->num("reprojection_rms_px");
-    f.scale = m->num("scale_m_per_unit");
-    f.ground_inliers = static_cast<int>(m->integer("ground_inliers"));
-    f.ground_candidates = static_cast<int>(m->integer("ground_candidates"));
-    f.seconds_sfm = m->at("seconds_per_frame").num("sfm");
-    f.seconds_ba = m->at("seconds_per_frame").num("bundle_adjustment");
-    s.sfm = f;
-  }
-  if (const auto g = j.maybe("gravity")) {
-    GravityEstimate e;
-    const auto vec = [&](const char* key) {
-      const auto v = numbers(g->at(key), 3, "3 numbers (a direction)");
-      return Eigen::Vector3d(v[0], v[1], v[2]);
-    };
-    e.up = vec("up_before_levelling");
-    e.path_up = vec("path_up");
-    e.source = g->str("source");
-    e.candidates = static_cast<int>(g->integer("candidates"));
-    e.inliers = static_cast<int>(g->integer("inliers"));
-    e.plane_below_first_camera = g->num("plane_below_first_camera_m");
-    e.correction_deg = g->num("correction_deg");
-    s.gravity = e;
-  }
+  if (const auto sfm = j.maybe("sfm")) s.sfm = sfm_summary_from_json(*sfm);
+  if (const auto g = j.maybe("gravity")) s.gravity = gravity_from_json(*g);
   return s;
 }
 
@@ -330,6 +342,80 @@ void write_tracks(const fs::path& path, const FrontEndResult& r, const std::stri
   write_file_atomic(path, j.dump() + "\n");
 }
 
+namespace {
+
+std::vector<Pose> poses_from_json(const JsonView& poses, long n) {
+  if (static_cast<long>(poses.size()) != n)
+    poses.fail("expected frame_count = " + std::to_string(n) + " poses, found " + std::to_string(poses.size()));
+  std::vector<Pose> out;
+  for (std::size_t i = 0; i < poses.size(); ++i) {
+    const JsonView p = poses.at(i);
+    const Eigen::Matrix3d R = rotation_from(p.at("R"));
+    const auto t = numbers(p.at("t"), 3, "3 numbers");
+    Pose pose;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) pose.R[3 * a + b] = R(a, b);
+    pose.t = {t[0], t[1], t[2]};
+    out.push_back(pose);
+  }
+  return out;
+}
+
+std::vector<PairMotion> pair_motions_from_json(const JsonView& motions, long n) {
+  const long npairs = std::max(0L, n - 1);
+  if (static_cast<long>(motions.size()) != npairs)
+    motions.fail("expected " + std::to_string(npairs) + " pair motions, found " + std::to_string(motions.size()));
+  std::vector<PairMotion> out;
+  for (std::size_t i = 0; i < motions.size(); ++i) {
+    const JsonView m = motions.at(i);
+    PairMotion pm;
+    pm.motion.R = rotation_from(m.at("R"));
+    const auto t = numbers(m.at("t"), 3, "3 numbers");
+    pm.motion.t = Eigen::Vector3d(t[0], t[1], t[2]);
+    pm.points = count(m, "points");
+    pm.inliers = count(m, "inliers");
+    pm.ok = m.boolean("ok");
+    pm.bridged = m.boolean("bridged");
+    pm.rms = m.num("rms");
+    if (pm.points < 0 || pm.inliers < 0 || pm.inliers > pm.points) m.fail("inconsistent points/inliers counts");
+    out.push_back(pm);
+  }
+  return out;
+}
+
+/// One track; its frames must be strictly ascending inside [first_frame, first_frame + n).
+Track track_from_json(const JsonView& t, int first_frame, long n) {
+  Track tr;
+  const JsonView fr = t.at("frames");
+  if (!fr.json().is_array() || fr.size() == 0) fr.fail("expected a non-empty array of frame indices");
+  const auto frames = integers(fr, fr.size());
+  const std::size_t m = frames.size();
+  for (std::size_t k = 0; k < m; ++k) {
+    if (frames[k] < first_frame || frames[k] >= first_frame + n)
+      fr.at(k).fail("frame " + std::to_string(frames[k]) + " is outside the file's frame range");
+    if (k > 0 && frames[k] <= frames[k - 1]) fr.at(k).fail("frames must be strictly ascending");
+    tr.frames.push_back(static_cast<int>(frames[k]));
+  }
+  const auto x = numbers(t.at("x"), m, "numbers");
+  const auto y = numbers(t.at("y"), m, "numbers");
+  const auto d = numbers(t.at("d"), m, "numbers");
+  const auto P = numbers(t.at("P"), 3 * m, "numbers");
+  const auto labels = integers(t.at("labels"), m);
+  for (std::size_t k = 0; k < m; ++k) {
+    tr.pixels.emplace_back(static_cast<float>(x[k]), static_cast<float>(y[k]));
+    tr.disparities.push_back(static_cast<float>(d[k]));
+    tr.points.emplace_back(P[3 * k], P[3 * k + 1], P[3 * k + 2]);
+    if (labels[k] < -1 || labels[k] > 254) t.at("labels").at(k).fail("expected -1 or a class position 0..254");
+    tr.labels.push_back(static_cast<int>(labels[k]));
+  }
+  const std::int64_t label = t.integer("label");
+  if (label < -1 || label > 254) t.fail("expected -1 or a class position 0..254", "label");
+  tr.label = static_cast<int>(label);
+  return tr;
+}
+
+}  // namespace
+
 TracksFile read_tracks(const fs::path& path) {
   const Json doc = read_json(path, kMaxLargeFileBytes);
   const JsonView j(doc, path);
@@ -345,70 +431,12 @@ TracksFile read_tracks(const fs::path& path) {
   r.first_frame = count(j, "first_frame");
   const long n = j.integer("frame_count");
   if (n < 0) j.fail("must be >= 0", "frame_count");
-  const JsonView poses = j.at("poses");
-  if (static_cast<long>(poses.size()) != n)
-    poses.fail("expected frame_count = " + std::to_string(n) + " poses, found " + std::to_string(poses.size()));
-  for (std::size_t i = 0; i < poses.size(); ++i) {
-    const JsonView p = poses.at(i);
-    const Eigen::Matrix3d R = rotation_from(p.at("R"));
-    const auto t = numbers(p.at("t"), 3, "3 numbers");
-    Pose pose;
-    for (int a = 0; a < 3; ++a)
-      for (int b = 0; b < 3; ++b) pose.R[3 * a + b] = R(a, b);
-    pose.t = {t[0], t[1], t[2]};
-    r.poses.push_back(pose);
-  }
-  const JsonView motions = j.at("pair_motions");
-  const long npairs = std::max(0L, n - 1);
-  if (static_cast<long>(motions.size()) != npairs)
-    motions.fail("expected " + std::to_string(npairs) + " pair motions, found " + std::to_string(motions.size()));
-  for (std::size_t i = 0; i < motions.size(); ++i) {
-    const JsonView m = motions.at(i);
-    PairMotion pm;
-    pm.motion.R = rotation_from(m.at("R"));
-    const auto t = numbers(m.at("t"), 3, "3 numbers");
-    pm.motion.t = Eigen::Vector3d(t[0], t[1], t[2]);
-    pm.points = count(m, "points");
-    pm.inliers = count(m, "inliers");
-    pm.ok = m.boolean("ok");
-    pm.bridged = m.boolean("bridged");
-    pm.rms = m.num("rms");
-    if (pm.points < 0 || pm.inliers < 0 || pm.inliers > pm.points) m.fail("inconsistent points/inliers counts");
-    r.pair_motions.push_back(pm);
-  }
+  r.poses = poses_from_json(j.at("poses"), n);
+  r.pair_motions = pair_motions_from_json(j.at("pair_motions"), n);
   const JsonView tracks = j.at("tracks");
   if (!tracks.json().is_array()) tracks.fail("expected an array of tracks");
   r.tracks.reserve(tracks.size());
-  for (std::size_t i = 0; i < tracks.size(); ++i) {
-    const JsonView t = tracks.at(i);
-    Track tr;
-    const JsonView fr = t.at("frames");
-    if (!fr.json().is_array() || fr.size() == 0) fr.fail("expected a non-empty array of frame indices");
-    const auto frames = integers(fr, fr.size());
-    const std::size_t m = frames.size();
-    for (std::size_t k = 0; k < m; ++k) {
-      if (frames[k] < r.first_frame || frames[k] >= r.first_frame + n)
-        fr.at(k).fail("frame " + std::to_string(frames[k]) + " is outside the file's frame range");
-      if (k > 0 && frames[k] <= frames[k - 1]) fr.at(k).fail("frames must be strictly ascending");
-      tr.frames.push_back(static_cast<int>(frames[k]));
-    }
-    const auto x = numbers(t.at("x"), m, "numbers");
-    const auto y = numbers(t.at("y"), m, "numbers");
-    const auto d = numbers(t.at("d"), m, "numbers");
-    const auto P = numbers(t.at("P"), 3 * m, "numbers");
-    const auto labels = integers(t.at("labels"), m);
-    for (std::size_t k = 0; k < m; ++k) {
-      tr.pixels.emplace_back(static_cast<float>(x[k]), static_cast<float>(y[k]));
-      tr.disparities.push_back(static_cast<float>(d[k]));
-      tr.points.emplace_back(P[3 * k], P[3 * k + 1], P[3 * k + 2]);
-      if (labels[k] < -1 || labels[k] > 254) t.at("labels").at(k).fail("expected -1 or a class position 0..254");
-      tr.labels.push_back(static_cast<int>(labels[k]));
-    }
-    const std::int64_t label = t.integer("label");
-    if (label < -1 || label > 254) t.fail("expected -1 or a class position 0..254", "label");
-    tr.label = static_cast<int>(label);
-    r.tracks.push_back(std::move(tr));
-  }
+  for (std::size_t i = 0; i < tracks.size(); ++i) r.tracks.push_back(track_from_json(tracks.at(i), r.first_frame, n));
   r.summary = summary_from_json(j.at("summary"));
   return out;
 }

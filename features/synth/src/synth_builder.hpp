@@ -438,86 +438,124 @@ inline Footprint wall_footprint(const Vector2d& A, const Vector2d& u, const Vect
   return {std::min(p0.x(), p1.x()), std::min(p0.y(), p1.y()), std::max(p0.x(), p1.x()), std::max(p0.y(), p1.y())};
 }
 
+/// Where a piece of furniture goes: against the wall from A along u (n into the room), its left edge
+/// `along` metres from A, its front facing the room (yaw, axes).
+struct WallSpot {
+  Vector2d A, u, n;
+  double along, yaw;
+  Matrix3d ax;
+  WallSpot(const Vector2d& a, const Vector2d& dir, const Vector2d& inward, double at)
+      : A(a), u(dir), n(inward), along(at), yaw(std::atan2(inward.x(), inward.y())), ax(Builder::yaw_axes(yaw)) {}
+  /// Centre of a piece of width w and depth d standing 2 cm off the wall.
+  Vector2d centre(double w, double d) const { return Vector2d(A + u * (along + w / 2) + n * (0.02 + d / 2)); }
+  Footprint footprint(double w, double d) const { return wall_footprint(A, u, n, along, w, d, 0.02); }
+};
+
+/// A monitor on a stand on the desk top (centre c, height h), its screen lit; returns the stand's
+/// plastic (the chair's base is of it too).
+inline int desk_monitor(Builder& b, const WallSpot& at, const Vector2d& c, double h, double width) {
+  Rng& r = b.rng();
+  Scene& sc = b.scene();
+  const double mw = r.uniform(0.45, 0.6), mh = mw * 0.62;
+  const Vector2d mc = c + at.u * r.uniform(-0.25, 0.25) * (width - mw) - at.n * 0.12;
+  const int screen = b.material(mat(Material::Screen, lin(0.15, 0.3, 0.5), lin(0.85, 0.85, 0.9),
+                                    lin(0.03, 0.03, 0.035), static_cast<float>(mw), static_cast<float>(mh)));
+  sc.materials[screen].emission = 0.5f;
+  const int plastic = b.material(mat(Material::Plain, lin(0.06, 0.06, 0.07)));
+  b.box(sc.quads, at_height(mc, h + 0.05), at.ax, Vector3d(0.03, 0.05, 0.03), kFurniture, plastic, plastic, plastic,
+        false);
+  b.box(sc.quads, at_height(mc, h + 0.1 + mh / 2), at.ax, Vector3d(mw / 2, mh / 2, 0.025), kFurniture, plastic,
+        plastic, screen, true);
+  return plastic;
+}
+
+/// An office chair in front of the desk (centre c, depth d), turned towards it: base, post, seat, back.
+inline void desk_chair(Builder& b, const WallSpot& at, const Vector2d& c, double d, int metal, int plastic) {
+  Rng& r = b.rng();
+  Scene& sc = b.scene();
+  const Vector2d cc = c + at.n * (d / 2 + 0.3) + at.u * r.uniform(-0.2, 0.2);
+  const double cyaw = at.yaw + kPi + r.uniform(-0.5, 0.5);
+  const Matrix3d cax = Builder::yaw_axes(cyaw);
+  static const double kFabric[][3] = {{0.1, 0.1, 0.12}, {0.15, 0.2, 0.45}, {0.45, 0.1, 0.1}, {0.25, 0.25, 0.25}};
+  const auto& fc = kFabric[r.index(4)];
+  const int fabric = b.material(mat(Material::Fabric, lin(fc[0], fc[1], fc[2])));
+  b.box(sc.quads, at_height(cc, 0.04), cax, Vector3d(0.28, 0.04, 0.04), kFurniture, plastic, plastic, plastic, false);
+  b.box(sc.quads, at_height(cc, 0.04), cax, Vector3d(0.04, 0.04, 0.28), kFurniture, plastic, plastic, plastic, false);
+  b.box(sc.quads, at_height(cc, 0.25), cax, Vector3d(0.03, 0.17, 0.03), kFurniture, metal, metal, metal, false);
+  b.box(sc.quads, at_height(cc, 0.46), cax, Vector3d(0.23, 0.04, 0.23), kFurniture, fabric, fabric, fabric, true);
+  const Vector2d back = cc - Vector2d(cax(0, 2), cax(2, 2)) * 0.22;
+  b.box(sc.quads, at_height(back, 0.78), cax, Vector3d(0.21, 0.24, 0.03), kFurniture, fabric, fabric, fabric, true);
+}
+
+/// A desk with a monitor, and a chair in front.
+inline bool wall_desk(Builder& b, Keepout& keep, const WallSpot& at, int wood, double& width) {
+  Rng& r = b.rng();
+  Scene& sc = b.scene();
+  width = r.uniform(1.2, 1.6);
+  const double d = 0.7, h = 0.74;
+  const Footprint fp = at.footprint(width, d + 0.6);  // and room for the chair
+  if (!keep.ok(fp, 0.55, 0.45, 0.05)) return false;
+  keep.taken.push_back(fp);
+  const Vector2d c = at.centre(width, d);
+  const int metal = b.material(mat(Material::Plain, lin(0.3, 0.3, 0.32)));
+  b.box(sc.quads, at_height(c, h - 0.015), at.ax, Vector3d(width / 2, 0.015, d / 2), kFurniture, wood, wood, wood, true);
+  for (int side = -1; side <= 1; side += 2) {
+    const Vector2d leg = c + side * at.u * (width / 2 - 0.03);
+    b.box(sc.quads, at_height(leg, (h - 0.03) / 2), at.ax, Vector3d(0.02, (h - 0.03) / 2, d / 2 - 0.02), kFurniture,
+          metal, metal, metal, false);
+  }
+  b.box(sc.quads, at_height(c - at.n * (d / 2 - 0.05), 0.45), at.ax, Vector3d(width / 2 - 0.05, 0.25, 0.01),
+        kFurniture, metal, metal, metal, true);
+  const int plastic = desk_monitor(b, at, c, h, width);
+  desk_chair(b, at, c, d, metal, plastic);
+  return true;
+}
+
+/// A filing cabinet (tall) or a sideboard with drawers, in one of four metal colours.
+inline bool wall_cabinet(Builder& b, Keepout& keep, const WallSpot& at, int wood, double& width) {
+  Rng& r = b.rng();
+  const bool tall = r.chance(0.5);
+  width = tall ? 0.5 : r.uniform(0.9, 1.3);
+  const double d = tall ? 0.6 : 0.45, h = tall ? 1.3 : r.uniform(0.75, 0.9);
+  const Footprint fp = at.footprint(width, d);
+  if (!keep.ok(fp, 0.55, 0.45, 0.02)) return false;
+  keep.taken.push_back(fp);
+  static const double kMetal[][3] = {{0.7, 0.7, 0.68}, {0.55, 0.6, 0.62}, {0.8, 0.76, 0.66}, {0.35, 0.38, 0.42}};
+  const auto& mc = kMetal[r.index(4)];
+  const int body = b.material(mat(Material::Plain, lin(mc[0], mc[1], mc[2])));
+  const int front = b.material(mat(Material::Drawers, lin(mc[0], mc[1], mc[2]), lin(0.1, 0.1, 0.1),
+                                   lin(0.05, 0.05, 0.05), tall ? 0.32f : 0.25f, static_cast<float>(width)));
+  b.floor_box(at.centre(width, d), 0.0, at.yaw, Vector3d(width, h, d), kFurniture, body, tall ? body : wood, front);
+  return true;
+}
+
 /// Furniture against a wall: the piece's front faces the room (direction n). Returns false when the
 /// piece would block the robot's path or a person's line.
 inline bool wall_furniture(Builder& b, Keepout& keep, const Vector2d& A, const Vector2d& u, const Vector2d& n, double along,
                     int kind, double& width) {
   Rng& r = b.rng();
-  const double yaw = std::atan2(n.x(), n.y());
-  const Matrix3d ax = Builder::yaw_axes(yaw);
-  Scene& sc = b.scene();
-  auto centre_at = [&](double w, double d) { return Vector2d(A + u * (along + w / 2) + n * (0.02 + d / 2)); };
+  const WallSpot at(A, u, n, along);
   const int wood = b.material(mat(Material::Wood, lin(0.62, 0.45, 0.3), lin(0.45, 0.3, 0.18)));
-  if (kind == 0) {  // desk with a monitor, and a chair in front
-    width = r.uniform(1.2, 1.6);
-    const double d = 0.7, h = 0.74;
-    const Footprint fp = wall_footprint(A, u, n, along, width, d + 0.6, 0.02);
-    if (!keep.ok(fp, 0.55, 0.45, 0.05)) return false;
-    keep.taken.push_back(fp);
-    const Vector2d c = centre_at(width, d);
-    const int metal = b.material(mat(Material::Plain, lin(0.3, 0.3, 0.32)));
-    b.box(sc.quads, at_height(c, h - 0.015), ax, Vector3d(width / 2, 0.015, d / 2), kFurniture, wood, wood, wood, true);
-    for (int side = -1; side <= 1; side += 2) {
-      const Vector2d leg = c + side * u * (width / 2 - 0.03);
-      b.box(sc.quads, at_height(leg, (h - 0.03) / 2), ax, Vector3d(0.02, (h - 0.03) / 2, d / 2 - 0.02), kFurniture,
-            metal, metal, metal, false);
-    }
-    b.box(sc.quads, at_height(c - n * (d / 2 - 0.05), 0.45), ax, Vector3d(width / 2 - 0.05, 0.25, 0.01), kFurniture,
-          metal, metal, metal, true);
-    // Monitor on a stand.
-    const double mw = r.uniform(0.45, 0.6), mh = mw * 0.62;
-    const Vector2d mc = c + u * r.uniform(-0.25, 0.25) * (width - mw) - n * 0.12;
-    const int screen = b.material(mat(Material::Screen, lin(0.15, 0.3, 0.5), lin(0.85, 0.85, 0.9),
-                                      lin(0.03, 0.03, 0.035), static_cast<float>(mw), static_cast<float>(mh)));
-    sc.materials[screen].emission = 0.5f;
-    const int plastic = b.material(mat(Material::Plain, lin(0.06, 0.06, 0.07)));
-    b.box(sc.quads, at_height(mc, h + 0.05), ax, Vector3d(0.03, 0.05, 0.03), kFurniture, plastic, plastic, plastic,
-          false);
-    b.box(sc.quads, at_height(mc, h + 0.1 + mh / 2), ax, Vector3d(mw / 2, mh / 2, 0.025), kFurniture, plastic, plastic,
-          screen, true);
-    // Chair: base, post, seat, back.
-    const Vector2d cc = c + n * (d / 2 + 0.3) + u * r.uniform(-0.2, 0.2);
-    const double cyaw = yaw + kPi + r.uniform(-0.5, 0.5);
-    const Matrix3d cax = Builder::yaw_axes(cyaw);
-    static const double kFabric[][3] = {{0.1, 0.1, 0.12}, {0.15, 0.2, 0.45}, {0.45, 0.1, 0.1}, {0.25, 0.25, 0.25}};
-    const auto& fc = kFabric[r.index(4)];
-    const int fabric = b.material(mat(Material::Fabric, lin(fc[0], fc[1], fc[2])));
-    b.box(sc.quads, at_height(cc, 0.04), cax, Vector3d(0.28, 0.04, 0.04), kFurniture, plastic, plastic, plastic, false);
-    b.box(sc.quads, at_height(cc, 0.04), cax, Vector3d(0.04, 0.04, 0.28), kFurniture, plastic, plastic, plastic, false);
-    b.box(sc.quads, at_height(cc, 0.25), cax, Vector3d(0.03, 0.17, 0.03), kFurniture, metal, metal, metal, false);
-    b.box(sc.quads, at_height(cc, 0.46), cax, Vector3d(0.23, 0.04, 0.23), kFurniture, fabric, fabric, fabric, true);
-    const Vector2d back = cc - Vector2d(cax(0, 2), cax(2, 2)) * 0.22;
-    b.box(sc.quads, at_height(back, 0.78), cax, Vector3d(0.21, 0.24, 0.03), kFurniture, fabric, fabric, fabric, true);
-  } else if (kind == 1) {  // bookshelf: solid box whose front shows shelves and books
+  if (kind == 0) return wall_desk(b, keep, at, wood, width);
+  if (kind == 2) return wall_cabinet(b, keep, at, wood, width);
+  if (kind == 1) {  // bookshelf: solid box whose front shows shelves and books
     width = r.uniform(0.8, 1.0);
     const double d = 0.35, h = r.uniform(1.7, 2.0);
-    const Footprint fp = wall_footprint(A, u, n, along, width, d, 0.02);
+    const Footprint fp = at.footprint(width, d);
     if (!keep.ok(fp, 0.55, 0.45, 0.02)) return false;
     keep.taken.push_back(fp);
     const int books = b.material(mat(Material::Books, lin(0.55, 0.4, 0.26), {0, 0, 0}, lin(0.04, 0.03, 0.02),
                                      static_cast<float>(width), static_cast<float>(h)));
-    b.floor_box(centre_at(width, d), 0.0, yaw, Vector3d(width, h, d), kFurniture, wood, wood, books);
-  } else if (kind == 2) {  // filing cabinet or sideboard with drawers
-    const bool tall = r.chance(0.5);
-    width = tall ? 0.5 : r.uniform(0.9, 1.3);
-    const double d = tall ? 0.6 : 0.45, h = tall ? 1.3 : r.uniform(0.75, 0.9);
-    const Footprint fp = wall_footprint(A, u, n, along, width, d, 0.02);
-    if (!keep.ok(fp, 0.55, 0.45, 0.02)) return false;
-    keep.taken.push_back(fp);
-    static const double kMetal[][3] = {{0.7, 0.7, 0.68}, {0.55, 0.6, 0.62}, {0.8, 0.76, 0.66}, {0.35, 0.38, 0.42}};
-    const auto& mc = kMetal[r.index(4)];
-    const int body = b.material(mat(Material::Plain, lin(mc[0], mc[1], mc[2])));
-    const int front = b.material(mat(Material::Drawers, lin(mc[0], mc[1], mc[2]), lin(0.1, 0.1, 0.1),
-                                     lin(0.05, 0.05, 0.05), tall ? 0.32f : 0.25f, static_cast<float>(width)));
-    b.floor_box(centre_at(width, d), 0.0, yaw, Vector3d(width, h, d), kFurniture, body, tall ? body : wood, front);
-  } else {  // bench
-    width = r.uniform(1.2, 1.6);
-    const double d = 0.38, h = 0.45;
-    const Footprint fp = wall_footprint(A, u, n, along, width, d, 0.02);
-    if (!keep.ok(fp, 0.5, 0.4, 0.02)) return false;
-    keep.taken.push_back(fp);
-    b.floor_box(centre_at(width, d), 0.0, yaw, Vector3d(width, h, d), kFurniture, wood, wood, wood);
+    b.floor_box(at.centre(width, d), 0.0, at.yaw, Vector3d(width, h, d), kFurniture, wood, wood, books);
+    return true;
   }
+  // bench
+  width = r.uniform(1.2, 1.6);
+  const double d = 0.38, h = 0.45;
+  const Footprint fp = at.footprint(width, d);
+  if (!keep.ok(fp, 0.5, 0.4, 0.02)) return false;
+  keep.taken.push_back(fp);
+  b.floor_box(at.centre(width, d), 0.0, at.yaw, Vector3d(width, h, d), kFurniture, wood, wood, wood);
   return true;
 }
 

@@ -109,104 +109,129 @@ inline float gauss(std::uint64_t h) {
   return ((s + 2.0f) * (1.0f / 1024.0f) - 2.0f) * 1.7320508f;
 }
 
-/// Renders one camera: BGR image, and optionally labels and depth.
-void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>& quads, const Pose& pose, int frame,
-                 int camera, cv::Mat& image, cv::Mat* labels, cv::Mat* depth, cv::Mat* instances) {
-  const Bins bins = bin_quads(quads, pose, o);
-  const Vector3d C(pose.t[0], pose.t[1], pose.t[2]);
-  const double t = frame_time(o, frame);
-  const double fxd = o.fx(), cxd = o.cx(), cyd = o.cy();
-  const float fx = static_cast<float>(fxd);
-  const float gain = static_cast<float>(1.0 + 0.12 * std::sin(2 * kPi * t / 20.0 + sc.gain_phase));
-  const Rgb cam_gain = camera == 0 ? Rgb{1.0f, 1.0f, 1.0f} : Rgb{0.965f, 0.95f, 0.985f};
-  const float r2max = static_cast<float>(o.cx() * o.cx() + o.cy() * o.cy());
-  const float range2 = static_cast<float>(sc.light_range * sc.light_range);
-  const auto& lut = gamma_lut();
-
-  // Lights that can reach anything near the camera's view (within range of the visible region).
+/// What the pixels of one camera's view share: the scene, the camera, the binned quads, the lights
+/// near the camera and the exposure (global drift, camera gain, vignetting, gamma).
+struct View {
+  /// A light as the shading loop reads it.
   struct LightF {
     float x, y, z, r, g, b;
   };
+  const Scene& sc;
+  const SynthOptions& o;
+  const std::vector<Quad>& quads;
+  const Pose& pose;
+  Bins bins;
+  Vector3d C;
+  double fxd, cxd, cyd;
+  float fx, gain, r2max, range2;
+  Rgb cam_gain;
+  const std::vector<float>& lut;
   std::vector<LightF> lights;
-  for (const auto& l : sc.lights)
-    if ((l.position - C).norm() < sc.light_range + 12.0)
-      lights.push_back({static_cast<float>(l.position.x()), static_cast<float>(l.position.y()),
-                        static_cast<float>(l.position.z()), l.intensity[0], l.intensity[1], l.intensity[2]});
 
-  cv::Mat lin(o.height, o.width, CV_32FC3);
-  if (labels) labels->create(o.height, o.width, CV_8UC1);
-  if (depth) depth->create(o.height, o.width, CV_32FC1);
-  if (instances) instances->create(o.height, o.width, CV_8UC1);
-  for (int y = 0; y < o.height; ++y) {
-    cv::Vec3f* row = lin.ptr<cv::Vec3f>(y);
-    // Radiance -> exposure (global drift, camera gain, vignetting) -> gamma.
-    auto shade = [&](int x, Rgb col) {
-      const float dx = static_cast<float>(x - o.cx()), dy = static_cast<float>(y - o.cy());
-      const float vig = 1.0f - 0.22f * (dx * dx + dy * dy) / r2max;
-      col = col * cam_gain * (gain * vig);
-      auto g = [&](float v) { return lut[static_cast<int>(std::clamp(v, 0.0f, 1.0f) * 4096.0f + 0.5f)]; };
-      row[x] = cv::Vec3f(g(col.b), g(col.g), g(col.r));  // BGR
-    };
-    int prev_hit = -1;
-    Rgb prev_light;
-    for (int x = 0; x < o.width; ++x) {
-      const Vector3d d = detail::ray_direction(pose, fxd, cxd, cyd, x, y);
-      const std::vector<int>& list = bins.at(x, y);
-      double best = std::numeric_limits<double>::infinity();
-      int hit = -1;
-      for (int qi : list)
-        if (detail::intersect(quads[qi], bins.num[qi], C, d, best)) hit = qi;
-      if (hit < 0) {
-        row[x] = cv::Vec3f(0, 0, 0);
-        if (labels) labels->at<std::uint8_t>(y, x) = kVoid;
-        if (depth) depth->at<float>(y, x) = 0.0f;
-        if (instances) instances->at<std::uint8_t>(y, x) = 0;
-        prev_hit = -1;
-        continue;
-      }
-      const Quad& q = quads[hit];
-      if (labels) labels->at<std::uint8_t>(y, x) = q.cls;
-      if (depth) depth->at<float>(y, x) = static_cast<float>(best);
-      if (instances) instances->at<std::uint8_t>(y, x) = q.instance;
-      const Vector3d p = C + best * d;
-      const Vector3d r = p - q.centre;
-      const float s = static_cast<float>(r.dot(q.u) + q.hu + q.tex.x());
-      const float tt = static_cast<float>(r.dot(q.v) + q.hv + q.tex.y());
-      const double dn = d.norm();
-      const float cosang = static_cast<float>(std::abs(d.dot(q.normal)) / dn);
-      const float fp = static_cast<float>(best * dn) / (fx * std::sqrt(std::max(cosang, 0.02f)));
-      const Material& m = sc.materials[q.material];
-      const Rgb alb = detail::albedo(m, s, tt, fp);
-      const float ny = static_cast<float>(q.normal.y());
-      float lr = static_cast<float>(sc.ambient) * (0.75f + 0.25f * ny);
-      // Light varies slowly over a surface: an odd pixel on the same quad as its left neighbour reuses
-      // its light (halves the cost of the light loop; the difference is far below the noise).
-      if ((x & 1) && hit == prev_hit) {
-        const Rgb col = alb * prev_light + alb * m.emission;
-        shade(x, col);
-        continue;
-      }
-      Rgb light{lr, lr, lr};
-      const float px = static_cast<float>(p.x()), py = static_cast<float>(p.y()), pz = static_cast<float>(p.z());
-      const float nx = static_cast<float>(q.normal.x()), nz = static_cast<float>(q.normal.z());
-      for (const LightF& l : lights) {
-        const float lx = l.x - px, ly = l.y - py, lz = l.z - pz;
-        const float d2 = lx * lx + ly * ly + lz * lz;
-        const float dot = lx * nx + ly * ny + lz * nz;
-        if (d2 >= range2 || dot <= 0) continue;
-        const float w = 1.0f - d2 / range2;
-        const float att = dot / std::sqrt(d2) * w * w / (1.0f + 0.25f * d2);
-        light.r += l.r * att;
-        light.g += l.g * att;
-        light.b += l.b * att;
-      }
-      prev_hit = hit;
-      prev_light = light;
-      shade(x, alb * light + alb * m.emission);
-    }
+  View(const Scene& scene, const SynthOptions& opts, const std::vector<Quad>& qs, const Pose& p, int frame, int camera)
+      : sc(scene), o(opts), quads(qs), pose(p), bins(bin_quads(qs, p, opts)), C(p.t[0], p.t[1], p.t[2]),
+        fxd(opts.fx()), cxd(opts.cx()), cyd(opts.cy()), fx(static_cast<float>(fxd)),
+        gain(static_cast<float>(1.0 + 0.12 * std::sin(2 * kPi * frame_time(opts, frame) / 20.0 + scene.gain_phase))),
+        r2max(static_cast<float>(opts.cx() * opts.cx() + opts.cy() * opts.cy())),
+        range2(static_cast<float>(scene.light_range * scene.light_range)),
+        cam_gain(camera == 0 ? Rgb{1.0f, 1.0f, 1.0f} : Rgb{0.965f, 0.95f, 0.985f}), lut(gamma_lut()) {
+    // Lights that can reach anything near the camera's view (within range of the visible region).
+    for (const auto& l : sc.lights)
+      if ((l.position - C).norm() < sc.light_range + 12.0)
+        lights.push_back({static_cast<float>(l.position.x()), static_cast<float>(l.position.y()),
+                          static_cast<float>(l.position.z()), l.intensity[0], l.intensity[1], l.intensity[2]});
   }
-  // Optics: a slight blur. Sensor: read noise plus shot noise, from a counter-based hash.
-  cv::GaussianBlur(lin, lin, cv::Size(5, 5), 0.6, 0.6, cv::BORDER_REFLECT_101);
+
+  /// Radiance -> exposure (global drift, camera gain, vignetting) -> gamma, as BGR.
+  cv::Vec3f shade(int x, int y, Rgb col) const {
+    const float dx = static_cast<float>(x - o.cx()), dy = static_cast<float>(y - o.cy());
+    const float vig = 1.0f - 0.22f * (dx * dx + dy * dy) / r2max;
+    col = col * cam_gain * (gain * vig);
+    auto g = [&](float v) { return lut[static_cast<int>(std::clamp(v, 0.0f, 1.0f) * 4096.0f + 0.5f)]; };
+    return cv::Vec3f(g(col.b), g(col.g), g(col.r));
+  }
+
+  /// Ambient light plus the near lights at point p of quad q.
+  Rgb light_at(const Quad& q, const Vector3d& p) const {
+    const float ny = static_cast<float>(q.normal.y());
+    const float lr = static_cast<float>(sc.ambient) * (0.75f + 0.25f * ny);
+    Rgb light{lr, lr, lr};
+    const float px = static_cast<float>(p.x()), py = static_cast<float>(p.y()), pz = static_cast<float>(p.z());
+    const float nx = static_cast<float>(q.normal.x()), nz = static_cast<float>(q.normal.z());
+    for (const LightF& l : lights) {
+      const float lx = l.x - px, ly = l.y - py, lz = l.z - pz;
+      const float d2 = lx * lx + ly * ly + lz * lz;
+      const float dot = lx * nx + ly * ny + lz * nz;
+      if (d2 >= range2 || dot <= 0) continue;
+      const float w = 1.0f - d2 / range2;
+      const float att = dot / std::sqrt(d2) * w * w / (1.0f + 0.25f * d2);
+      light.r += l.r * att;
+      light.g += l.g * att;
+      light.b += l.b * att;
+    }
+    return light;
+  }
+
+  /// The albedo of quad q where the ray d hits it at depth lambda, band-limited by the pixel's footprint.
+  Rgb albedo_at(const Quad& q, const Vector3d& d, double lambda, const Vector3d& p) const {
+    const Vector3d r = p - q.centre;
+    const float s = static_cast<float>(r.dot(q.u) + q.hu + q.tex.x());
+    const float tt = static_cast<float>(r.dot(q.v) + q.hv + q.tex.y());
+    const double dn = d.norm();
+    const float cosang = static_cast<float>(std::abs(d.dot(q.normal)) / dn);
+    const float fp = static_cast<float>(lambda * dn) / (fx * std::sqrt(std::max(cosang, 0.02f)));
+    return detail::albedo(sc.materials[q.material], s, tt, fp);
+  }
+};
+
+/// The optional per-pixel outputs of a view: labels, depth, instance ids.
+struct ViewMaps {
+  cv::Mat *labels, *depth, *instances;
+  void create(const SynthOptions& o) const {
+    if (labels) labels->create(o.height, o.width, CV_8UC1);
+    if (depth) depth->create(o.height, o.width, CV_32FC1);
+    if (instances) instances->create(o.height, o.width, CV_8UC1);
+  }
+  void set(int y, int x, std::uint8_t cls, float z, std::uint8_t instance) const {
+    if (labels) labels->at<std::uint8_t>(y, x) = cls;
+    if (depth) depth->at<float>(y, x) = z;
+    if (instances) instances->at<std::uint8_t>(y, x) = instance;
+  }
+};
+
+/// One image row of linear BGR (after exposure and gamma, before blur and noise), and its maps.
+void render_row(const View& v, int y, cv::Vec3f* row, const ViewMaps& maps) {
+  int prev_hit = -1;
+  Rgb prev_light;
+  for (int x = 0; x < v.o.width; ++x) {
+    const Vector3d d = detail::ray_direction(v.pose, v.fxd, v.cxd, v.cyd, x, y);
+    double best = std::numeric_limits<double>::infinity();
+    int hit = -1;
+    for (int qi : v.bins.at(x, y))
+      if (detail::intersect(v.quads[qi], v.bins.num[qi], v.C, d, best)) hit = qi;
+    if (hit < 0) {
+      row[x] = cv::Vec3f(0, 0, 0);
+      maps.set(y, x, kVoid, 0.0f, 0);
+      prev_hit = -1;
+      continue;
+    }
+    const Quad& q = v.quads[hit];
+    maps.set(y, x, q.cls, static_cast<float>(best), q.instance);
+    const Vector3d p = v.C + best * d;
+    const Rgb alb = v.albedo_at(q, d, best, p);
+    const float emission = v.sc.materials[q.material].emission;
+    // Light varies slowly over a surface: an odd pixel on the same quad as its left neighbour reuses
+    // its light (halves the cost of the light loop; the difference is far below the noise).
+    if (!((x & 1) && hit == prev_hit)) {
+      prev_light = v.light_at(q, p);
+      prev_hit = hit;
+    }
+    row[x] = v.shade(x, y, alb * prev_light + alb * emission);
+  }
+}
+
+/// Sensor: read noise plus shot noise, from a counter-based hash of the seed, frame, camera and pixel.
+void add_sensor_noise(const cv::Mat& lin, cv::Mat& image, const SynthOptions& o, int frame, int camera) {
   image.create(o.height, o.width, CV_8UC3);
   const float read2 = static_cast<float>(o.noise_sigma * o.noise_sigma);
   const bool noisy = o.noise_sigma > 0;
@@ -229,6 +254,19 @@ void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>
   }
 }
 
+/// Renders one camera: BGR image, and optionally labels and depth.
+void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>& quads, const Pose& pose, int frame,
+                 int camera, cv::Mat& image, cv::Mat* labels, cv::Mat* depth, cv::Mat* instances) {
+  const View view(sc, o, quads, pose, frame, camera);
+  const ViewMaps maps{labels, depth, instances};
+  maps.create(o);
+  cv::Mat lin(o.height, o.width, CV_32FC3);
+  for (int y = 0; y < o.height; ++y) render_row(view, y, lin.ptr<cv::Vec3f>(y), maps);
+  // Optics: a slight blur; then the sensor.
+  cv::GaussianBlur(lin, lin, cv::Size(5, 5), 0.6, 0.6, cv::BORDER_REFLECT_101);
+  add_sensor_noise(lin, image, o, frame, camera);
+}
+
 std::string frame_name(int f, const char* ext) {
   char buf[32];
   std::snprintf(buf, sizeof buf, "%06d%s", f, ext);
@@ -248,17 +286,20 @@ Frame render_frame(const Scene& scene, const SynthOptions& opts, int frame) {
   return fr;
 }
 
-Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
-  opts.validate();
-  const Scene scene = build_scene(opts);
-  const bool instances = has_instances(opts.scene);
+namespace {
+
+/// The output folders of a sequence (instances/ only for scenes with object instances).
+void create_folders(const fs::path& out_dir, bool instances) {
   for (const char* sub : {"left", "right", "labels", "depth", "instances"}) {
     if (!instances && std::string(sub) == "instances") continue;
     std::error_code ec;
     fs::create_directories(out_dir / sub, ec);
     if (ec) throw Error((out_dir / sub).string(), "", "cannot create the folder: " + ec.message());
   }
+}
 
+/// The manifest of the sequence to render: name, calibration, classes and the files of every frame.
+Sequence sequence_manifest(const SynthOptions& opts, const fs::path& out_dir, bool instances) {
   Sequence seq;
   seq.root = out_dir;
   seq.manifest = out_dir / kManifestName;
@@ -288,7 +329,11 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
     seq.frames.push_back(e);
   }
   seq.gt_poses.resize(opts.frames);
+  return seq;
+}
 
+/// Renders every frame in parallel and writes its files; the ground-truth poses into seq.
+void render_frames(const Scene& scene, const SynthOptions& opts, const fs::path& out_dir, Sequence& seq) {
   Progress progress("make-sequence " + opts.scene, opts.frames, opts.progress);
   tbb::parallel_for(tbb::blocked_range<int>(0, opts.frames, 1), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f != range.end(); ++f) {
@@ -304,7 +349,10 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
     }
   });
   progress.finish();
+}
 
+/// The manifest's "extra": the generator, its options, what the files hold, and the scene's objects.
+Json generator_extra(const SynthOptions& opts, const Scene& scene, bool instances) {
   Json options = {{"scene", opts.scene},
                   {"seed", opts.seed},
                   {"frames", opts.frames},
@@ -317,16 +365,16 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
                   {"hfov_deg", opts.hfov_deg},
                   {"speed", opts.speed},
                   {"noise_sigma", opts.noise_sigma}};
-  seq.extra = {{"generator", "make-sequence"},
-               {"generator_version", 1},
-               {"scene", opts.scene},
-               {"seed", opts.seed},
-               {"options", options},
-               {"fps", opts.fps},
-               {"depth", "z-depth along the left camera's optical axis, metres, float32; 0 = nothing hit"},
-               {"labels", "every frame has a label image; labelled_frames marks every label_every-th"},
-               {"people", scene.people.size()},
-               {"static_quads", scene.quads.size()}};
+  Json extra = {{"generator", "make-sequence"},
+                {"generator_version", 1},
+                {"scene", opts.scene},
+                {"seed", opts.seed},
+                {"options", options},
+                {"fps", opts.fps},
+                {"depth", "z-depth along the left camera's optical axis, metres, float32; 0 = nothing hit"},
+                {"labels", "every frame has a label image; labelled_frames marks every label_every-th"},
+                {"people", scene.people.size()},
+                {"static_quads", scene.quads.size()}};
   if (instances) {
     Json objects = Json::array();
     for (const Object& ob : scene.objects)
@@ -337,11 +385,24 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
                          {"base", {ob.base.x(), ob.base.y(), ob.base.z()}},
                          {"size", {ob.size.x(), ob.size.y(), ob.size.z()}},
                          {"yaw", ob.yaw}});
-    seq.extra["objects"] = std::move(objects);
-    seq.extra["instances"] =
+    extra["objects"] = std::move(objects);
+    extra["instances"] =
         "labelled frames have an instance image: 8-bit PNG, pixel = object id (objects[].id), 0 = not an object";
-    seq.extra["look_at"] = {scene.look_at.x(), scene.look_at.y(), scene.look_at.z()};
+    extra["look_at"] = {scene.look_at.x(), scene.look_at.y(), scene.look_at.z()};
   }
+  return extra;
+}
+
+}  // namespace
+
+Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
+  opts.validate();
+  const Scene scene = build_scene(opts);
+  const bool instances = has_instances(opts.scene);
+  create_folders(out_dir, instances);
+  Sequence seq = sequence_manifest(opts, out_dir, instances);
+  render_frames(scene, opts, out_dir, seq);
+  seq.extra = generator_extra(opts, scene, instances);
   save_sequence(seq);
   return load_sequence(out_dir);
 }
