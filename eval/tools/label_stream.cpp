@@ -13,11 +13,13 @@
 #include <opencv2/videoio.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/common/option_names.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/render.hpp"
 #include "smseg/eval/stream.hpp"
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/stacks/extract.hpp"
 
 namespace {
 
@@ -178,12 +180,12 @@ int main(int argc, char** argv) {
       "second, latency, milliseconds per stage); OUT is built beside itself and swapped in whole at the end.\n"
       "Ctrl-C stops after the current frame and still writes everything.",
       "label-stream"};
-  std::string seq_dir, forest_file, out, frames = "0:", stereo = "bm", detector = "auto", tracker = "klt",
-      superpixels, vote = "sum", cameras, side_by_side, video;
+  std::string seq_dir, forest_file, out, frames = "0:", cameras, side_by_side, video;
   eval::StreamOptions opt;
+  features::ExtractOptions front_end;  // the stereo front end's part, resolved as extract-features does
   int threads = 0, max_frames = 0, in_flight = 3;
-  double camera_height = 0, video_fps = 15;
-  bool no_labels = false, overlays = false, show = false, quiet = false, no_refine = false;
+  double video_fps = 15;
+  bool no_labels = false, overlays = false, show = false, quiet = false;
   app.add_option("SEQUENCE", seq_dir, "stereo sequence folder (holding sequence.json); with --cameras or --side-by-side "
                                       "only its calibration, camera height, image size and classes are used")
       ->required();
@@ -202,31 +204,10 @@ int main(int argc, char** argv) {
                  "when disparity and keypoints take longer than the rest)")
       ->capture_default_str()
       ->check(CLI::Range(1, 16));
-  app.add_option("--grid", opt.eval.grid, "grid voting: cell size B in pixels (0: per pixel)")->capture_default_str();
-  app.add_option("--superpixels", superpixels, "superpixel voting: SLIC region size, small, large or N px");
-  app.add_option("--votes", opt.eval.votes, "V: random voting pixels per region")->capture_default_str();
-  app.add_option("--vote", vote, "how voters decide: sum or majority")->capture_default_str();
-  app.add_option("--trees", opt.eval.trees, "use only the first m trees (0: all)")->capture_default_str();
-  app.add_option("--seed", opt.eval.seed, "seed for where the voting pixels fall")->capture_default_str()
-      ->check(smseg::kDecimalDigits);
-  app.add_option("--stereo", stereo, "disparity: bm | sgbm")->capture_default_str();
-  app.add_option("--num-disparities", opt.front_end.stereo.num_disparities, "disparity search range, multiple of 16")
-      ->capture_default_str();
-  app.add_option("--block-size", opt.front_end.stereo.block_size, "matching window side (odd)")->capture_default_str();
-  app.add_option("--keypoints", detector,
-                 "keypoint detector: auto (gftt with the klt tracker, sift with descriptors) | sift | orb | akaze |\n"
-                 "gftt (klt only)")
-      ->capture_default_str();
-  app.add_option("--max-keypoints", opt.front_end.tracking.max_keypoints, "strongest keypoints kept per frame")
-      ->capture_default_str();
-  app.add_option("--gftt-quality", opt.front_end.tracking.gftt_quality, "gftt: relative corner strength kept")
-      ->capture_default_str();
-  app.add_option("--tracker", tracker, "klt | descriptors (extract-features's default is klt too)")->capture_default_str();
-  app.add_option("--min-track-frames", opt.front_end.filters.min_frames,
-                 "a track's points are used once it has lived this many frames")
-      ->capture_default_str();
-  app.add_flag("--no-refine", no_refine, "motion from RANSAC + Arun SVD alone, without the reprojection refinement");
-  app.add_option("--camera-height", camera_height, "camera height above the ground in metres (default: the sequence's)");
+  eval::eval_options_table().add_to(app, opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
+  features::extract_options_table().add_to(app, front_end,
+                                           {"stereo", "num_disparities", "block_size", "keypoints", "max_keypoints",
+                                            "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height"});
   app.add_flag("--no-labels", no_labels, "do not write OUT/labels/ (timing the rest alone)");
   app.add_flag("--overlays", overlays, "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)");
   app.add_option("--overlay-video", video, "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)");
@@ -237,30 +218,19 @@ int main(int argc, char** argv) {
   return run_tool(app, argc, argv, threads, [&] {
     // OpenCV's video back ends log every failed attempt; the tool says what failed in one line.
     cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
-    opt.front_end.stereo.method = features::parse_stereo_method(stereo, "--stereo");
-    if (opt.front_end.stereo.method == features::StereoMethod::Given)
+    if (front_end.front_end.stereo.method == features::StereoMethod::Given)
       throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm or sgbm");
-    opt.front_end.tracker = features::parse_frame_tracker(tracker, "--tracker");
-    opt.front_end.tracking.detector = features::parse_keypoint_method(detector, opt.front_end.tracker, "--keypoints");
-    opt.front_end.refine.enabled = !no_refine;
+    validate_options(features::extract_options_table().option_names(), [&] {
+      front_end.resolve();
+      front_end.front_end.validate();
+    });
+    opt.front_end = front_end.front_end;
     opt.front_end.progress = false;
-    if (app.count("--camera-height")) {
-      if (!(camera_height > 0)) throw UsageError("", "--camera-height", "must be positive (metres)");
-      opt.front_end.camera_height = camera_height;
-    }
-    if (!superpixels.empty()) opt.eval.superpixels = eval::superpixels_from_string(superpixels, "--superpixels");
-    opt.eval.vote = eval::vote_rule_from_string(vote, "--vote");
     if (max_frames < 0) throw UsageError("", "--max-frames", "must be >= 0");
     if (!(video_fps > 0 && video_fps <= 1000)) throw UsageError("", "--video-fps", "must be in (0, 1000]");
     if (!video.empty() && fs::path(video).filename() != fs::path(video))
       throw UsageError("", "--overlay-video", "is a file name inside OUT, not a path: '" + video + "'");
-    static const OptionNames kOptionOf = {
-        {"stereo.num_disparities", "--num-disparities"}, {"stereo.block_size", "--block-size"},
-        {"tracking.max_keypoints", "--max-keypoints"},   {"tracking.gftt_quality", "--gftt-quality"},
-        {"tracking.detector", "--keypoints"},            {"filters.min_frames", "--min-track-frames"},
-        {"camera_height", "--camera-height"}};
     as_usage([&] { opt.eval.validate(); });
-    validate_options(kOptionOf, [&] { opt.front_end.validate(); });
     const features::FrameRange range = as_usage([&] { return features::FrameRange::parse(frames, "--frames"); });
     std::string left_cam, right_cam;
     if (!cameras.empty()) {

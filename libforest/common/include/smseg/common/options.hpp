@@ -163,7 +163,7 @@ class Table {
       T& target = access(s);
       CLI::Option* o = app.add_option(flag, target, help)->capture_default_str();
       if constexpr (std::is_unsigned_v<T>)  // not "-1" as 2^64-1, not "010" as octal
-        o->check(CLI::Validator(kDecimalDigits).name(""));
+        o->check(CLI::Validator(kDecimalDigits).description(""));
       return o->check(detail::number_check(lo, hi));
     };
     f.write = [access](const S& s) { return nlohmann::json(access(const_cast<S&>(s))); };
@@ -360,6 +360,17 @@ class Table {
       if (!f.on(kCommandLine) || f.flag.empty()) continue;
       CLI::Option* o = f.add_option(app, s);
       if (!f.default_text.empty()) o->default_str(f.default_text);
+    }
+  }
+
+  /// CLI11 options for the fields of these keys only, in this order (a tool that takes part of a
+  /// struct: label-stream takes the stereo front end's and the voting's).
+  void add_to(CLI::App& app, S& s, const std::vector<std::string>& keys) const {
+    for (const auto& key : keys) {
+      const Field<S>* f = find(key);
+      if (!f || !f->on(kCommandLine)) throw std::logic_error("options: " + name_ + " has no command-line field " + key);
+      CLI::Option* o = f->add_option(app, s);
+      if (!f->default_text.empty()) o->default_str(f->default_text);
     }
   }
 
