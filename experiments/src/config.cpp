@@ -396,7 +396,9 @@ std::string Point::describe() const {
     std::string v;
     if (json.contains(k)) {
       v = text(json.at(k));
-    } else {  // stereo, motion, causal, tracker: per side
+    } else if (!json.contains("train_" + k)) {  // a value a point records only when not the default
+      v = text(eval::eval_options_table().find_on(k, options::kConfig)->write(eval::EvalOptions{}));
+    } else {  // stereo, motion, causal, tracker and extraction keys: per side
       const auto& a = json.at("train_" + k);
       const auto& b = json.at("test_" + k);
       v = a == b ? text(a) : text(a) + "/" + text(b);

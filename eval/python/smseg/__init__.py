@@ -6,7 +6,7 @@ See the README's "Use it as a library" section.
 Bad input raises smseg.Error (a ValueError) whose message is the one line the command-line tools print
 after "<tool>: error: ".
 """
-from ._smseg import Error, load_sequence, read_frame, stack_manifest
+from ._smseg import Error, load_sequence, option_tables, read_frame, stack_manifest
 from .data import load_results, load_stack
 from .estimators import ExtraTreesClassifier, ExtraTreesWindowClassifier
 from .pipeline import evaluate, extract_features
@@ -14,5 +14,5 @@ from .pipeline import evaluate, extract_features
 __version__ = "0.1.0"
 __all__ = [
     "Error", "ExtraTreesClassifier", "ExtraTreesWindowClassifier", "evaluate", "extract_features",
-    "load_results", "load_sequence", "load_stack", "read_frame", "stack_manifest",
+    "load_results", "load_sequence", "load_stack", "option_tables", "read_frame", "stack_manifest",
 ]

@@ -21,6 +21,7 @@ namespace py = pybind11;
 void bind_data(py::module_& m);      // data.cpp: stacks, sequences
 void bind_forest(py::module_& m);    // forest.cpp: the window forest and the tabular trainer
 void bind_pipeline(py::module_& m);  // pipeline.cpp: feature extraction, evaluation
+void bind_options(py::module_& m);   // options.cpp: the declared options of every surface
 
 /// A read-only numpy array over memory that `owner` keeps alive (a memory map, a model).
 template <class T>

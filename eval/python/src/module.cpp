@@ -14,4 +14,5 @@ PYBIND11_MODULE(_smseg, m) {
   smseg::python::bind_data(m);
   smseg::python::bind_forest(m);
   smseg::python::bind_pipeline(m);
+  smseg::python::bind_options(m);
 }
