@@ -180,33 +180,8 @@ SequenceSource parse_source(const JsonView& v, const fs::path& base) {
     const JsonView o = v.at("synthetic");
     if (!o.json().is_object()) o.fail("expected an object of make-sequence options");
     auto& so = s.synth;
-    for (const auto& [k, _] : o.json().items()) {
-      static const std::set<std::string> known{"scene", "seed", "frames", "width", "height", "label_every", "fps",
-                                               "baseline", "camera_height", "hfov_deg", "speed", "noise_sigma"};
-      if (!known.count(k)) o.fail("unknown option \"" + k + "\"", k);
-    }
-    if (o.has("scene")) so.scene = o.str("scene");
-    if (o.has("seed")) {
-      const auto seed = o.integer("seed");
-      if (seed < 0) o.fail("must be >= 0", "seed");
-      so.seed = static_cast<std::uint64_t>(seed);
-    }
-    const auto small_int = [&](const char* key, int& out) {
-      if (!o.has(key)) return;
-      const auto x = o.integer(key);
-      if (x < -1000000 || x > 1000000) o.fail("out of range", key);
-      out = static_cast<int>(x);
-    };
-    small_int("frames", so.frames);
-    small_int("width", so.width);
-    small_int("height", so.height);
-    small_int("label_every", so.label_every);
-    if (o.has("fps")) so.fps = o.num("fps");
-    if (o.has("baseline")) so.baseline = o.num("baseline");
-    if (o.has("camera_height")) so.camera_height = o.num("camera_height");
-    if (o.has("hfov_deg")) so.hfov_deg = o.num("hfov_deg");
-    if (o.has("speed")) so.speed = o.num("speed");
-    if (o.has("noise_sigma")) so.noise_sigma = o.num("noise_sigma");
+    features::synth::synth_options_table().check_known(o, options::kConfig);
+    features::synth::synth_options_table().read(so, o, options::kConfig);
     try {
       so.validate();
     } catch (const Error& e) {

@@ -58,10 +58,7 @@ class FileLock {
 };
 
 json synth_json(const features::synth::SynthOptions& o) {
-  return {{"scene", o.scene},   {"seed", o.seed},         {"frames", o.frames},
-          {"width", o.width},   {"height", o.height},     {"label_every", o.label_every},
-          {"fps", o.fps},       {"baseline", o.baseline}, {"camera_height", o.camera_y()},
-          {"hfov_deg", o.hfov_deg}, {"speed", o.speed},   {"noise_sigma", o.noise_sigma}};
+  return features::synth::synth_options_table().to_json(o, options::kFile);
 }
 
 features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {

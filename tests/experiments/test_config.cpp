@@ -120,7 +120,7 @@ TEST(ExperimentConfig, BadInputIsOneErrorNamingTheFileAndTheField) {
       {R"({"sweep": {"grid": [0, 0]}})", "sweep", "same parameters"},
       {R"({"sequences": {"c": {"synthetic": {"scene": "corridor", "frames": 0}}}})", "sequences.c.synthetic.frames", ""},
       {R"({"sequences": {"c": {"video": "x"}}})", "sequences.c", "synthetic"},
-      {R"({"sequences": {"c": {"synthetic": {"scene": "corridor", "fov": 3}}}})", "sequences.c.synthetic.fov", "unknown"},
+      {R"({"sequences": {"c": {"synthetic": {"scene": "corridor", "fov": 3}}}})", "sequences.c.synthetic.fov", "is not an option of make_sequence"},
   };
   for (const auto& c : cases) {
     json j = base();

@@ -9,6 +9,7 @@
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/forest/params.hpp"
 #include "smseg/stacks/extract.hpp"
+#include "smseg/synth/synth.hpp"
 
 namespace smseg::python {
 
@@ -44,14 +45,15 @@ nlohmann::json table_json(const options::Table<S>& table) {
 py::object option_tables() {
   return to_python({{"training", table_json(forest::train_params_table())},
                     {"extract_features", table_json(features::extract_options_table())},
-                    {"evaluate", table_json(eval::eval_options_table())}});
+                    {"evaluate", table_json(eval::eval_options_table())},
+                    {"make_sequence", table_json(features::synth::synth_options_table())}});
 }
 
 }  // namespace
 
 void bind_options(py::module_& m) {
   m.def("option_tables", &option_tables,
-        "The declared options of training, extract_features and evaluate: per field its key, command-line "
+        "The declared options of training, extract_features, evaluate and make_sequence: per field its key, command-line "
         "flag, config and Python spellings, type, help, surfaces and default.");
 }
 

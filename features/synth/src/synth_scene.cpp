@@ -3,6 +3,8 @@
 // synth_rooms.cpp, their building blocks in synth_builder.hpp.
 #include "synth_builder.hpp"
 
+#include "smseg/common/options.hpp"
+
 namespace smseg::features::synth {
 
 using namespace build;
@@ -24,6 +26,57 @@ std::vector<ClassInfo> classes(const std::string& scene) {
   // Floor, wall and ceiling as in the other scenes; the table red like furniture, objects orange.
   return {{"floor", 0, {120, 190, 250}}, {"wall", 1, {30, 50, 160}},   {"ceiling", 2, {40, 170, 60}},
           {"table", 3, {210, 30, 30}},   {"object", 4, {255, 160, 0}}};
+}
+
+namespace {
+
+std::string scene_name(const std::string& name, const std::string& field) {
+  if (name != "corridor" && name != "lab" && name != "tabletop")
+    throw Error("", field, "is \"" + name + "\", expected \"corridor\", \"lab\" or \"tabletop\"");
+  return name;
+}
+std::string same_name(const std::string& s) { return s; }
+
+}  // namespace
+
+const options::Table<SynthOptions>& synth_options_table() {
+  using O = SynthOptions;
+  using options::kCommandLine;
+  static const options::Table<O> table = [] {
+    // Files: run-experiment's key of a generated sequence (its cache folder's name).
+    options::Table<O> t("make_sequence", kCommandLine | options::kConfig | options::kFile);
+    t.named("scene", "--scene",
+            "corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling it; also writes "
+            "instance images)",
+            +[](O& o) -> std::string& { return o.scene; }, "corridor | lab | tabletop", &scene_name, &same_name);
+    t.number("seed", "--seed", "random seed for layout, textures, people and noise",
+             +[](O& o) -> std::uint64_t& { return o.seed; }, std::uint64_t{0},
+             std::numeric_limits<std::uint64_t>::max());
+    t.number("frames", "--frames", "number of frames", +[](O& o) -> int& { return o.frames; }, 1, 100000);
+    // The command line gives both as --size WIDTHxHEIGHT.
+    t.number("width", "", "image width in pixels", +[](O& o) -> int& { return o.width; }, 16, 4096)
+        .only(options::kConfig | options::kFile);
+    t.number("height", "", "image height in pixels", +[](O& o) -> int& { return o.height; }, 16, 4096)
+        .only(options::kConfig | options::kFile);
+    t.number("label_every", "--label-every",
+             "mark every Nth frame as labelled in the manifest; label images are written for every frame",
+             +[](O& o) -> int& { return o.label_every; }, 1, 100000);
+    t.number("fps", "--fps", "frame rate in Hz (12, as in the thesis)", +[](O& o) -> double& { return o.fps; }, 1e-3,
+             240.0);
+    t.number("baseline", "--baseline", "stereo baseline in metres", +[](O& o) -> double& { return o.baseline; }, 1e-3,
+             1.0);
+    t.optional_number("camera_height", "--camera-height",
+                      "camera height above the floor in metres (default 1.0; tabletop 1.15, the table top + 0.4)",
+                      +[](O& o) -> std::optional<double>& { return o.camera_height; }, 0.3, 2.0)
+        .written_as([](const O& o) { return nlohmann::json(o.camera_y()); });
+    t.number("hfov_deg", "--hfov", "horizontal field of view in degrees", +[](O& o) -> double& { return o.hfov_deg; },
+             20.0, 120.0);
+    t.number("speed", "--speed", "mean robot speed in m/s", +[](O& o) -> double& { return o.speed; }, 0.0, 2.0);
+    t.number("noise_sigma", "--noise", "sensor read noise, grey levels of 255",
+             +[](O& o) -> double& { return o.noise_sigma; }, 0.0, 50.0);
+    return t;
+  }();
+  return table;
 }
 
 void SynthOptions::validate() const {

@@ -6,6 +6,7 @@
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/option_names.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/synth/synth.hpp"
 
 int main(int argc, char** argv) {
@@ -25,24 +26,8 @@ int main(int argc, char** argv) {
   int montage_frames = 4;
   double montage_scale = 1.0;
   bool quiet = false;
-  app.add_option("--scene", o.scene,
-                 "scene: corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling "
-                 "it; also writes instance images) (default corridor)")
-      ->check(CLI::IsMember({"corridor", "lab", "tabletop"}));
-  app.add_option("--seed", o.seed, "random seed for layout, textures, people and noise (default 1)")
-      ->check(smseg::kDecimalDigits);
-  app.add_option("--frames", o.frames, "number of frames (default 300)");
-  app.add_option("--size", size, "image size WIDTHxHEIGHT (default 320x240)");
-  app.add_option("--label-every", o.label_every,
-                 "mark every Nth frame as labelled in the manifest; label images are written for every frame "
-                 "(default 10)");
-  app.add_option("--fps", o.fps, "frame rate in Hz (default 12, as in the thesis)");
-  app.add_option("--baseline", o.baseline, "stereo baseline in metres (default 0.12)");
-  app.add_option("--camera-height", o.camera_height,
-                 "camera height above the floor in metres (default 1.0; tabletop 1.15, the table top + 0.4)");
-  app.add_option("--hfov", o.hfov_deg, "horizontal field of view in degrees (default 66)");
-  app.add_option("--speed", o.speed, "mean robot speed in m/s (default 0.45)");
-  app.add_option("--noise", o.noise_sigma, "sensor read noise, grey levels of 255 (default 2)");
+  synth::synth_options_table().add_to(app, o);
+  app.add_option("--size", size, "image size WIDTHxHEIGHT")->capture_default_str();
   app.add_option("-o,--output", out, "output folder (created; existing files of the same names are replaced)")
       ->required();
   app.add_option("--montage", montage,
@@ -58,12 +43,10 @@ int main(int argc, char** argv) {
     o.height = std::stoi(m[2]);
     o.progress = !quiet;
     if (montage_frames < 1) throw smseg::UsageError("", "--montage-frames", "must be at least 1");
-    static const smseg::OptionNames kOptionOf = {
-        {"scene", "--scene"},         {"frames", "--frames"},   {"width", "--size (width)"},
-        {"height", "--size (height)"}, {"label_every", "--label-every"}, {"fps", "--fps"},
-        {"baseline", "--baseline"},   {"camera_height", "--camera-height"}, {"hfov_deg", "--hfov"},
-        {"speed", "--speed"},         {"noise_sigma", "--noise"}};
-    smseg::validate_options(kOptionOf, [&] { o.validate(); });
+    smseg::OptionNames option_of = synth::synth_options_table().option_names();
+    option_of["width"] = "--size (width)";
+    option_of["height"] = "--size (height)";
+    smseg::validate_options(option_of, [&] { o.validate(); });
     const Sequence seq = synth::make_sequence(o, out);
     if (!montage.empty()) {
       std::vector<int> frames;

@@ -13,7 +13,10 @@ import pytest
 import smseg
 
 # The tools that take each struct whole (label-stream takes parts of two of them).
-TOOLS = {"training": "train-forest", "extract_features": "extract-features", "evaluate": "eval-forest"}
+TOOLS = {"training": "train-forest", "extract_features": "extract-features", "evaluate": "eval-forest",
+         "make_sequence": "make-sequence"}
+# Point parameters (the rest: a config's "synthetic" sequences).
+POINT_TABLES = ["evaluate", "extract_features", "training"]
 # Estimator parameters that are not training parameters: how to run, what to read.
 ESTIMATOR_EXTRAS = {"n_jobs", "features", "learned_from"}
 
@@ -43,9 +46,9 @@ def test_every_command_line_field_is_in_its_tools_help(table, run_tool):
     assert "--no-such-option" not in flags
 
 
-def check_config(run_tool, tmp_path, fixed, sweep=None):
+def check_config(run_tool, tmp_path, fixed, sweep=None, synthetic=None):
     config = {"format": "smseg-experiment", "version": 1, "name": "surfaces",
-              "sequences": {"s": {"synthetic": {"frames": 12, "width": 64, "height": 48}}},
+              "sequences": {"s": {"synthetic": synthetic or {"frames": 12, "width": 64, "height": 48}}},
               "fixed": {"train": "s", "train_frames": "0:6", "test_frames": "6:", **fixed}}
     if sweep:
         config["sweep"] = sweep
@@ -68,7 +71,7 @@ def other_values(f):
     return [d * 2, d / 2, 0.5, 1.5]
 
 
-@pytest.mark.parametrize("table", sorted(TOOLS))
+@pytest.mark.parametrize("table", POINT_TABLES)
 def test_every_config_field_reaches_the_points(table, run_tool, tmp_path):
     """A sweep over the default and another value gives two points: a key whose value were dropped
     on the way would make them one point (run-experiment refuses two points of the same parameters)."""
@@ -86,6 +89,15 @@ def test_every_config_field_reaches_the_points(table, run_tool, tmp_path):
         else:
             pytest.fail(f"{f['config_key']}: no second value reached a point: {tried}")
     bad = check_config(run_tool, tmp_path, {"no_such_key": 1})
+    assert bad.returncode != 0 and "no_such_key" in bad.stderr
+
+
+def test_every_synthetic_sequence_field_is_a_key_of_synthetic_sequences(run_tool, tmp_path):
+    for f in fields_on("make_sequence", "config"):
+        value = f["default"] if f["default"] is not None else 1.2
+        r = check_config(run_tool, tmp_path, {}, synthetic={f["config_key"]: value})
+        assert r.returncode == 0, (f["config_key"], r.stderr)
+    bad = check_config(run_tool, tmp_path, {}, synthetic={"no_such_key": 1})
     assert bad.returncode != 0 and "no_such_key" in bad.stderr
 
 

@@ -61,6 +61,11 @@
 
 #include "smseg/sequence/sequence.hpp"
 
+namespace smseg::options {
+template <class S>
+class Table;  // smseg/common/options.hpp
+}
+
 namespace smseg::features::synth {
 
 /// The classes, in this order (their positions in Sequence::classes). The tabletop scene has the first
@@ -95,6 +100,10 @@ struct SynthOptions {
   double cx() const { return (width - 1) / 2.0; }
   double cy() const { return (height - 1) / 2.0; }
 };
+
+/// SynthOptions' fields, declared once (options.hpp): make-sequence's options (but --size), the
+/// "synthetic" sequences of run-experiment configs, and the key a generated sequence is cached by.
+const options::Table<SynthOptions>& synth_options_table();
 
 inline constexpr double kTableHeight = 0.75;          ///< tabletop: height of the table top, metres
 inline constexpr double kTabletopCameraHeight = 1.15;  ///< tabletop: default camera height (table + 0.4 m)
