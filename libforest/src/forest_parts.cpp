@@ -1,6 +1,7 @@
 // A forest trained in parts (tree ranges) and merged: the "smseg-forest-part" format (see parts.hpp).
 #include <algorithm>
 #include <charconv>
+#include <new>
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/parts.hpp"
@@ -98,7 +99,11 @@ ForestPart load_forest_part(const std::filesystem::path& path) {
   check_format(j, kPartFormat, {kPartVersion});
   ForestPart part;
   part.file = path;
-  part.forest = forest_from_json(j.at("forest").json(), path);
+  try {
+    part.forest = forest_from_json(j.at("forest").json(), path);
+  } catch (const std::bad_alloc&) {  // the parsed file and the forest side by side did not fit
+    throw Error(path.string(), "", "out of memory building the forest it holds");
+  }
   const JsonView trees = j.at("trees");
   part.range.begin = static_cast<int>(std::clamp<std::int64_t>(trees.integer("begin"), -1, 1 << 30));
   part.range.end = static_cast<int>(std::clamp<std::int64_t>(trees.integer("end"), -1, 1 << 30));

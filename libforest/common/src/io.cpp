@@ -1,6 +1,9 @@
 #include "smseg/common/io.hpp"
 #include "smseg/common/output.hpp"
 
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,6 +16,9 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <new>
+#include <limits>
+#include <optional>
 #include <sstream>
 
 namespace smseg {
@@ -63,16 +69,23 @@ void write_json_atomic(const fs::path& path, const Json& j, int indent) {
   write_file_atomic(path, j.dump(indent) + "\n");
 }
 
-std::string why_not_a_file(const fs::path& path) {
-  std::error_code ec;
-  const fs::file_status st = fs::status(path, ec);
-  if (!fs::exists(st)) return "does not exist";
-  if (fs::is_directory(st)) return "is a folder, expected a file";
-  if (!fs::is_regular_file(st)) return "is not a regular file";
-  return {};
+namespace {
+
+/// What a file of this mode is when it is not a regular file, in a few words; empty for a regular file.
+std::string why_not_regular(mode_t mode) {
+  if (S_ISREG(mode)) return {};
+  if (S_ISDIR(mode)) return "is a folder, expected a file";
+  // A FIFO or socket may never end (or never start: opening a FIFO waits for a writer), and a device
+  // is not a file someone wrote: none is taken as an input.
+  if (S_ISFIFO(mode)) return "is a FIFO (named pipe), expected a regular file";
+  if (S_ISSOCK(mode)) return "is a socket, expected a regular file";
+  if (S_ISCHR(mode) || S_ISBLK(mode)) return "is a device, expected a regular file";
+  return "is not a regular file";
 }
 
-namespace {
+std::string mib_text(std::uintmax_t bytes) {
+  return bytes >= kMiB ? std::to_string(bytes / kMiB) + " MiB" : std::to_string(bytes) + " bytes";
+}
 
 std::string describe_limit(std::uintmax_t max_bytes) {
   if (max_bytes % kMiB == 0) return std::to_string(max_bytes / kMiB) + " MiB";
@@ -81,6 +94,53 @@ std::string describe_limit(std::uintmax_t max_bytes) {
 
 [[noreturn]] void fail_too_large(const fs::path& path, std::uintmax_t max_bytes) {
   throw Error(path.string(), "", "is larger than the " + describe_limit(max_bytes) + " this reader accepts");
+}
+
+/// The address space this process may still take (its RLIMIT_AS, `ulimit -v`, less what it maps now),
+/// or nullopt when it has no such limit.
+std::optional<std::uintmax_t> address_space_left() {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_AS, &limit) != 0 || limit.rlim_cur == RLIM_INFINITY) return std::nullopt;
+  std::uintmax_t pages = 0;
+  if (FILE* statm = std::fopen("/proc/self/statm", "r")) {
+    if (std::fscanf(statm, "%ju", &pages) != 1) pages = 0;
+    std::fclose(statm);
+  }
+  const std::uintmax_t used = pages * static_cast<std::uintmax_t>(::sysconf(_SC_PAGESIZE));
+  return limit.rlim_cur > used ? limit.rlim_cur - used : 0;
+}
+
+/// Refuses, naming the file, to start a read that needs more memory than the process may take: the
+/// answer comes before the allocation that would fail, not as a bare "out of memory" half-way.
+void require_memory(const fs::path& path, std::uintmax_t file_bytes) {
+  const std::optional<std::uintmax_t> left = address_space_left();
+  if (!left || file_bytes <= *left) return;
+  throw Error(path.string(), "",
+              "is " + mib_text(file_bytes) + "; reading it needs about " + mib_text(file_bytes) +
+                  " of memory, and this process may take only " + mib_text(*left) +
+                  " more (its address-space limit, ulimit -v)");
+}
+
+[[noreturn]] void fail_out_of_memory(const fs::path& path, std::uintmax_t file_bytes, const char* doing) {
+  throw Error(path.string(), "", "out of memory " + std::string(doing) + " (the file is " + mib_text(file_bytes) + ")");
+}
+
+/// Closes a file descriptor when the reading ends, thrown out of or not.
+struct FdCloser {
+  int fd;
+  ~FdCloser() { ::close(fd); }
+};
+
+/// Appends what fd holds to bytes until the end of the file or until bytes passes max_bytes.
+void read_to_end(int fd, const fs::path& path, std::string& bytes, std::uintmax_t max_bytes) {
+  std::array<char, 16384> chunk;
+  while (bytes.size() <= max_bytes) {
+    const ssize_t n = ::read(fd, chunk.data(), chunk.size());
+    if (n < 0 && errno == EINTR) continue;
+    if (n < 0) throw Error(path.string(), "", std::string("read failed: ") + std::strerror(errno));
+    if (n == 0) return;
+    bytes.append(chunk.data(), static_cast<std::size_t>(n));
+  }
 }
 
 /// "line L, column C" of the byte before offset in text (nlohmann counts bytes from 1).
@@ -98,43 +158,131 @@ std::string line_and_column(std::string_view text, std::size_t byte) {
   return "line " + std::to_string(line) + ", column " + std::to_string(col);
 }
 
+/// The deepest nesting of arrays and objects a JSON file may have. Our formats nest under ten levels;
+/// nlohmann copies and prints a document by recursion, one call per level, so a file nested
+/// 100,000 deep would overflow the stack of whatever copies it after reading.
+constexpr std::size_t kMaxJsonDepth = 256;
+
+/// The offset of the first bracket that opens more than kMaxJsonDepth levels, or npos. Brackets inside
+/// strings do not count; the text need not be valid JSON (the parser says what else is wrong).
+std::size_t too_deep_at(std::string_view text) {
+  std::size_t depth = 0;
+  bool in_string = false, escaped = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (escaped) escaped = false;
+      else if (c == '\\') escaped = true;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) return i;
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+  return std::string_view::npos;
+}
+
+/// nlohmann's own DOM builder (what Json::parse uses, so the document is the same), which also counts
+/// what the document takes in memory as it is built and stops when the count passes a budget: a
+/// document the process has no room for is refused before the allocation that would fail. The count
+/// is of libstdc++'s layout, rounded up (a forest file parses into about 11 times its size).
+class BudgetedDomParser : public nlohmann::detail::json_sax_dom_parser<Json> {
+ public:
+  using Base = nlohmann::detail::json_sax_dom_parser<Json>;
+  struct OverBudget {};
+
+  BudgetedDomParser(Json& root, std::uintmax_t budget) : Base(root), budget_(budget) {}
+
+  bool null() { return charge(kSlot) && Base::null(); }
+  bool boolean(bool v) { return charge(kSlot) && Base::boolean(v); }
+  bool number_integer(number_integer_t v) { return charge(kSlot) && Base::number_integer(v); }
+  bool number_unsigned(number_unsigned_t v) { return charge(kSlot) && Base::number_unsigned(v); }
+  bool number_float(number_float_t v, const string_t& s) { return charge(kSlot) && Base::number_float(v, s); }
+  bool string(string_t& v) { return charge(kSlot + kString + heap_chars(v.size())) && Base::string(v); }
+  bool binary(binary_t& v) { return charge(kSlot + kString + v.size()) && Base::binary(v); }
+  bool start_object(std::size_t n) { return charge(kSlot + kContainer) && Base::start_object(n); }
+  bool key(string_t& k) { return charge(kMember + heap_chars(k.size())) && Base::key(k); }
+  bool start_array(std::size_t n) { return charge(kSlot + kContainer) && Base::start_array(n); }
+
+ private:
+  // Bytes per value where an array holds it (16, doubled for the vector's growth), per object member
+  // (a map node with its key and value), per container and per string (the heap objects behind a value).
+  static constexpr std::uintmax_t kSlot = 32, kMember = 96, kContainer = 64, kString = 48;
+  static std::uintmax_t heap_chars(std::size_t n) { return n > 15 ? n + 17 : 0; }
+
+  bool charge(std::uintmax_t bytes) {
+    used_ += bytes;
+    if (used_ > budget_) throw OverBudget{};
+    return true;
+  }
+
+  std::uintmax_t budget_;
+  std::uintmax_t used_ = 0;
+};
+
 }  // namespace
 
+std::string why_not_a_file(const fs::path& path) {
+  struct stat st {};
+  if (::stat(path.c_str(), &st) != 0) return "does not exist";
+  return why_not_regular(st.st_mode);
+}
+
 std::string read_file(const fs::path& path, std::uintmax_t max_bytes) {
-  std::error_code ec;
-  // Devices and FIFOs are read (bounded, below); what cannot be read at all is named for what it is.
-  if (!fs::exists(path, ec) || fs::is_directory(path, ec)) throw Error(path.string(), "", why_not_a_file(path));
-  // A regular file that is too large is refused before a byte is read; anything else (a device, a
-  // FIFO, a file still growing) is read in chunks until it ends or passes the limit.
-  std::uintmax_t expected_size = 0;
-  if (fs::is_regular_file(path, ec)) {
-    expected_size = fs::file_size(path, ec);
-    if (ec) expected_size = 0;
-    if (expected_size > max_bytes) fail_too_large(path, max_bytes);
+  // Opened without waiting (a FIFO with no writer would hold the reader forever), and what was opened
+  // is checked, not the name: a file swapped for a FIFO after a look at it is refused as well.
+  const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) {
+    const int err = errno;
+    if (const std::string why = why_not_a_file(path); !why.empty()) throw Error(path.string(), "", why);  // a socket
+    throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(err));
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+  const FdCloser closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+  if (const std::string why = why_not_regular(st.st_mode); !why.empty()) throw Error(path.string(), "", why);
+  // Too large a file is refused before a byte is read (a sparse 4 GiB file at once), and so is one
+  // that the process has no room left for.
+  const auto size = static_cast<std::uintmax_t>(st.st_size);
+  if (size > max_bytes) fail_too_large(path, max_bytes);
+  require_memory(path, size);
   std::string bytes;
-  bytes.reserve(static_cast<std::size_t>(expected_size));
-  std::array<char, 16384> chunk;
-  while (bytes.size() <= max_bytes) {
-    in.read(chunk.data(), static_cast<std::streamsize>(chunk.size()));
-    bytes.append(chunk.data(), static_cast<std::size_t>(in.gcount()));
-    if (!in) break;
+  try {
+    bytes.reserve(static_cast<std::size_t>(size));
+    // A file may hold more than its size said (one still growing, or in /proc): read on to the limit.
+    read_to_end(fd, path, bytes, max_bytes);
+  } catch (const std::bad_alloc&) {
+    fail_out_of_memory(path, std::max<std::uintmax_t>(size, bytes.size()), "reading it");
   }
-  if (in.bad()) throw Error(path.string(), "", "read failed");
   if (bytes.size() > max_bytes) fail_too_large(path, max_bytes);
   return bytes;
 }
 
 Json parse_json(std::string_view text, const fs::path& file) {
+  if (const std::size_t at = too_deep_at(text); at != std::string_view::npos)
+    throw Error(file.string(), "",
+                "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels of arrays and objects at " +
+                    line_and_column(text, at + 1) + " (no file of this toolkit nests so deep)");
+  const std::optional<std::uintmax_t> left = address_space_left();
+  Json doc;
   try {
-    return Json::parse(text);
+    BudgetedDomParser builder(doc, left.value_or(std::numeric_limits<std::uintmax_t>::max()));
+    Json::sax_parse(text, &builder);
   } catch (const Json::parse_error& e) {
     throw Error(file.string(), "", "malformed JSON at " + line_and_column(text, e.byte));
   } catch (const Json::out_of_range&) {  // a number beyond a double (1e999); nlohmann gives no offset
     throw Error(file.string(), "", "a number is too large for a double (beyond 1.8e308)");
+  } catch (const BudgetedDomParser::OverBudget&) {
+    throw Error(file.string(), "",
+                "is " + mib_text(text.size()) + " of JSON; parsing it needs more than the " + mib_text(*left) +
+                    " of memory this process may still take (its address-space limit, ulimit -v)");
+  } catch (const std::bad_alloc&) {
+    fail_out_of_memory(file, text.size(), "parsing its JSON");
   }
+  return doc;
 }
 
 Json read_json(const fs::path& path, std::uintmax_t max_bytes) { return parse_json(read_file(path, max_bytes), path); }
