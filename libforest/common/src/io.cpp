@@ -2,6 +2,7 @@
 #include "smseg/common/output.hpp"
 
 #include <fcntl.h>
+#include <malloc.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -96,7 +97,7 @@ std::string describe_limit(std::uintmax_t max_bytes) {
   throw Error(path.string(), "", "is larger than the " + describe_limit(max_bytes) + " this reader accepts");
 }
 
-/// The address space this process may still take (its RLIMIT_AS, `ulimit -v`, less what it maps now),
+/// The address space this process may still take (its RLIMIT_AS, `ulimit -v`, less what it uses now),
 /// or nullopt when it has no such limit.
 std::optional<std::uintmax_t> address_space_left() {
   rlimit limit{};
@@ -106,7 +107,10 @@ std::optional<std::uintmax_t> address_space_left() {
     if (std::fscanf(statm, "%ju", &pages) != 1) pages = 0;
     std::fclose(statm);
   }
-  const std::uintmax_t used = pages * static_cast<std::uintmax_t>(::sysconf(_SC_PAGESIZE));
+  // What malloc holds free (freed by an earlier reading, kept mapped) is mapped but can be used again.
+  const std::uintmax_t reusable = ::mallinfo2().fordblks;
+  const std::uintmax_t mapped = pages * static_cast<std::uintmax_t>(::sysconf(_SC_PAGESIZE));
+  const std::uintmax_t used = mapped > reusable ? mapped - reusable : 0;
   return limit.rlim_cur > used ? limit.rlim_cur - used : 0;
 }
 
@@ -163,32 +167,74 @@ std::string line_and_column(std::string_view text, std::size_t byte) {
 /// 100,000 deep would overflow the stack of whatever copies it after reading.
 constexpr std::size_t kMaxJsonDepth = 256;
 
-/// The offset of the first bracket that opens more than kMaxJsonDepth levels, or npos. Brackets inside
+/// What parse_json must know of a JSON text before parsing it.
+struct JsonShape {
+  std::size_t too_deep_at = std::string_view::npos;  ///< the bracket that opens level kMaxJsonDepth + 1
+  std::size_t longest_token = 0;  ///< the longest string, number or literal, in bytes
+  std::size_t longest_gap = 0;    ///< the longest stretch between two of them (spaces, brackets, commas)
+};
+
+bool is_value_byte(char c) {
+  return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '-' || c == '+' || c == '.';
+}
+
+/// The end of the string whose opening quote is at text[open]: its closing quote (the first one not
+/// escaped), or the end of the text.
+std::size_t string_end(std::string_view text, std::size_t open) {
+  for (std::size_t end = open + 1; (end = text.find('"', end)) != std::string_view::npos; ++end) {
+    std::size_t backslashes = 0;
+    while (text[end - 1 - backslashes] == '\\') ++backslashes;
+    if (backslashes % 2 == 0) return end;
+  }
+  return text.size();
+}
+
+/// One pass over the text: the first bracket nested too deep, and what nlohmann's reader holds at once.
+/// It keeps each token whole in a buffer and also records every byte read since the last token began
+/// (for its error messages), so a 2 GB string or 2 GB of spaces needs several GB. Brackets inside
 /// strings do not count; the text need not be valid JSON (the parser says what else is wrong).
-std::size_t too_deep_at(std::string_view text) {
-  std::size_t depth = 0;
-  bool in_string = false, escaped = false;
+JsonShape shape_of(std::string_view text) {
+  JsonShape shape;
+  std::size_t depth = 0, gap_start = 0;
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
-    if (in_string) {
-      if (escaped) escaped = false;
-      else if (c == '\\') escaped = true;
-      else if (c == '"') in_string = false;
-    } else if (c == '"') {
-      in_string = true;
-    } else if (c == '[' || c == '{') {
-      if (++depth > kMaxJsonDepth) return i;
+    if (c == '"' || is_value_byte(c)) {
+      std::size_t end = i + 1;
+      if (c == '"') end = string_end(text, i) + 1;
+      else
+        while (end < text.size() && is_value_byte(text[end])) ++end;
+      shape.longest_token = std::max(shape.longest_token, end - i);
+      i = end - 1;
+      gap_start = end;
+      continue;
+    }
+    shape.longest_gap = std::max(shape.longest_gap, i + 1 - gap_start);
+    if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth) {
+        shape.too_deep_at = i;
+        return shape;
+      }
     } else if ((c == ']' || c == '}') && depth > 0) {
       --depth;
     }
   }
-  return std::string_view::npos;
+  return shape;
+}
+
+/// The memory nlohmann's reader may take beside the document for the longest token and stretch between
+/// tokens: a string in its buffer and in the record, spaces in the record, each grown by doubling
+/// (up to twice its length, and the old buffer beside the new one while it grows).
+std::uintmax_t reader_buffers(const JsonShape& shape) {
+  return std::max(4 * std::uintmax_t{shape.longest_token}, 3 * std::uintmax_t{shape.longest_gap});
 }
 
 /// nlohmann's own DOM builder (what Json::parse uses, so the document is the same), which also counts
 /// what the document takes in memory as it is built and stops when the count passes a budget: a
 /// document the process has no room for is refused before the allocation that would fail. The count
-/// is of libstdc++'s layout, rounded up (a forest file parses into about 11 times its size).
+/// follows libstdc++'s layout and malloc's chunks, arrays at the capacity their growth gives them (a
+/// forest file parses into about 11 times its size). It keeps room for nlohmann's destructor, which
+/// allocates a stack as long as the largest array or object: without that room, a document cut short
+/// by a failed allocation ends the process while it is freed.
 class BudgetedDomParser : public nlohmann::detail::json_sax_dom_parser<Json> {
  public:
   using Base = nlohmann::detail::json_sax_dom_parser<Json>;
@@ -196,31 +242,68 @@ class BudgetedDomParser : public nlohmann::detail::json_sax_dom_parser<Json> {
 
   BudgetedDomParser(Json& root, std::uintmax_t budget) : Base(root), budget_(budget) {}
 
-  bool null() { return charge(kSlot) && Base::null(); }
-  bool boolean(bool v) { return charge(kSlot) && Base::boolean(v); }
-  bool number_integer(number_integer_t v) { return charge(kSlot) && Base::number_integer(v); }
-  bool number_unsigned(number_unsigned_t v) { return charge(kSlot) && Base::number_unsigned(v); }
-  bool number_float(number_float_t v, const string_t& s) { return charge(kSlot) && Base::number_float(v, s); }
-  bool string(string_t& v) { return charge(kSlot + kString + heap_chars(v.size())) && Base::string(v); }
-  bool binary(binary_t& v) { return charge(kSlot + kString + v.size()) && Base::binary(v); }
-  bool start_object(std::size_t n) { return charge(kSlot + kContainer) && Base::start_object(n); }
-  bool key(string_t& k) { return charge(kMember + heap_chars(k.size())) && Base::key(k); }
-  bool start_array(std::size_t n) { return charge(kSlot + kContainer) && Base::start_array(n); }
+  bool null() { return add_value(0) && Base::null(); }
+  bool boolean(bool v) { return add_value(0) && Base::boolean(v); }
+  bool number_integer(number_integer_t v) { return add_value(0) && Base::number_integer(v); }
+  bool number_unsigned(number_unsigned_t v) { return add_value(0) && Base::number_unsigned(v); }
+  bool number_float(number_float_t v, const string_t& s) { return add_value(0) && Base::number_float(v, s); }
+  bool string(string_t& v) { return add_value(kString + heap_chars(v.size())) && Base::string(v); }
+  bool binary(binary_t& v) { return add_value(kString + v.size()) && Base::binary(v); }
+  bool key(string_t& k) { return add_member(k.size()) && Base::key(k); }
+  bool start_object(std::size_t n) { return open(false) && Base::start_object(n); }
+  bool start_array(std::size_t n) { return open(true) && Base::start_array(n); }
+  bool end_object() { return close() && Base::end_object(); }
+  bool end_array() { return close() && Base::end_array(); }
 
  private:
-  // Bytes per value where an array holds it (16, doubled for the vector's growth), per object member
-  // (a map node with its key and value), per container and per string (the heap objects behind a value).
-  static constexpr std::uintmax_t kSlot = 32, kMember = 96, kContainer = 64, kString = 48;
-  static std::uintmax_t heap_chars(std::size_t n) { return n > 15 ? n + 17 : 0; }
+  // Bytes of an array element, of an object member (a map node with its key and value, in malloc's
+  // 96-byte chunk), of an object's or array's own heap object and of a string's (the value holds a
+  // pointer to them).
+  static constexpr std::uintmax_t kSlot = 16, kMember = 96, kContainer = 64, kString = 48;
+  static std::uintmax_t heap_chars(std::size_t n) { return n > 15 ? n + 1 : 0; }
 
-  bool charge(std::uintmax_t bytes) {
+  struct Open {
+    bool array;
+    std::uintmax_t count = 0, capacity = 0;
+  };
+
+  bool open(bool array) {
+    add_value(kContainer);
+    open_.push_back({array});
+    return true;
+  }
+  bool close() {
+    open_.pop_back();
+    return true;
+  }
+  bool add_member(std::size_t key_bytes) {
+    Open& object = open_.back();
+    largest_ = std::max(largest_, ++object.count);
+    return charge(kMember + heap_chars(key_bytes), 0);
+  }
+  /// A value's own bytes, and its slot when an array holds it: the vector doubles its capacity when
+  /// full, the old and the new buffer side by side while the elements move.
+  bool add_value(std::uintmax_t bytes) {
+    if (open_.empty() || !open_.back().array) return charge(bytes, 0);
+    Open& array = open_.back();
+    largest_ = std::max(largest_, ++array.count);
+    if (array.count <= array.capacity) return charge(bytes, 0);
+    const std::uintmax_t grown = array.capacity == 0 ? 1 : 2 * array.capacity;
+    const std::uintmax_t old_buffer = kSlot * array.capacity;
+    array.capacity = grown;
+    return charge(bytes + kSlot * grown - old_buffer, old_buffer);
+  }
+  bool charge(std::uintmax_t bytes, std::uintmax_t for_a_moment) {
     used_ += bytes;
-    if (used_ > budget_) throw OverBudget{};
+    // The destructor's stack takes two slots per element of the largest container (it grows too).
+    if (used_ + for_a_moment + 2 * kSlot * largest_ > budget_) throw OverBudget{};
     return true;
   }
 
   std::uintmax_t budget_;
   std::uintmax_t used_ = 0;
+  std::uintmax_t largest_ = 0;  ///< elements of the largest array or object so far
+  std::vector<Open> open_;
 };
 
 }  // namespace
@@ -262,27 +345,33 @@ std::string read_file(const fs::path& path, std::uintmax_t max_bytes) {
 }
 
 Json parse_json(std::string_view text, const fs::path& file) {
-  if (const std::size_t at = too_deep_at(text); at != std::string_view::npos)
+  const JsonShape shape = shape_of(text);
+  if (shape.too_deep_at != std::string_view::npos)
     throw Error(file.string(), "",
                 "nested deeper than " + std::to_string(kMaxJsonDepth) + " levels of arrays and objects at " +
-                    line_and_column(text, at + 1) + " (no file of this toolkit nests so deep)");
+                    line_and_column(text, shape.too_deep_at + 1) + " (no file of this toolkit nests so deep)");
   const std::optional<std::uintmax_t> left = address_space_left();
-  Json doc;
+  const std::uintmax_t reader_memory = reader_buffers(shape);
+  const auto no_room = [&] {
+    return Error(file.string(), "",
+                 "is " + mib_text(text.size()) + " of JSON; parsing it would take more than the " + mib_text(*left) +
+                     " of memory this process may still take (its address-space limit, ulimit -v)");
+  };
+  if (left && reader_memory > *left) throw no_room();
   try {
-    BudgetedDomParser builder(doc, left.value_or(std::numeric_limits<std::uintmax_t>::max()));
+    Json doc;  // in here, so that a document cut short is freed before the error is made
+    BudgetedDomParser builder(doc, left ? *left - reader_memory : std::numeric_limits<std::uintmax_t>::max());
     Json::sax_parse(text, &builder);
+    return doc;
   } catch (const Json::parse_error& e) {
     throw Error(file.string(), "", "malformed JSON at " + line_and_column(text, e.byte));
   } catch (const Json::out_of_range&) {  // a number beyond a double (1e999); nlohmann gives no offset
     throw Error(file.string(), "", "a number is too large for a double (beyond 1.8e308)");
   } catch (const BudgetedDomParser::OverBudget&) {
-    throw Error(file.string(), "",
-                "is " + mib_text(text.size()) + " of JSON; parsing it needs more than the " + mib_text(*left) +
-                    " of memory this process may still take (its address-space limit, ulimit -v)");
+    throw no_room();
   } catch (const std::bad_alloc&) {
     fail_out_of_memory(file, text.size(), "parsing its JSON");
   }
-  return doc;
 }
 
 Json read_json(const fs::path& path, std::uintmax_t max_bytes) { return parse_json(read_file(path, max_bytes), path); }

@@ -156,17 +156,29 @@ TEST(ReadLimits, NoRoomForAFileIsSaidNamingTheFileBeforeItIsRead) {
   EXPECT_EQ(big.rfind(sparse.string() + ": is 200 MiB; reading it needs about 200 MiB of memory, and this process may take only ", 0), 0u)
       << big;
   EXPECT_NE(big.find("(its address-space limit, ulimit -v)"), std::string::npos) << big;
-  // A file that fits, but whose parsed document does not: 8 MiB of small numbers parse into ~128 MiB.
-  const fs::path numbers = dir / "tracks.json";
+  // A file that fits, but whose parsed document does not: 8 MiB of object members parse into ~60 MiB,
+  // and 8 MiB of small numbers in one array into 64 MiB (128 MiB while the array grows). Counted as
+  // they are read, and refused before the allocation that would fail (which, in nlohmann's destructor
+  // of the document cut short, could end the process).
+  const fs::path members = dir / "stacks.json", numbers = dir / "tracks.json";
+  {
+    std::ofstream out(members);
+    out << "{\"k0\":0";
+    for (int i = 1; out.tellp() < 8 * std::streamoff(smseg::kMiB); ++i) out << ",\"k" << i << "\":0";
+    out << "}";
+  }
   {
     std::ofstream out(numbers);
     out << "[0";
     for (int i = 0; i < 4 * 1024 * 1024 - 1; ++i) out << ",0";
     out << "]";
   }
-  const std::string parsed = error_under_address_limit(48 * smseg::kMiB, [&] { smseg::read_json(numbers); });
-  EXPECT_EQ(parsed.rfind(numbers.string() + ": is 8 MiB of JSON; parsing it needs more than the ", 0), 0u) << parsed;
-  // With room enough, the same file is read.
+  for (const fs::path& file : {members, numbers}) {
+    const std::string parsed = error_under_address_limit(48 * smseg::kMiB, [&] { smseg::read_json(file); });
+    EXPECT_EQ(parsed.rfind(file.string() + ": is 8 MiB of JSON; parsing it would take more than the ", 0), 0u) << parsed;
+  }
+  // With room enough, both are read.
+  EXPECT_EQ(error_under_address_limit(1024 * smseg::kMiB, [&] { smseg::read_json(members); }), "(accepted)");
   EXPECT_EQ(error_under_address_limit(1024 * smseg::kMiB, [&] { smseg::read_json(numbers); }), "(accepted)");
   fs::remove_all(dir);
 }
