@@ -14,21 +14,13 @@ using smseg::test::error_of;
 
 namespace {
 
-SyntheticOptions room(std::uint64_t seed) {
-  SyntheticOptions o;
-  o.width = 64;
-  o.height = 48;
-  o.frames = 4;
-  o.features = 3;
-  o.seed = seed;
-  return o;
-}
+/// A small synthetic room: 4 frames of 64x48 with 3 features, of the given seed (other frames).
+SyntheticOptions room(std::uint64_t seed) { return SyntheticOptions{64, 48, 4, 3, 4, seed}; }
 
-TrainParams params() {
+TrainParams two_trees() {
   TrainParams p;
   p.K = 60;
   p.M = 2;
-  p.seed = 1;
   return p;
 }
 
@@ -42,7 +34,7 @@ nlohmann::json data_of(const std::string& stacks_digest, std::vector<int> frames
 TEST(ForestPartsData, PartsOfOtherTrainingDataAreNotMerged) {
   const fs::path dir = temp_dir("parts_data");
   const SyntheticData first_frames = make_synthetic(room(11)), other_frames = make_synthetic(room(12));
-  const TrainParams p = params();
+  const TrainParams p = two_trees();
   const fs::path a = dir / "a.json", b = dir / "b.json", c = dir / "c.json", d = dir / "d.json";
   save_forest_part(train_forest_trees(first_frames.data, p, {0, 1}), {0, 1}, a, data_of("00aa", {0, 1, 2, 3}));
   save_forest_part(train_forest_trees(first_frames.data, p, {1, 2}), {1, 2}, b, data_of("00aa", {0, 1, 2, 3}));
