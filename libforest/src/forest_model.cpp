@@ -1,6 +1,7 @@
 // The forest model: statistics and the "smseg-forest" JSON format (version 1).
 #include <cmath>
 #include <limits>
+#include <new>
 #include <set>
 #include <utility>
 
@@ -186,7 +187,14 @@ void save_forest(const Forest& forest, const std::filesystem::path& path) {
   write_json_atomic(path, forest_to_json(forest), -1);
 }
 
-Forest load_forest(const std::filesystem::path& path) { return forest_from_json(read_json(path, kMaxLargeFileBytes), path); }
+Forest load_forest(const std::filesystem::path& path) {
+  const nlohmann::json doc = read_json(path, kMaxLargeFileBytes);
+  try {
+    return forest_from_json(doc, path);
+  } catch (const std::bad_alloc&) {  // the parsed file and the forest side by side did not fit
+    throw Error(path.string(), "", "out of memory building the forest it holds");
+  }
+}
 
 void check_compatible(const Forest& forest, const std::vector<std::string>& classes,
                       const std::vector<std::string>& features, const std::filesystem::path& file) {

@@ -1,6 +1,7 @@
 // A forest trained in parts (tree ranges) and merged: the "smseg-forest-part" format (see parts.hpp).
 #include <algorithm>
 #include <charconv>
+#include <new>
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/parts.hpp"
@@ -42,6 +43,25 @@ std::string first_difference(const nlohmann::json& a, const nlohmann::json& b) {
   }
   return {};
 }
+
+/// Error unless part records what first records of its training data (frames, work folders): trees
+/// of other data in one forest would pass every other check.
+void check_same_training_data(const ForestPart& first, const ForestPart& part) {
+  const nlohmann::json& a = first.training_data;
+  const nlohmann::json& b = part.training_data;
+  if (a == b) return;
+  const auto say = [&](const std::string& field, const std::string& why) {
+    throw Error(part.file.string(), field, why + " (trees of other data cannot be merged into one forest)");
+  };
+  if (a.is_null() || b.is_null())
+    say("training_data", std::string(a.is_null() ? "recorded here, not in " : "not recorded here, but in ") +
+                             first.file.string());
+  if (a.is_object() && b.is_object())
+    for (const auto& [key, value] : a.items())
+      if (!b.contains(key) || b.at(key) != value)
+        say("training_data." + key, "differs from " + first.file.string() + "'s: the parts were trained on other data");
+  say("training_data", "differs from " + first.file.string() + "'s: the parts were trained on other data");
+}
 }  // namespace
 
 void TreeRange::validate(int M, const std::string& field, const std::string& file) const {
@@ -80,15 +100,17 @@ std::vector<TreeRange> split_trees(int M, int parts, const std::string& option) 
   return ranges;
 }
 
-void save_forest_part(const Forest& part, TreeRange range, const std::filesystem::path& path) {
+void save_forest_part(const Forest& part, TreeRange range, const std::filesystem::path& path,
+                      const nlohmann::json& training_data) {
   range.validate(part.params.M, "trees", path.string());
   if (static_cast<int>(part.trees.size()) != range.size())
     throw Error(path.string(), "trees",
                 "range " + range.to_string() + " but the part holds " + std::to_string(part.trees.size()) + " trees");
-  const nlohmann::json j = {{"format", kPartFormat},
-                            {"version", kPartVersion},
-                            {"trees", {{"begin", range.begin}, {"end", range.end}}},
-                            {"forest", forest_to_json(part)}};
+  nlohmann::json j = {{"format", kPartFormat},
+                      {"version", kPartVersion},
+                      {"trees", {{"begin", range.begin}, {"end", range.end}}},
+                      {"forest", forest_to_json(part)}};
+  if (!training_data.is_null()) j["training_data"] = training_data;
   write_json_atomic(path, j, -1);
 }
 
@@ -98,7 +120,11 @@ ForestPart load_forest_part(const std::filesystem::path& path) {
   check_format(j, kPartFormat, {kPartVersion});
   ForestPart part;
   part.file = path;
-  part.forest = forest_from_json(j.at("forest").json(), path);
+  try {
+    part.forest = forest_from_json(j.at("forest").json(), path);
+  } catch (const std::bad_alloc&) {  // the parsed file and the forest side by side did not fit
+    throw Error(path.string(), "", "out of memory building the forest it holds");
+  }
   const JsonView trees = j.at("trees");
   part.range.begin = static_cast<int>(std::clamp<std::int64_t>(trees.integer("begin"), -1, 1 << 30));
   part.range.end = static_cast<int>(std::clamp<std::int64_t>(trees.integer("end"), -1, 1 << 30));
@@ -106,6 +132,7 @@ ForestPart load_forest_part(const std::filesystem::path& path) {
   if (static_cast<int>(part.forest.trees.size()) != part.range.size())
     trees.fail("is " + part.range.to_string() + " but forest.trees holds " + std::to_string(part.forest.trees.size()) +
                " trees");
+  if (const auto data = j.maybe("training_data")) part.training_data = data->json();
   return part;
 }
 
@@ -128,6 +155,7 @@ Forest merge_forest_parts(const std::vector<ForestPart>& parts) {
     if (!diff.empty())
       throw Error(p->file.string(), diff,
                   "differs from " + first.file.string() + "'s: the parts come from different trainings");
+    check_same_training_data(first, *p);
     if (p->range.begin < next)
       throw Error(p->file.string(), "trees",
                   p->range.to_string() + " overlaps " + previous->file.string() + "'s " + previous->range.to_string());

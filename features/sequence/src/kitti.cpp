@@ -8,6 +8,7 @@
 
 #include "smseg/sequence/camvid.hpp"
 #include "smseg/sequence/image_file.hpp"
+#include "sequence_parse.hpp"
 
 namespace smseg::features {
 
@@ -21,12 +22,16 @@ struct NumberedLine {
 };
 
 std::vector<NumberedLine> read_word_lines(const fs::path& file) {
-  std::istringstream in(read_file(file));
+  const std::string text = read_file(file);
   std::vector<NumberedLine> lines;
-  std::string text;
-  for (int number = 1; std::getline(in, text); ++number) {
-    NumberedLine line{number, {}};
-    std::istringstream words(text);
+  // Lines are cut from the text where it lies (a copy of a 256 MiB file would double what it takes).
+  int number = 0;
+  for (std::size_t begin = 0; begin < text.size();) {
+    const std::size_t newline = text.find('\n', begin);
+    const std::size_t end = newline == std::string::npos ? text.size() : newline;
+    NumberedLine line{++number, {}};
+    std::istringstream words(text.substr(begin, end - begin));
+    begin = end + 1;
     for (std::string w; words >> w;) line.words.push_back(w);
     if (!line.words.empty()) lines.push_back(std::move(line));
   }
@@ -142,6 +147,9 @@ std::vector<Pose> read_kitti_poses(const fs::path& file, double camera_height) {
       p.t[r] = flip * m[4 * r + 3];
     }
     p.t[1] += camera_height;
+    if (!is_rotation(p.R))
+      throw Error(file.string(), "line " + std::to_string(line.number),
+                  "its first three columns are not a rotation matrix (R R^T = I, det R = 1)");
     poses.push_back(p);
   }
   if (poses.empty()) throw Error(file.string(), "", "no poses");
@@ -207,6 +215,7 @@ Sequence import_kitti(const fs::path& dir, const fs::path& out, const KittiImpor
     seq.void_class = c.void_class;
   }
   seq.extra = {{"source", "kitti"}, {"folder", root.string()}, {"camera_height_assumed", opt.camera_height}};
+  check_before_saving(seq);
   fs::create_directories(out, ec);
   if (ec) throw Error(out.string(), "", "cannot create the folder: " + ec.message());
   save_sequence(seq);

@@ -1,11 +1,13 @@
 #include "smseg/sequence/sequence.hpp"
 
 #include "smseg/sequence/image_file.hpp"
+#include "sequence_parse.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <new>
 #include <set>
 #include <unordered_map>
 
@@ -89,24 +91,21 @@ bool Sequence::is_labelled(int frame) const {
   return std::binary_search(labelled_frames.begin(), labelled_frames.end(), frame);
 }
 
-Sequence load_sequence(const fs::path& dir_or_manifest) {
+namespace {
+
+/// The manifest a sequence argument names (a folder holding sequence.json, or the file itself).
+fs::path manifest_of(const fs::path& dir_or_manifest) {
   std::error_code ec;
-  Sequence seq;
-  if (fs::is_directory(dir_or_manifest, ec)) {
-    seq.manifest = dir_or_manifest / kManifestName;
-  } else {
-    seq.manifest = dir_or_manifest;
-  }
-  if (!fs::exists(seq.manifest, ec)) {
+  const fs::path manifest = fs::is_directory(dir_or_manifest, ec) ? dir_or_manifest / kManifestName : dir_or_manifest;
+  if (!fs::exists(manifest, ec)) {
     if (fs::is_directory(dir_or_manifest, ec))
       throw Error(dir_or_manifest.string(), "", std::string("not a sequence: no ") + kManifestName + " in it");
-    throw Error(seq.manifest.string(), "", "no such sequence (file or folder)");
+    throw Error(manifest.string(), "", "no such sequence (file or folder)");
   }
-  seq.root = seq.manifest.parent_path();
-  const Json doc = read_json(seq.manifest);
-  const JsonView j(doc, seq.manifest);
-  check_format(j, kSequenceFormat, {kSequenceVersion});
+  return manifest;
+}
 
+void parse_kind_and_size(const JsonView& j, Sequence& seq) {
   seq.name = j.has("name") ? j.str("name") : seq.root.filename().string();
   const std::string kind = j.str("kind");
   if (kind == "stereo") {
@@ -116,12 +115,13 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
   } else {
     j.fail("is \"" + kind + "\", expected \"stereo\" or \"mono\"", "kind");
   }
-
   const JsonView size = j.at("image_size");
   const auto w = size.integer("width"), h = size.integer("height");
   if (w <= 0 || h <= 0 || w > 20000 || h > 20000) size.fail("width and height must be in 1..20000");
   seq.size = cv::Size(static_cast<int>(w), static_cast<int>(h));
+}
 
+void parse_calibration(const JsonView& j, Sequence& seq) {
   const JsonView cal = j.at("calibration");
   if (auto v = cal.maybe("fx")) seq.calibration.fx = v->as_num();
   if (auto v = cal.maybe("fy")) seq.calibration.fy = v->as_num();
@@ -146,9 +146,26 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
     seq.camera_height = v->as_num();
     if (!(*seq.camera_height > 0)) v->fail("must be positive (metres above the ground)");
   }
+}
 
-  // Classes and labels.
-  const JsonView labels = j.at("labels");
+/// No two classes of one name, nor of one label value (index encoding) or colour (rgb encoding): a
+/// label image could not tell them apart.
+void check_classes_distinct(const JsonView& labels, const Sequence& seq) {
+  std::set<std::string> names;
+  std::set<int> values;
+  std::set<std::array<std::uint8_t, 3>> colours;
+  auto add = [&](const ClassInfo& c, const std::string& where) {
+    if (!names.insert(c.name).second) labels.fail("class name \"" + c.name + "\" appears twice", where);
+    if (seq.label_encoding == LabelEncoding::Index && !values.insert(c.file_value).second)
+      labels.fail("label value " + std::to_string(c.file_value) + " is used twice", where);
+    if (seq.label_encoding == LabelEncoding::Rgb && !colours.insert(c.rgb).second)
+      labels.fail("class \"" + c.name + "\": its colour is used by another class", where);
+  };
+  for (std::size_t i = 0; i < seq.classes.size(); ++i) add(seq.classes[i], "classes[" + std::to_string(i) + "]");
+  add(seq.void_class, "void");
+}
+
+void parse_classes(const JsonView& labels, Sequence& seq) {
   const std::string enc = labels.str("encoding");
   if (enc == "rgb") {
     seq.label_encoding = LabelEncoding::Rgb;
@@ -162,46 +179,33 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
   if (classes.size() > 254) classes.fail("at most 254 classes are supported");
   for (std::size_t i = 0; i < classes.size(); ++i) seq.classes.push_back(parse_class(classes.at(i)));
   seq.void_class = parse_class(labels.at("void"));
-  {
-    std::set<std::string> names;
-    std::set<int> values;
-    std::set<std::array<std::uint8_t, 3>> colours;
-    auto add = [&](const ClassInfo& c, const std::string& where) {
-      if (!names.insert(c.name).second) labels.fail("class name \"" + c.name + "\" appears twice", where);
-      if (seq.label_encoding == LabelEncoding::Index && !values.insert(c.file_value).second)
-        labels.fail("label value " + std::to_string(c.file_value) + " is used twice", where);
-      if (seq.label_encoding == LabelEncoding::Rgb && !colours.insert(c.rgb).second)
-        labels.fail("class \"" + c.name + "\": its colour is used by another class", where);
-    };
-    for (std::size_t i = 0; i < seq.classes.size(); ++i) add(seq.classes[i], "classes[" + std::to_string(i) + "]");
-    add(seq.void_class, "void");
-  }
+  check_classes_distinct(labels, seq);
+}
 
-  // Frames.
-  const JsonView frames = j.at("frames");
-  if (frames.size() == 0) frames.fail("the sequence has no frames");
-  for (std::size_t i = 0; i < frames.size(); ++i) {
-    const JsonView f = frames.at(i);
-    FrameEntry e;
-    e.left = fs::path(f.str("left"));
-    e.right = optional_path(f, "right");
-    e.disparity = optional_path(f, "disparity");
-    e.label = optional_path(f, "label");
-    e.gt_depth = optional_path(f, "gt_depth");
-    e.instances = optional_path(f, "instances");
-    // Times are given for every frame or for none (then the frame index is the time): a missing one
-    // among given ones is named where it is missing, not at the next frame that seems out of order.
-    const bool timed = frames.at(0).has("time");
-    if (f.has("time") != timed)
-      f.fail(timed ? "missing (frames[0] has a time, so every frame needs one)"
-                   : "given, but frames[0] has none (give every frame a time, or none)",
-             "time");
-    e.time = timed ? f.num("time") : static_cast<double>(i);
-    if (seq.kind == SequenceKind::Stereo && e.right.empty() && e.disparity.empty())
-      f.fail("a stereo sequence needs a \"right\" image or a \"disparity\" for every frame");
-    if (i > 0 && !(e.time > seq.frames.back().time)) f.fail("frame times must increase", "time");
-    seq.frames.push_back(std::move(e));
-  }
+FrameEntry parse_frame(const JsonView& frames, std::size_t i, const Sequence& seq) {
+  const JsonView f = frames.at(i);
+  FrameEntry e;
+  e.left = fs::path(f.str("left"));
+  e.right = optional_path(f, "right");
+  e.disparity = optional_path(f, "disparity");
+  e.label = optional_path(f, "label");
+  e.gt_depth = optional_path(f, "gt_depth");
+  e.instances = optional_path(f, "instances");
+  // Times are given for every frame or for none (then the frame index is the time): a missing one
+  // among given ones is named where it is missing, not at the next frame that seems out of order.
+  const bool timed = frames.at(0).has("time");
+  if (f.has("time") != timed)
+    f.fail(timed ? "missing (frames[0] has a time, so every frame needs one)"
+                 : "given, but frames[0] has none (give every frame a time, or none)",
+           "time");
+  e.time = timed ? f.num("time") : static_cast<double>(i);
+  if (seq.kind == SequenceKind::Stereo && e.right.empty() && e.disparity.empty())
+    f.fail("a stereo sequence needs a \"right\" image or a \"disparity\" for every frame");
+  if (i > 0 && !(e.time > seq.frames.back().time)) f.fail("frame times must increase", "time");
+  return e;
+}
+
+void parse_labelled_frames(const JsonView& labels, Sequence& seq) {
   const JsonView lf = labels.at("labelled_frames");
   for (std::size_t i = 0; i < lf.size(); ++i) {
     const auto idx = lf.at(i).as_integer();
@@ -215,27 +219,29 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
                     "] has no \"label\"");
     seq.labelled_frames.push_back(static_cast<int>(idx));
   }
+}
 
-  if (auto gt = j.maybe("ground_truth")) {
-    if (auto poses = gt->maybe("poses")) {
-      if (poses->size() != seq.frames.size())
-        poses->fail("has " + std::to_string(poses->size()) + " poses for " + std::to_string(seq.frames.size()) +
-                    " frames");
-      for (std::size_t i = 0; i < poses->size(); ++i) {
-        const JsonView p = poses->at(i);
-        Pose pose;
-        const JsonView R = p.at("R"), t = p.at("t");
-        if (R.size() != 9) R.fail("expected 9 numbers (row-major 3x3)");
-        if (t.size() != 3) t.fail("expected 3 numbers");
-        for (std::size_t k = 0; k < 9; ++k) pose.R[k] = R.at(k).as_num();
-        for (std::size_t k = 0; k < 3; ++k) pose.t[k] = t.at(k).as_num();
-        seq.gt_poses.push_back(pose);
-      }
-    }
+void parse_ground_truth_poses(const JsonView& j, Sequence& seq) {
+  const auto gt = j.maybe("ground_truth");
+  const auto poses = gt ? gt->maybe("poses") : std::nullopt;
+  if (!poses) return;
+  if (poses->size() != seq.frames.size())
+    poses->fail("has " + std::to_string(poses->size()) + " poses for " + std::to_string(seq.frames.size()) + " frames");
+  for (std::size_t i = 0; i < poses->size(); ++i) {
+    const JsonView p = poses->at(i);
+    Pose pose;
+    const JsonView R = p.at("R"), t = p.at("t");
+    if (R.size() != 9) R.fail("expected 9 numbers (row-major 3x3)");
+    if (t.size() != 3) t.fail("expected 3 numbers");
+    for (std::size_t k = 0; k < 9; ++k) pose.R[k] = R.at(k).as_num();
+    for (std::size_t k = 0; k < 3; ++k) pose.t[k] = t.at(k).as_num();
+    if (!is_rotation(pose.R)) R.fail("is not a rotation matrix");
+    seq.gt_poses.push_back(pose);
   }
-  if (j.has("extra")) seq.extra = j.at("extra").json();
+}
 
-  // Every named file must exist (decoding is left to the loaders / validate_images).
+/// Every file the frames name must exist (decoding is left to the loaders / validate_images).
+void require_named_files(const Sequence& seq) {
   for (int i = 0; i < seq.frame_count(); ++i) {
     const auto& e = seq.frames[i];
     const std::string where = "frames[" + std::to_string(i) + "]";
@@ -246,8 +252,54 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
     if (!e.gt_depth.empty()) require_file(seq, e.gt_depth, where + ".gt_depth");
     if (!e.instances.empty()) require_file(seq, e.instances, where + ".instances");
   }
+}
+
+}  // namespace
+
+bool is_rotation(const std::array<double, 9>& R) {
+  // As the tracks reader checks its poses: R R^T = I to 1e-4, and no reflection.
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c) {
+      double dot = 0;
+      for (int k = 0; k < 3; ++k) dot += R[3 * r + k] * R[3 * c + k];
+      if (!(std::abs(dot - (r == c ? 1.0 : 0.0)) <= 1e-4)) return false;
+    }
+  const double det = R[0] * (R[4] * R[8] - R[5] * R[7]) - R[1] * (R[3] * R[8] - R[5] * R[6]) +
+                     R[2] * (R[3] * R[7] - R[4] * R[6]);
+  return det > 0;
+}
+
+Sequence sequence_from_json(const Json& doc, const fs::path& manifest) {
+  Sequence seq;
+  seq.manifest = manifest;
+  seq.root = manifest.parent_path();
+  const JsonView j(doc, manifest);
+  check_format(j, kSequenceFormat, {kSequenceVersion});
+  parse_kind_and_size(j, seq);
+  parse_calibration(j, seq);
+  const JsonView labels = j.at("labels");
+  parse_classes(labels, seq);
+  const JsonView frames = j.at("frames");
+  if (frames.size() == 0) frames.fail("the sequence has no frames");
+  for (std::size_t i = 0; i < frames.size(); ++i) seq.frames.push_back(parse_frame(frames, i, seq));
+  parse_labelled_frames(labels, seq);
+  parse_ground_truth_poses(j, seq);
+  if (j.has("extra")) seq.extra = j.at("extra").json();
+  require_named_files(seq);
   return seq;
 }
+
+Sequence load_sequence(const fs::path& dir_or_manifest) {
+  const fs::path manifest = manifest_of(dir_or_manifest);
+  const Json doc = read_json(manifest);
+  try {
+    return sequence_from_json(doc, manifest);
+  } catch (const std::bad_alloc&) {  // the parsed file and the sequence side by side did not fit
+    throw Error(manifest.string(), "", "out of memory reading the sequence it describes");
+  }
+}
+
+void check_before_saving(const Sequence& seq) { sequence_from_json(sequence_to_json(seq), seq.manifest); }
 
 Json sequence_to_json(const Sequence& seq) {
   Json j;

@@ -166,3 +166,42 @@ TEST(ImportCamvid, NonUtf8AndOutOfRangeCellsAreRefusedNamingTheLine) {
   fs::remove_all(src);
   fs::remove_all(out);
 }
+
+// What the sequence reader refuses, the import refuses first, naming the CSV line: two classes of one
+// label value (the sequence.json written was unreadable), two Void rows (one was dropped silently) and
+// a video frame listed twice (it became a run of its own, written over another run of the same name,
+// or a frame of the train and the test split).
+TEST(ImportCamvid, RepeatedClassIndicesAndFramesAreRefusedNamingBothLines) {
+  const fs::path src = temp_dir("camvid_repeat"), out = temp_dir("camvid_repeat_out");
+  fs::create_directories(src / "train");
+  fs::create_directories(src / "trainannot");
+  for (const char* stem : {"A_1", "A_31", "A_61"}) {
+    cv::imwrite((src / "train" / (std::string(stem) + ".png")).string(), cv::Mat(3, 4, CV_8UC3, cv::Scalar::all(9)));
+    cv::imwrite((src / "trainannot" / (std::string(stem) + ".png")).string(), cv::Mat(3, 4, CV_8UC1, cv::Scalar(0)));
+  }
+  const auto write = [&](const std::string& classes, const std::string& frames) {
+    std::ofstream(src / "classes.csv") << "index,name,r,g,b\n" << classes;
+    std::ofstream(src / "frames.csv") << "sequence,frame,split,image,label\n" << frames;
+  };
+  const std::string row1 = "A,1,train,train/A_1.png,trainannot/A_1.png\n",
+                    row31 = "A,31,train,train/A_31.png,trainannot/A_31.png\n",
+                    row61 = "A,61,train,train/A_61.png,trainannot/A_61.png\n";
+  const std::string good_classes = "0,Sky,128,128,128\n1,Road,128,64,128\n11,Void,0,0,0\n";
+  write(good_classes, row1 + row31 + row61);
+  EXPECT_EQ(import_error(src, out), "(accepted)");
+  const fs::path classes = src / "classes.csv", frames = src / "frames.csv";
+  write("0,Sky,128,128,128\n0,Road,128,64,128\n11,Void,0,0,0\n", row1 + row31);
+  EXPECT_EQ(import_error(src, out),
+            classes.string() + ": line 3, index: is 0, as on line 2 (each class needs its own label value)");
+  write("0,Sky,128,128,128\n1,Sky,128,64,128\n11,Void,0,0,0\n", row1 + row31);
+  EXPECT_EQ(import_error(src, out), classes.string() + ": line 3, name: \"Sky\" is also the name on line 2");
+  write("0,Sky,128,128,128\n11,Void,0,0,0\n12,void,1,1,1\n", row1 + row31);
+  EXPECT_EQ(import_error(src, out), classes.string() + ": line 4, name: a second Void row (line 3 is the ignore label)");
+  write(good_classes, row1 + row31 + row31 + row61);
+  EXPECT_EQ(import_error(src, out),
+            frames.string() + ": line 4: frame 31 of sequence A is listed again (first on line 3)");
+  write(good_classes, row1 + row31 + "A,1,val,train/A_1.png,trainannot/A_1.png\n");
+  EXPECT_EQ(import_error(src, out), frames.string() + ": line 4: frame 1 of sequence A is listed again (first on line 2)");
+  fs::remove_all(src);
+  fs::remove_all(out);
+}

@@ -137,3 +137,29 @@ TEST(ImportKitti, SharedSlicesImport) {
   EXPECT_LT(length, 70);
   EXPECT_GT(seq.gt_poses.back().t[2], 10);  // mostly forward, world +Z
 }
+
+// A pose whose 3x3 part is not a rotation (a scaled or reflected matrix) is refused on import, naming
+// the poses file's line, as the tracks reader refuses it; nothing is written.
+TEST(ImportKitti, PosesThatAreNotRotationsAreRefusedNamingTheLine) {
+  const fs::path d = make_kitti_slice("kitti_not_rotation");
+  const auto message_of = [&] {
+    try {
+      import_kitti(d, d / "out", KittiImportOptions{});
+    } catch (const smseg::Error& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  const std::string first = "1 0 0 0 0 1 0 0 0 0 1 0\n", third = "1 0 0 2 0 1 0 0 0 0 1 1\n";
+  for (const std::string& second : {std::string("2 0 0 0 0 1 0 0 0 0 1 1\n"),    // scaled
+                                    std::string("-1 0 0 0 0 1 0 0 0 0 1 1\n"),   // a reflection
+                                    std::string("0 0 0 0 0 0 0 0 0 0 0 1\n")}) {  // zero
+    write_text(d / "poses.txt", first + second + third);
+    EXPECT_EQ(message_of(), (d / "poses.txt").string() +
+                                ": line 2: its first three columns are not a rotation matrix (R R^T = I, det R = 1)");
+    EXPECT_FALSE(fs::exists(d / "out" / "sequence.json"));
+  }
+  // A rotation about the vertical axis, as KITTI prints it (six digits), passes.
+  write_text(d / "poses.txt", first + "0.8660254 0 0.5 0 0 1 0 0 -0.5 0 0.8660254 1\n" + third);
+  EXPECT_EQ(message_of(), "no error");
+}

@@ -343,6 +343,23 @@ TEST_F(SequenceFormat, FieldErrorsNameTheField) {
   EXPECT_NE(error_with(j).find("no frames"), std::string::npos) << error_of();
 }
 
+// Ground-truth poses are rotations, as in a tracks file: the reader refused a scaled, reflected or
+// zero matrix in tracks.json but took it from sequence.json (and SfM's evaluation then used it).
+TEST_F(SequenceFormat, PosesThatAreNotRotationsAreRefused) {
+  const Json identity = {{"R", {1, 0, 0, 0, 1, 0, 0, 0, 1}}, {"t", {0, 1, 0}}};
+  Json j = manifest;
+  j["ground_truth"]["poses"] = {identity, identity, identity};
+  EXPECT_EQ(error_with(j), "");
+  const fs::path file = dir / "sequence.json";
+  for (const Json& R : {Json{2, 0, 0, 0, 1, 0, 0, 0, 1}, Json{-1, 0, 0, 0, 1, 0, 0, 0, 1}, Json{0, 0, 0, 0, 0, 0, 0, 0, 0}}) {
+    j["ground_truth"]["poses"][1]["R"] = R;
+    EXPECT_EQ(error_with(j), file.string() + ": ground_truth.poses[1].R: is not a rotation matrix");
+  }
+  // A rotation of a quarter turn about the vertical axis, to six digits.
+  j["ground_truth"]["poses"][1]["R"] = {0.707107, 0, 0.707107, 0, 1, 0, -0.707107, 0, 0.707107};
+  EXPECT_EQ(error_with(j), "");
+}
+
 TEST_F(SequenceFormat, MissingManifest) {
   try {
     load_sequence(dir);

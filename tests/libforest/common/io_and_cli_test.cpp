@@ -48,7 +48,7 @@ TEST(Files, AFolderWhereAFileIsExpectedIsCalledAFolder) {
   fs::create_directories(dir / "sub");
   EXPECT_EQ(smseg::why_not_a_file(dir / "sub"), "is a folder, expected a file");
   EXPECT_EQ(smseg::why_not_a_file(dir / "missing"), "does not exist");
-  EXPECT_EQ(smseg::why_not_a_file("/dev/null"), "is not a regular file");
+  EXPECT_EQ(smseg::why_not_a_file("/dev/null"), "is a device, expected a regular file");
   EXPECT_EQ(error_of([&] { smseg::read_file(dir / "sub"); }), (dir / "sub").string() + ": is a folder, expected a file");
   // Writing over a folder: the folder is named, the reason is the real one (not "Success"), and no
   // temporary file is left beside it.

@@ -8,7 +8,8 @@
 // File format "smseg-forest-part" version 1 (JSON):
 //   { "format": "smseg-forest-part", "version": 1,
 //     "trees": {"begin": A, "end": B},   // this part holds trees A..B-1 of forest.params.M
-//     "forest": {...} }                  // an "smseg-forest" holding only those trees
+//     "forest": {...},                   // an "smseg-forest" holding only those trees
+//     "training_data": {...} }           // optional: what the trainer says it trained on
 // A part is not a forest: load_forest refuses it (its format differs), so a part is never taken for
 // the whole.
 
@@ -43,16 +44,22 @@ struct ForestPart {
   std::filesystem::path file;
   TreeRange range;
   Forest forest;  ///< only the range's trees; forest.params.M is the whole forest's
+  /// What the part was trained on, as its trainer recorded it (say, each work folder's identity and
+  /// the frames taken from it); null when the part records nothing. The forest itself cannot tell: two
+  /// parts trained on other frames have the same image, classes, features and parameters.
+  nlohmann::json training_data;
 };
 
-void save_forest_part(const Forest& part, TreeRange range, const std::filesystem::path& path);  ///< atomic
+/// Writes the part atomically; training_data, when not null, is recorded beside it for the merge.
+void save_forest_part(const Forest& part, TreeRange range, const std::filesystem::path& path,
+                      const nlohmann::json& training_data = nullptr);
 /// Validates the part (format, the forest inside, its tree count against the range).
 ForestPart load_forest_part(const std::filesystem::path& path);
 
 /// The whole forest from its parts (in any order): every part must come from the same training
-/// (image, classes, features, textons, params including seed and M) and the ranges must cover
-/// 0..M-1 exactly once; otherwise one Error naming the part file and the problem (the differing
-/// field, the overlapping part, the missing trees). Tree timings are kept; stats.seconds is the sum
+/// (image, classes, features, textons, params including seed and M, and the same training_data, or
+/// none recorded by any) and the ranges must cover 0..M-1 exactly once; otherwise one Error naming the
+/// part file and the problem (the differing field, the overlapping part, the missing trees). Tree timings are kept; stats.seconds is the sum
 /// of the parts' training times (the work done, not a wall time).
 Forest merge_forest_parts(const std::vector<ForestPart>& parts);
 Forest merge_forest_parts(const std::vector<std::filesystem::path>& files);

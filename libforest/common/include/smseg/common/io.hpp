@@ -27,8 +27,7 @@ void write_file_atomic(const fs::path& path, std::string_view bytes);
 void write_json_atomic(const fs::path& path, const Json& j, int indent = 1);
 
 /// The most bytes a reader takes from one file, by what its format can hold (docs/reliability.md):
-/// a larger file, or an endless one (/dev/zero, a FIFO), is refused with one line naming the file and
-/// the limit instead of growing the process until the kernel kills it.
+/// a larger file is refused with one line naming the file and the limit, before it is read.
 inline constexpr std::uintmax_t kMiB = std::uintmax_t{1} << 20;
 /// Manifests, configs, class tables, results and other JSON/CSV written by hand or per run.
 inline constexpr std::uintmax_t kMaxTextFileBytes = 256 * kMiB;
@@ -36,18 +35,24 @@ inline constexpr std::uintmax_t kMaxTextFileBytes = 256 * kMiB;
 inline constexpr std::uintmax_t kMaxLargeFileBytes = 4096 * kMiB;
 
 /// Why `path` is not a file we can read, in a few words for an error line ("does not exist", "is a
-/// folder, expected a file", "is not a regular file"); empty when it is a regular file.
+/// folder, expected a file", "is a FIFO (named pipe), expected a regular file", "is a device, ...",
+/// "is a socket, ..."); empty when it is a regular file.
 std::string why_not_a_file(const fs::path& path);
 
-/// Reads a whole file of at most max_bytes (the size is checked first, then the reading stops at the
-/// limit, so a device or FIFO cannot grow it); Error naming the file when missing, unreadable or larger.
+/// Reads a whole regular file of at most max_bytes; Error naming the file when it is missing,
+/// unreadable, not a regular file (a FIFO, device or socket is refused at once, never waited on),
+/// larger than the limit, or larger than the memory the process may still take (RLIMIT_AS) — each
+/// before a byte is read.
 std::string read_file(const fs::path& path, std::uintmax_t max_bytes = kMaxTextFileBytes);
 
-/// Parses a JSON file of at most max_bytes; malformed JSON gives an Error with the line and column.
+/// Parses a JSON file of at most max_bytes (read_file, then parse_json).
 Json read_json(const fs::path& path, std::uintmax_t max_bytes = kMaxTextFileBytes);
 
 /// Parses JSON text that came from file (named in errors): malformed JSON, or a number too large for a
-/// double (1e999), gives an Error with the line and column.
+/// double (1e999), gives an Error with the line and column; so does nesting deeper than 256 arrays and
+/// objects (a deeper document could overflow the stack of code that copies it). Under an address-space
+/// limit, a document the process has no room for is refused as it is built, before the allocation
+/// that would fail; an allocation that fails anyway is reported naming the file.
 Json parse_json(std::string_view text, const fs::path& file);
 
 /// A view of one JSON object inside a file, whose accessors throw Error naming the file and the

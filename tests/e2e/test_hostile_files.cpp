@@ -1,0 +1,111 @@
+// Inputs that are not files someone wrote, or that the process has no room for: a tool answers at once
+// in one line naming the file, exit status 1, instead of waiting forever (a FIFO), overflowing its
+// stack (JSON nested 600,000 deep) or saying "out of memory" with no file named (an address-space limit).
+#include <sys/stat.h>
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "run_tool.hpp"
+#include "temp_dir.hpp"
+
+namespace fs = std::filesystem;
+
+namespace {
+
+using smseg::test::Outcome;
+using smseg::test::run;
+using smseg::test::tool;
+
+// Address-space limits mean nothing to a sanitized build (its shadow memory alone passes them).
+#if defined(__SANITIZE_ADDRESS__)
+constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+constexpr bool kSanitized = true;
+#else
+constexpr bool kSanitized = false;
+#endif
+#else
+constexpr bool kSanitized = false;
+#endif
+
+}  // namespace
+
+TEST(HostileFiles, AFifoNamedAsAManifestIsRefusedAtOnce) {
+  const fs::path dir = smseg::test::temp_dir("hostile-fifo");
+  const fs::path manifest = dir / "sequence.json";
+  ASSERT_EQ(::mkfifo(manifest.c_str(), 0600), 0);
+  // (Before: the tool waited for a writer that never came; `timeout` ends it with status 124.)
+  const Outcome r = run("timeout 20 " + tool("check-sequence") + " " + dir.string());
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out, "check-sequence: error: " + manifest.string() + ": is a FIFO (named pipe), expected a regular file\n");
+  fs::remove_all(dir);
+}
+
+TEST(HostileFiles, JsonNestedTooDeeplyIsOneLineNotACrash) {
+  const fs::path dir = smseg::test::temp_dir("hostile-depth");
+  Outcome r = run(tool("make-sequence") + " --scene corridor --frames 2 --size 64x48 -q -o " + (dir / "seq").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  // The sequence's free-form "extra" holds 600,000 nested arrays (a 1.2 MB file). (Before: the reader
+  // took it and copied it by recursion, and the tool died of a stack overflow, status 139.)
+  const fs::path manifest = dir / "seq" / "sequence.json";
+  std::string text;
+  {
+    std::ifstream in(manifest);
+    text.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t last_brace = text.rfind('}');
+  ASSERT_NE(last_brace, std::string::npos);
+  text = text.substr(0, last_brace) + ", \"extra\": " + std::string(600000, '[') + std::string(600000, ']') + "}\n";
+  std::ofstream(manifest) << text;
+  r = run(tool("check-sequence") + " " + (dir / "seq").string());
+  EXPECT_EQ(r.status, 1) << r.out.substr(0, 300);
+  EXPECT_EQ(r.out.rfind("check-sequence: error: " + manifest.string() +
+                            ": nested deeper than 256 levels of arrays and objects at line ",
+                        0),
+            0u)
+      << r.out.substr(0, 300);
+  EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out.substr(0, 300);
+  fs::remove_all(dir);
+}
+
+TEST(HostileFiles, AFileTheProcessHasNoRoomForIsNamedBeforeItIsRead) {
+  if (kSanitized) GTEST_SKIP() << "address-space limits do not apply to a sanitized build";
+  const fs::path dir = smseg::test::temp_dir("hostile-room");
+  // A forest part within the 4 GiB limit of forest files, in a process limited to about 1 GB of address
+  // space: the file is 1.5 GiB (sparse), so reading it cannot start. (Before: "out of memory", no file.)
+  const fs::path sparse = dir / "part.json";
+  { std::ofstream(sparse) << "{"; }
+  fs::resize_file(sparse, 1536 * (std::uintmax_t{1} << 20));
+  const std::string limited = "ulimit -v 1000000 && " + tool("train-forest") + " --merge ";
+  Outcome r = run(limited + sparse.string() + " -o " + (dir / "forest.json").string());
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out.rfind("train-forest: error: " + sparse.string() +
+                            ": is 1536 MiB; reading it needs about 1536 MiB of memory, and this process may take only ",
+                        0),
+            0u)
+      << r.out;
+  EXPECT_NE(r.out.find("(its address-space limit, ulimit -v)\n"), std::string::npos) << r.out;
+  // A 96 MiB part that fits, but whose 50 million numbers would parse into 800 MiB and more.
+  const fs::path numbers = dir / "numbers.json";
+  {
+    std::ofstream out(numbers);
+    std::string block;
+    for (int i = 0; i < 1 << 20; ++i) block += ",0";
+    out << "[0";
+    for (int i = 0; i < 48; ++i) out << block;
+    out << "]";
+  }
+  r = run(limited + numbers.string() + " -o " + (dir / "forest.json").string());
+  EXPECT_EQ(r.status, 1) << r.out;
+  EXPECT_EQ(r.out.rfind("train-forest: error: " + numbers.string() + ": is 96 MiB of JSON; parsing it would take more than the ", 0),
+            0u)
+      << r.out;
+  EXPECT_FALSE(fs::exists(dir / "forest.json"));
+  fs::remove_all(dir);
+}
