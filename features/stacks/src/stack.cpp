@@ -149,42 +149,60 @@ struct FrameStack::Mapping {
   std::size_t length = 0;
   const char* data = nullptr;
 
+  // The file is checked (kind, header, size against its shape) before it is mapped: a FIFO is refused
+  // without waiting for a writer, and a file of the wrong size is named as such even where the process
+  // could not map it.
   Mapping(const fs::path& path, const std::string& descr, const std::vector<std::size_t>& shape) {
-    const int fd = ::open(path.c_str(), O_RDONLY);
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) throw Error(path.string(), "", std::string("cannot be opened: ") + std::strerror(errno));
-    struct stat st {};
-    const bool stated = ::fstat(fd, &st) == 0;
-    if (!stated || !S_ISREG(st.st_mode) || st.st_size <= 0) {
-      const int err = errno;
-      ::close(fd);
-      throw Error(path.string(), "", !stated                 ? std::string("cannot be read: ") + std::strerror(err)
-                                     : S_ISDIR(st.st_mode)   ? std::string("is a folder, expected a .npy file")
-                                     : !S_ISREG(st.st_mode)  ? std::string("is not a regular file")
-                                                             : std::string("is empty"));
-    }
-    length = static_cast<std::size_t>(st.st_size);
-    base = ::mmap(nullptr, length, PROT_READ, MAP_PRIVATE, fd, 0);
-    ::close(fd);
-    if (base == MAP_FAILED) throw Error(path.string(), "", std::string("cannot be mapped: ") + std::strerror(errno));
     try {
-      const std::string_view bytes(static_cast<const char*>(base), length);
-      const NpyHeader h = parse_npy_header(bytes.substr(0, std::min<std::size_t>(length, 65536 + 12)), path);
-      if (h.descr != descr) throw Error(path.string(), "descr", "is '" + h.descr + "', expected '" + descr + "'");
-      if (h.shape != shape) {
-        std::string got, want;
-        for (auto s : h.shape) got += (got.empty() ? "" : "x") + std::to_string(s);
-        for (auto s : shape) want += (want.empty() ? "" : "x") + std::to_string(s);
-        throw Error(path.string(), "shape", "is " + got + ", the work folder's stacks.json says " + want);
-      }
-      std::size_t n = descr == "<f8" ? 8 : 1;
-      for (auto s : shape) n *= s;
-      if (length != h.data_offset + n) throw Error(path.string(), "", "size does not match its shape (truncated?)");
-      if (h.data_offset % 8 != 0) throw Error(path.string(), "", "data is not 8-byte aligned");
-      data = static_cast<const char*>(base) + h.data_offset;
+      length = checked_length(fd, path, descr, shape, data_offset);
     } catch (...) {
-      ::munmap(base, length);
+      ::close(fd);
       throw;
     }
+    base = ::mmap(nullptr, length, PROT_READ, MAP_PRIVATE, fd, 0);
+    const int err = errno;
+    ::close(fd);
+    if (base == MAP_FAILED)
+      throw Error(path.string(), "",
+                  "cannot be mapped (" + std::to_string(length >> 20) + " MiB): " + std::strerror(err) +
+                      (err == ENOMEM ? " (the process's address-space limit, ulimit -v?)" : ""));
+    data = static_cast<const char*>(base) + data_offset;
+  }
+  std::size_t data_offset = 0;
+
+  /// The file's length, once it is a regular file whose header has this dtype and shape and whose size
+  /// is the header's plus the data's; Error naming the file otherwise.
+  static std::size_t checked_length(int fd, const fs::path& path, const std::string& descr,
+                                    const std::vector<std::size_t>& shape, std::size_t& data_offset) {
+    struct stat st {};
+    if (::fstat(fd, &st) != 0) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+    if (S_ISDIR(st.st_mode)) throw Error(path.string(), "", "is a folder, expected a .npy file");
+    if (!S_ISREG(st.st_mode)) {
+      const std::string why = why_not_a_file(path);
+      throw Error(path.string(), "", why.empty() ? "is not a regular file" : why);
+    }
+    if (st.st_size <= 0) throw Error(path.string(), "", "is empty");
+    const auto length = static_cast<std::size_t>(st.st_size);
+    std::string head(std::min<std::size_t>(length, 65536 + 12), '\0');
+    const ssize_t got = ::pread(fd, head.data(), head.size(), 0);
+    if (got < 0) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
+    head.resize(static_cast<std::size_t>(got));
+    const NpyHeader h = parse_npy_header(head, path);
+    if (h.descr != descr) throw Error(path.string(), "descr", "is '" + h.descr + "', expected '" + descr + "'");
+    if (h.shape != shape) {
+      std::string have, want;
+      for (auto s : h.shape) have += (have.empty() ? "" : "x") + std::to_string(s);
+      for (auto s : shape) want += (want.empty() ? "" : "x") + std::to_string(s);
+      throw Error(path.string(), "shape", "is " + have + ", the work folder's stacks.json says " + want);
+    }
+    std::size_t n = descr == "<f8" ? 8 : 1;
+    for (auto s : shape) n *= s;
+    if (length != h.data_offset + n) throw Error(path.string(), "", "size does not match its shape (truncated?)");
+    if (h.data_offset % 8 != 0) throw Error(path.string(), "", "data is not 8-byte aligned");
+    data_offset = h.data_offset;
+    return length;
   }
   ~Mapping() {
     if (base != MAP_FAILED) ::munmap(base, length);
