@@ -68,6 +68,131 @@ void check_points(const smseg::features::StackSet& set, bool quiet) {
   if (!quiet) std::cerr << "train-forest: warning: " << which << "; they teach the trees only the class prior\n";
 }
 
+struct Args {
+  std::vector<std::string> works;
+  std::string frames = "0:", features_opt, learned_from, out, corpus;
+  smseg::forest::TrainParams p;
+  int threads = 0, corpus_tree = 0;
+  bool quiet = false;
+  std::string tree_range;
+  std::vector<std::string> merge;
+  smseg::forest::SlurmTraining slurm;
+  bool on_slurm = false;
+  std::string slurm_dir;
+  bool no_wait = false;
+};
+
+void add_options(CLI::App& app, Args& a) {
+  using namespace smseg;
+  app.add_option("WORK", a.works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
+  app.add_option("--train-frames", a.frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
+      ->capture_default_str();
+  forest::train_params_table().add_to(app, a.p);
+  app.add_option("--trees", a.tree_range,
+                 "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
+  app.add_option("--merge", a.merge, "join these forest parts (from --trees) into the forest -o; no training")
+      ->expected(1, -1);
+  app.add_flag("--slurm", a.on_slurm,
+               "train as a Slurm job array (sbatch) and a gather job that merges the parts into -o; wait for both");
+  app.add_option("--tasks", a.slurm.tasks, "with --slurm: array tasks, each training a range of trees (1..M; 0: one per tree)")
+      ->capture_default_str();
+  app.add_option("--slurm-dir", a.slurm_dir,
+                 "with --slurm: job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)");
+  app.add_option("--slurm-arg", a.slurm.sbatch_options,
+                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
+      ->allow_extra_args(false);
+  app.add_flag("--no-wait", a.no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
+  app.add_flag("--slurm-dry-run", a.slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
+  app.add_option("--poll", a.slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  app.add_option("--features", a.features_opt, "comma-separated features to use (default: all in the stacks)");
+  app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
+  add_threads_option(app, a.threads, "the forest does not depend on it");
+  app.add_option("--export-corpus", a.corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
+  app.add_option("--corpus-tree", a.corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
+  app.add_flag("-q,--quiet", a.quiet, "no progress on stderr");
+  app.add_option("-o,--out", a.out, "forest file to write (JSON; a forest part with --trees)")->required();
+}
+
+/// --windows learned: the windows the --learned-from forests chose.
+void resolve_learned_windows(Args& a) {
+  using namespace smseg;
+  if (a.p.windows.mode == forest::WindowSampling::Learned) {
+    const auto files = smseg::split_comma_list(a.learned_from);
+    if (files.empty()) throw Error("", "--learned-from", "--windows learned needs the forests to learn from");
+    std::vector<forest::Forest> earlier;
+    for (const auto& f : files) earlier.push_back(forest::load_forest(f));
+    a.p.windows.learned = forest::learned_windows(earlier);
+  } else if (!a.learned_from.empty()) {
+    throw Error("", "--learned-from", "only with --windows learned");
+  }
+}
+
+/// Checks the training options (UsageError / Error naming the option); the tree range of --trees.
+std::optional<smseg::forest::TreeRange> check_training_options(Args& a, const smseg::OptionNames& option_of) {
+  using namespace smseg;
+  if (a.works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
+  if (!a.on_slurm && (a.slurm.tasks != 0 || !a.slurm_dir.empty() || !a.slurm.sbatch_options.empty() || a.no_wait ||
+                      a.slurm.mode.dry_run))
+    throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
+  resolve_learned_windows(a);
+  a.p.progress = !a.quiet;
+  validate_options(option_of, [&] { a.p.validate(""); });
+  if (!a.corpus.empty() && (a.corpus_tree < 0 || a.corpus_tree >= a.p.M))
+    throw UsageError("", "--corpus-tree", "is " + std::to_string(a.corpus_tree) + ", expected 0.." + std::to_string(a.p.M - 1));
+  std::optional<forest::TreeRange> trees;
+  if (!a.tree_range.empty()) trees = as_usage([&] { return forest::TreeRange::parse(a.tree_range, "--trees", a.p.M); });
+  if (a.on_slurm) check_slurm_options(a.slurm, a.p, a.tree_range, a.corpus);
+  return trees;
+}
+
+/// The training frames of the work folders, checked for tracked points.
+smseg::features::StackSet open_training_stacks(const Args& a) {
+  using namespace smseg;
+  const auto range = features::FrameRange::parse(a.frames, "--train-frames");
+  features::StackSet set = features::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
+                                                 true, smseg::split_comma_list(a.features_opt));
+  check_points(set, a.quiet);
+  if (!a.quiet)
+    std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, " << set.dataset.features.size()
+              << " features, K=" << a.p.K << " M=" << a.p.M << "\n";
+  return set;
+}
+
+/// --slurm: the data checked here, trained there.
+int train_on_slurm(Args& a, const std::string& on_frames, int argc, char** argv) {
+  using namespace smseg;
+  a.slurm.program = slurm::current_executable();
+  a.slurm.args = task_args(argc, argv);
+  a.slurm.params = a.p;
+  a.slurm.dir = a.slurm_dir.empty() ? fs::path(a.out + ".slurm") : fs::path(a.slurm_dir);
+  a.slurm.out = a.out;
+  a.slurm.mode.wait = !a.no_wait;
+  a.slurm.mode.progress = !a.quiet;
+  if (!forest::train_forest_slurm(a.slurm)) return 0;  // dry run, or the gather job will write -o
+  return report(forest::load_forest(a.out), "of training " + on_frames + ", Slurm job folder " + a.slurm.dir.string(),
+                a.out);
+}
+
+int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
+  using namespace smseg;
+  // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
+  // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
+  // the same folder) and of other hosts are left alone.
+  if (!a.out.empty()) remove_stale_temporaries(fs::absolute(a.out).parent_path());
+  if (!a.merge.empty()) return merge_parts(a.merge, a.works, a.tree_range, a.on_slurm, a.out);
+  const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
+  const features::StackSet set = open_training_stacks(a);
+  const std::string on_frames = "on " + std::to_string(set.dataset.frames.size()) + " frames";
+  if (a.on_slurm) return train_on_slurm(a, on_frames, argc, argv);
+  if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
+  if (trees) {
+    const forest::Forest part = forest::train_forest_trees(set.dataset, a.p, *trees);
+    forest::save_forest_part(part, *trees, a.out);
+    return report(part, "trees " + trees->to_string() + " of " + std::to_string(a.p.M) + " " + on_frames, a.out);
+  }
+  return save_and_report(forest::train_forest(set.dataset, a.p), a.out, on_frames);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -82,98 +207,9 @@ int main(int argc, char** argv) {
       "job array (one task per range of trees) followed by a gather job that merges the parts into -o;\n"
       "paths must be on a file system the nodes share. See docs/distributed.md.",
       "train-forest"};
-  std::vector<std::string> works;
-  std::string frames = "0:", features_opt, learned_from, out, corpus;
-  forest::TrainParams p;
-  int threads = 0, corpus_tree = 0;
-  bool quiet = false;
-  std::string tree_range;
-  std::vector<std::string> merge;
-  forest::SlurmTraining slurm;
-  bool on_slurm = false;
-  std::string slurm_dir;
-  bool no_wait = false;
-  app.add_option("WORK", works, "work folders (from extract-features); frames of all are pooled (not with --merge)");
-  app.add_option("--train-frames", frames, "labelled frames used for training, A:B half-open (0:101 = first 101)")
-      ->capture_default_str();
-  forest::train_params_table().add_to(app, p);
-  app.add_option("--trees", tree_range,
-                 "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
-  app.add_option("--merge", merge, "join these forest parts (from --trees) into the forest -o; no training")
-      ->expected(1, -1);
-  app.add_flag("--slurm", on_slurm,
-               "train as a Slurm job array (sbatch) and a gather job that merges the parts into -o; wait for both");
-  app.add_option("--tasks", slurm.tasks, "with --slurm: array tasks, each training a range of trees (1..M; 0: one per tree)")
-      ->capture_default_str();
-  app.add_option("--slurm-dir", slurm_dir,
-                 "with --slurm: job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)");
-  app.add_option("--slurm-arg", slurm.sbatch_options,
-                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
-      ->allow_extra_args(false);
-  app.add_flag("--no-wait", no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
-  app.add_flag("--slurm-dry-run", slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
-  app.add_option("--poll", slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
-  app.add_option("--features", features_opt, "comma-separated features to use (default: all in the stacks)");
-  app.add_option("--learned-from", learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
-  add_threads_option(app, threads, "the forest does not depend on it");
-  app.add_option("--export-corpus", corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
-  app.add_option("--corpus-tree", corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
-  app.add_flag("-q,--quiet", quiet, "no progress on stderr");
-  app.add_option("-o,--out", out, "forest file to write (JSON; a forest part with --trees)")->required();
-
+  Args args;
+  add_options(app, args);
   const OptionNames option_of = forest::train_params_table().option_names();
-  return run_tool(app, argc, argv, threads, [&] { return naming_options(option_of, [&] {
-    // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
-    // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
-    // the same folder) and of other hosts are left alone.
-    if (!out.empty()) remove_stale_temporaries(fs::absolute(out).parent_path());
-    if (!merge.empty()) return merge_parts(merge, works, tree_range, on_slurm, out);
-    if (works.empty()) throw UsageError("", "WORK", "name at least one work folder (or --merge parts)");
-    if (!on_slurm && (slurm.tasks != 0 || !slurm_dir.empty() || !slurm.sbatch_options.empty() || no_wait ||
-                      slurm.mode.dry_run))
-      throw UsageError("", "--tasks, --slurm-dir, --slurm-arg, --no-wait, --slurm-dry-run", "only with --slurm");
-    if (p.windows.mode == forest::WindowSampling::Learned) {
-      const auto files = smseg::split_comma_list(learned_from);
-      if (files.empty()) throw Error("", "--learned-from", "--windows learned needs the forests to learn from");
-      std::vector<forest::Forest> earlier;
-      for (const auto& f : files) earlier.push_back(forest::load_forest(f));
-      p.windows.learned = forest::learned_windows(earlier);
-    } else if (!learned_from.empty()) {
-      throw Error("", "--learned-from", "only with --windows learned");
-    }
-    p.progress = !quiet;
-    validate_options(option_of, [&] { p.validate(""); });
-    if (!corpus.empty() && (corpus_tree < 0 || corpus_tree >= p.M))
-      throw UsageError("", "--corpus-tree", "is " + std::to_string(corpus_tree) + ", expected 0.." + std::to_string(p.M - 1));
-    std::optional<forest::TreeRange> trees;
-    if (!tree_range.empty()) trees = as_usage([&] { return forest::TreeRange::parse(tree_range, "--trees", p.M); });
-    if (on_slurm) check_slurm_options(slurm, p, tree_range, corpus);
-    const auto range = features::FrameRange::parse(frames, "--train-frames");
-    const features::StackSet set = features::open_stacks(
-        std::vector<fs::path>(works.begin(), works.end()), range, true, true, smseg::split_comma_list(features_opt));
-    check_points(set, quiet);
-    if (!quiet)
-      std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, "
-                << set.dataset.features.size() << " features, K=" << p.K << " M=" << p.M << "\n";
-    const std::string on_frames = "on " + std::to_string(set.dataset.frames.size()) + " frames";
-    if (on_slurm) {  // the data checked here, trained there
-      slurm.program = slurm::current_executable();
-      slurm.args = task_args(argc, argv);
-      slurm.params = p;
-      slurm.dir = slurm_dir.empty() ? fs::path(out + ".slurm") : fs::path(slurm_dir);
-      slurm.out = out;
-      slurm.mode.wait = !no_wait;
-      slurm.mode.progress = !quiet;
-      if (!forest::train_forest_slurm(slurm)) return 0;  // dry run, or the gather job will write -o
-      return report(forest::load_forest(out), "of training " + on_frames + ", Slurm job folder " + slurm.dir.string(),
-                    out);
-    }
-    if (!corpus.empty()) forest::export_corpus_csv(set.dataset, p, corpus_tree, corpus);
-    if (trees) {
-      const forest::Forest part = forest::train_forest_trees(set.dataset, p, *trees);
-      forest::save_forest_part(part, *trees, out);
-      return report(part, "trees " + trees->to_string() + " of " + std::to_string(p.M) + " " + on_frames, out);
-    }
-    return save_and_report(forest::train_forest(set.dataset, p), out, on_frames);
-  }); });
+  return run_tool(app, argc, argv, args.threads,
+                  [&] { return naming_options(option_of, [&] { return train(args, option_of, argc, argv); }); });
 }

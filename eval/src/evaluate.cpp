@@ -399,93 +399,117 @@ double EvalResult::tolerant_accuracy() const {
   return double(right + near_misses) / double(total);
 }
 
-nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptions& opt,
-                                   const std::vector<std::string>& works) const {
-  using nlohmann::json;
-  const auto num = [](double v) { return std::isnan(v) ? json(nullptr) : json(v); };
-  json per_frame = json::array();
-  std::vector<double> accs;
-  for (const auto& f : frames) {
-    const auto total = f.confusion.total();
-    double right = 0;
-    for (int c = 0; c < f.confusion.classes(); ++c) right += double(f.confusion.at(c, c));
-    json rec = {{"work", f.work},
-                {"frame", f.frame},
-                {"global_accuracy", num(f.confusion.global_accuracy())},
-                {"class_average_accuracy", num(f.confusion.class_average_accuracy())},
-                {"mean_iou", num(f.confusion.mean_iou())},
-                {"boundary_tolerant_accuracy", num(total ? (right + double(f.near_misses)) / double(total) : NAN)},
-                {"pixels", total},
-                {"seconds", f.seconds},
-                {"superpixel_seconds", f.superpixel_seconds},
-                {"smooth_seconds", f.smooth_seconds},
-                {"boundary_f1", num(f.boundary.f1())}};
-    if (opt.costs) rec["mean_cost"] = num(mean_cost(f.confusion, *opt.costs));
-    per_frame.push_back(std::move(rec));
-    if (!std::isnan(f.confusion.global_accuracy())) accs.push_back(f.confusion.global_accuracy());
-  }
-  json spread = nullptr;
-  if (!accs.empty()) {
-    std::sort(accs.begin(), accs.end());
-    double mean = 0, var = 0;
-    for (double a : accs) mean += a;
-    mean /= double(accs.size());
-    for (double a : accs) var += (a - mean) * (a - mean);
-    var /= double(accs.size());
-    const std::size_t n = accs.size();
-    const double median = n % 2 ? accs[n / 2] : 0.5 * (accs[n / 2 - 1] + accs[n / 2]);
-    spread = {{"min", accs.front()}, {"max", accs.back()}, {"median", median}, {"mean", mean}, {"std", std::sqrt(var)}};
-  }
+namespace {
+
+using nlohmann::json;
+
+json number_or_null(double v) { return std::isnan(v) ? json(nullptr) : json(v); }
+
+// One frame's scores and times in results.json.
+json frame_json(const FrameResult& f, const EvalOptions& opt) {
+  const auto total = f.confusion.total();
+  double right = 0;
+  for (int c = 0; c < f.confusion.classes(); ++c) right += double(f.confusion.at(c, c));
+  json rec = {{"work", f.work},
+              {"frame", f.frame},
+              {"global_accuracy", number_or_null(f.confusion.global_accuracy())},
+              {"class_average_accuracy", number_or_null(f.confusion.class_average_accuracy())},
+              {"mean_iou", number_or_null(f.confusion.mean_iou())},
+              {"boundary_tolerant_accuracy", number_or_null(total ? (right + double(f.near_misses)) / double(total) : NAN)},
+              {"pixels", total},
+              {"seconds", f.seconds},
+              {"superpixel_seconds", f.superpixel_seconds},
+              {"smooth_seconds", f.smooth_seconds},
+              {"boundary_f1", number_or_null(f.boundary.f1())}};
+  if (opt.costs) rec["mean_cost"] = number_or_null(mean_cost(f.confusion, *opt.costs));
+  return rec;
+}
+
+// Min, max, median, mean and standard deviation of the frames' global accuracies (null without any).
+json accuracy_spread(std::vector<double> accs) {
+  if (accs.empty()) return nullptr;
+  std::sort(accs.begin(), accs.end());
+  double mean = 0, var = 0;
+  for (double a : accs) mean += a;
+  mean /= double(accs.size());
+  for (double a : accs) var += (a - mean) * (a - mean);
+  var /= double(accs.size());
+  const std::size_t n = accs.size();
+  const double median = n % 2 ? accs[n / 2] : 0.5 * (accs[n / 2 - 1] + accs[n / 2]);
+  return {{"min", accs.front()}, {"max", accs.back()}, {"median", median}, {"mean", mean}, {"std", std::sqrt(var)}};
+}
+
+json per_class_json(const Confusion& confusion, const std::vector<std::string>& classes) {
   json per_class = json::array();
   const auto rec = confusion.recall();
   const auto iou = confusion.iou();
-  for (std::size_t c = 0; c < forest.classes.size(); ++c)
-    per_class.push_back({{"class", forest.classes[c]}, {"accuracy", num(rec[c])}, {"iou", num(iou[c])},
+  for (std::size_t c = 0; c < classes.size(); ++c)
+    per_class.push_back({{"class", classes[c]}, {"accuracy", number_or_null(rec[c])}, {"iou", number_or_null(iou[c])},
                          {"pixels", confusion.row_total(static_cast<int>(c))}});
+  return per_class;
+}
+
+// How the evaluation ran.
+json params_json(const forest::Forest& forest, const EvalOptions& opt, const std::vector<std::string>& works) {
+  return {{"works", works},
+          {"test_frames", opt.frames.str()},
+          {"mode", opt.mode()},
+          {"grid", opt.grid},
+          {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
+          {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
+          {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
+          {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
+          {"tolerance", opt.tolerance},
+          {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
+          {"smooth", opt.smooth.to_json()},
+          {"seed", opt.seed}};
+}
+
+json forest_json(const forest::Forest& forest) {
   int nodes = 0;
   for (const auto& t : forest.stats.trees) nodes += t.nodes;
+  return {{"params", forest::params_to_json(forest.params)},
+          {"image", {{"width", forest.width}, {"height", forest.height}}},
+          {"classes", forest.classes},
+          {"features", forest.features},
+          {"textons", forest.textons},
+          {"trees", forest.trees.size()},
+          {"nodes", nodes},
+          {"training_seconds", forest.stats.seconds}};
+}
+
+}  // namespace
+
+nlohmann::json EvalResult::to_json(const forest::Forest& forest, const EvalOptions& opt,
+                                   const std::vector<std::string>& works) const {
+  json per_frame = json::array();
+  std::vector<double> accs;
+  for (const auto& f : frames) {
+    per_frame.push_back(frame_json(f, opt));
+    if (!std::isnan(f.confusion.global_accuracy())) accs.push_back(f.confusion.global_accuracy());
+  }
   json j = {{"format", "smseg-results"},
             {"version", 1},
-            {"global_accuracy", num(confusion.global_accuracy())},
-            {"class_average_accuracy", num(confusion.class_average_accuracy())},
-            {"mean_iou", num(confusion.mean_iou())},
-            {"boundary_tolerant_accuracy", num(tolerant_accuracy())},
-            {"mean_cost", opt.costs ? num(mean_cost(confusion, *opt.costs)) : json(nullptr)},
+            {"global_accuracy", number_or_null(confusion.global_accuracy())},
+            {"class_average_accuracy", number_or_null(confusion.class_average_accuracy())},
+            {"mean_iou", number_or_null(confusion.mean_iou())},
+            {"boundary_tolerant_accuracy", number_or_null(tolerant_accuracy())},
+            {"mean_cost", opt.costs ? number_or_null(mean_cost(confusion, *opt.costs)) : json(nullptr)},
             {"classes", forest.classes},
-            {"per_class", per_class},
+            {"per_class", per_class_json(confusion, forest.classes)},
             {"confusion", {{"counts", confusion.counts_json()}, {"normalised", confusion.normalised_json()}}},
             {"per_frame", per_frame},
-            {"accuracy_spread", spread},
+            {"accuracy_spread", accuracy_spread(accs)},
             {"seconds_per_frame", seconds_per_frame},
             {"superpixel_seconds_per_frame", superpixel_seconds_per_frame},
             {"smooth_seconds_per_frame", smooth_seconds_per_frame},
             {"wall_seconds_per_frame", wall_seconds_per_frame},
-            {"boundary_f1", num(boundary.f1())},
-            {"boundary_precision", num(boundary.precision())},
-            {"boundary_recall", num(boundary.recall())},
+            {"boundary_f1", number_or_null(boundary.f1())},
+            {"boundary_precision", number_or_null(boundary.precision())},
+            {"boundary_recall", number_or_null(boundary.recall())},
             {"frames_without_points", frames_without_points.empty() ? json(nullptr) : json(frames_without_points)},
-            {"params",
-             {{"works", works},
-              {"test_frames", opt.frames.str()},
-              {"mode", opt.mode()},
-              {"grid", opt.grid},
-              {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
-              {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
-              {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
-              {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
-              {"tolerance", opt.tolerance},
-              {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
-              {"smooth", opt.smooth.to_json()},
-              {"seed", opt.seed}}},
-            {"forest",
-             {{"params", forest::params_to_json(forest.params)},
-              {"image", {{"width", forest.width}, {"height", forest.height}}},
-              {"classes", forest.classes},
-              {"features", forest.features},
-              {"textons", forest.textons},
-              {"trees", forest.trees.size()},
-              {"nodes", nodes},
-              {"training_seconds", forest.stats.seconds}}}};
+            {"params", params_json(forest, opt, works)},
+            {"forest", forest_json(forest)}};
   if (opt.costs) j["costs"] = {{"classes", opt.costs->classes}, {"matrix", opt.costs->cost}};
   return j;
 }

@@ -1,8 +1,5 @@
 // eval-forest: label the test frames of work folders with a forest; scores, results.json, pictures,
 // and sweeps of M, B or V (sweep.jsonl).
-#include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <iostream>
 #include <optional>
 
@@ -12,34 +9,29 @@
 #include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/evaluate.hpp"
+#include "smseg/eval/report.hpp"
 #include "smseg/eval/sweep.hpp"
 
 namespace {
 
-std::string pct(double v) {
-  if (std::isnan(v)) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.1f%%", 100 * v);
-  return buf;
-}
+using namespace smseg;
 
-std::string mode_text(const smseg::eval::EvalOptions& opt) {
-  using smseg::eval::to_string;
-  if (opt.grid > 0)
-    return "grid B=" + std::to_string(opt.grid) + " V=" + std::to_string(opt.votes) + " " + to_string(opt.vote);
-  if (opt.superpixels > 0)
-    return "superpixels " + std::to_string(opt.superpixels) + " px V=" + std::to_string(opt.votes) + " " +
-           to_string(opt.vote);
-  if (opt.smooth.enabled())
-    return "per pixel, " + smseg::eval::to_string(opt.smooth.method) + " lambda=" + std::to_string(opt.smooth.lambda) +
-           " " + std::to_string(opt.smooth.connectivity) + "-connected" + (opt.smooth.contrast ? "" : ", no contrast");
-  return "per pixel";
+// The forest, checked against --trees, and the cost matrix for its classes.
+forest::Forest load_checked_forest(const std::string& forest_file, const std::string& costs, eval::EvalOptions& opt) {
+  forest::Forest f = forest::load_forest(forest_file);
+  if (opt.trees > static_cast<int>(f.trees.size()))
+    throw Error(forest_file, "--trees", std::to_string(opt.trees) + " trees asked, the forest has " +
+                                            std::to_string(f.trees.size()));
+  if (!costs.empty()) {
+    opt.costs = eval::CostMatrix::load(costs, f.classes);
+    opt.costs_file = costs;
+  }
+  return f;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  using namespace smseg;
   CLI::App app{
       "Evaluate a forest on the labelled frames of one or more work folders (thesis 2.3.4, 3.2.7, 4.5.1):\n"
       "each pixel runs through every tree and takes the class of maximum summed leaf distribution; or the\n"
@@ -87,33 +79,11 @@ int main(int argc, char** argv) {
     if (specs.empty()) replacement.emplace(out);
     const fs::path staging = replacement ? replacement->staging() : fs::path(out);
     if (!no_pictures && specs.empty()) opt.pictures = staging / "frames";
-    const forest::Forest f = forest::load_forest(forest_file);
-    if (opt.trees > static_cast<int>(f.trees.size()))
-      throw Error(forest_file, "--trees", std::to_string(opt.trees) + " trees asked, the forest has " +
-                                              std::to_string(f.trees.size()));
-    if (!costs.empty()) {
-      opt.costs = eval::CostMatrix::load(costs, f.classes);
-      opt.costs_file = costs;
-    }
+    const forest::Forest f = load_checked_forest(forest_file, costs, opt);
     const std::vector<fs::path> work_paths(works.begin(), works.end());
 
     if (!specs.empty()) {
-      remove_stale_temporaries(out);  // a sweep appends to OUT/sweep.jsonl; a killed line is cut on reading
-      const fs::path jsonl = fs::path(out) / "sweep.jsonl";
-      for (const auto& spec : specs) {
-        const auto report = eval::run_sweep(f, forest_file, work_paths, opt, spec, jsonl, [&](const Json& rec) {
-          char line[256];
-          std::snprintf(line, sizeof line, "%s=%d: global %s, class-average %s, mean IoU %s, %.2f ms per frame",
-                        rec["sweep"].get<std::string>().c_str(), rec["value"].get<int>(),
-                        pct(rec["global_accuracy"].is_null() ? NAN : rec["global_accuracy"].get<double>()).c_str(),
-                        pct(rec["class_average_accuracy"].is_null() ? NAN : rec["class_average_accuracy"].get<double>()).c_str(),
-                        pct(rec["mean_iou"].is_null() ? NAN : rec["mean_iou"].get<double>()).c_str(),
-                        1000 * rec["seconds_per_frame"].get<double>());
-          std::cout << line << std::endl;
-        });
-        std::cout << "sweep " << spec.str() << ": " << report.run << " points evaluated, " << report.done_before
-                  << " already done -> " << jsonl.string() << "\n";
-      }
+      eval::run_sweeps(f, forest_file, work_paths, opt, specs, out, std::cout);
       return 0;
     }
 
@@ -122,48 +92,8 @@ int main(int argc, char** argv) {
       std::cerr << "eval-forest: warning: " << r.frames_without_points << "; they are labelled from the class prior alone\n";
     write_json_atomic(staging / "results.json", r.to_json(f, opt, works));
     replacement->commit();
-    std::string line = std::to_string(r.frames.size()) + " test frames: global accuracy " +
-                       pct(r.confusion.global_accuracy()) + ", class-average accuracy " +
-                       pct(r.confusion.class_average_accuracy()) + ", mean IoU " + pct(r.confusion.mean_iou()) +
-                       ", within " + std::to_string(opt.tolerance) + " px " + pct(r.tolerant_accuracy()) +
-                       ", boundary F1 " + pct(r.boundary.f1());
-    if (opt.costs) {
-      char buf[64];
-      std::snprintf(buf, sizeof buf, ", mean cost %.4f", eval::mean_cost(r.confusion, *opt.costs));
-      line += buf;
-    }
-    char buf[128];
-    std::snprintf(buf, sizeof buf, ", %.2f ms per frame", 1000 * r.seconds_per_frame);
-    line += buf;
-    if (opt.superpixels > 0) {
-      std::snprintf(buf, sizeof buf, " + %.2f ms superpixels", 1000 * r.superpixel_seconds_per_frame);
-      line += buf;
-    }
-    if (opt.smooth.enabled()) {
-      std::snprintf(buf, sizeof buf, " + %.2f ms smoothing", 1000 * r.smooth_seconds_per_frame);
-      line += buf;
-    }
-    if (r.frames_in_flight > 1) {
-      std::snprintf(buf, sizeof buf, "; %d frames at a time, %.2f ms per frame in all", r.frames_in_flight,
-                    1000 * r.wall_seconds_per_frame);
-      line += buf;
-    }
-    std::cout << line << " (" << mode_text(opt) << ")\n";
-    if (!quiet) {
-      std::vector<double> accs;
-      for (const auto& fr : r.frames)
-        if (fr.confusion.total() > 0) accs.push_back(fr.confusion.global_accuracy());
-      if (!accs.empty()) {
-        std::sort(accs.begin(), accs.end());
-        std::cout << "per-frame global accuracy: min " << pct(accs.front()) << ", median "
-                  << pct(accs[accs.size() / 2]) << ", max " << pct(accs.back()) << "\n";
-      }
-      std::cout << "\nConfusion matrix (rows: ground truth, columns: output; % of the row):\n"
-                << r.confusion.table(f.classes) << "\n";
-      std::cout << "results: " << (fs::path(out) / "results.json").string();
-      if (!no_pictures) std::cout << "\npictures: " << (fs::path(out) / "frames").string() << "/";
-      std::cout << "\n";
-    }
+    std::cout << eval::summary_line(r, opt) << "\n";
+    if (!quiet) std::cout << eval::detail_report(r, f.classes, out, !no_pictures);
     return 0;
   });
 }

@@ -214,9 +214,8 @@ void read_fields(const options::Table<S>& table, S& s, const Raw& raw) {
     if (f.on(options::kConfig) && raw.get(f.config_key)) f.read(s, raw.view(f.config_key));
 }
 
-Point build_point(const Raw& raw, const Experiment& ex) {
-  Point p;
-  p.label = raw.str("label", "");
+// The training and test sequences, named in the config's "sequences".
+void read_sides(const Raw& raw, const Experiment& ex, Point& p) {
   p.train = raw.names("train");
   if (p.train.empty()) raw.fail("train", "name the training sequence(s) (a name or a list from \"sequences\")");
   p.test = raw.has("test") ? raw.names("test") : p.train;
@@ -228,6 +227,10 @@ Point build_point(const Raw& raw, const Experiment& ex) {
         for (const auto& [k, _] : ex.sequences) have.push_back(k);
         raw.fail(side == &p.train ? "train" : "test", "no sequence named \"" + n + "\" (the config has: " + join(have) + ")");
       }
+}
+
+// The frame ranges and the features the forest may use.
+void read_frames_and_features(const Raw& raw, const Experiment& ex, Point& p) {
   try {
     p.train_frames = features::FrameRange::parse(raw.str("train_frames", "0:101"), "train_frames");
     p.test_frames = features::FrameRange::parse(raw.str("test_frames", "110:"), "test_frames");
@@ -242,33 +245,33 @@ Point build_point(const Raw& raw, const Experiment& ex) {
     if (all_extracted && std::find(known.begin(), known.end(), f) == known.end())
       raw.fail("features", "\"" + f + "\" is not a feature of the stacks (" + join(known) + ")");
   }
+}
 
-  // Front end, per side: train_X / test_X override X.
+// One side's front end ("train" or "test"): train_X / test_X override X.
+FrontEnd side_front_end(const Raw& raw, const std::string& side) {
   const std::vector<std::string> stereo_methods{"bm", "sgbm"}, trackers{"klt", "descriptors"};
   std::vector<std::string> motions;  // the front ends' names (front_ends.hpp)
   for (const features::FrontEnd* f : features::front_ends()) motions.emplace_back(f->name());
-  const auto side_fe = [&](const std::string& side) {
-    FrontEnd fe;
-    const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
-    const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
-    const std::string c = raw.has(side + "_causal") ? side + "_causal" : "causal";
-    const std::string t = raw.has(side + "_tracker") ? side + "_tracker" : "tracker";
-    fe.stereo = raw.choice(s, "bm", stereo_methods);
-    fe.motion = raw.choice(m, "stereo", motions);
-    fe.tracker = raw.choice(t, "klt", trackers);
-    fe.causal = raw.boolean(c, false);
-    features::ExtractOptions check;  // each value read once here, so that its error names where it was set
-    for (const auto& k : config_keys(features::extract_options_table())) {
-      const std::string key = raw.has(side + "_" + k) ? side + "_" + k : k;
-      if (!raw.get(key)) continue;
-      features::extract_options_table().find_on(k, options::kConfig)->read(check, raw.view(key));
-      fe.options[k] = *raw.get(key);
-    }
-    return fe;
-  };
-  p.train_front_end = side_fe("train");
-  p.test_front_end = side_fe("test");
+  FrontEnd fe;
+  const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
+  const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
+  const std::string c = raw.has(side + "_causal") ? side + "_causal" : "causal";
+  const std::string t = raw.has(side + "_tracker") ? side + "_tracker" : "tracker";
+  fe.stereo = raw.choice(s, "bm", stereo_methods);
+  fe.motion = raw.choice(m, "stereo", motions);
+  fe.tracker = raw.choice(t, "klt", trackers);
+  fe.causal = raw.boolean(c, false);
+  features::ExtractOptions check;  // each value read once here, so that its error names where it was set
+  for (const auto& k : config_keys(features::extract_options_table())) {
+    const std::string key = raw.has(side + "_" + k) ? side + "_" + k : k;
+    if (!raw.get(key)) continue;
+    features::extract_options_table().find_on(k, options::kConfig)->read(check, raw.view(key));
+    fe.options[k] = *raw.get(key);
+  }
+  return fe;
+}
 
+void read_train_params(const Raw& raw, Point& p) {
   auto& tp = p.train_params;
   read_fields(forest::train_params_table(), tp, raw);
   try {
@@ -281,7 +284,11 @@ Point build_point(const Raw& raw, const Experiment& ex) {
   } catch (const Error& e) {
     rethrow_as_param(e, raw);
   }
+}
 
+// The evaluation options; returns the point's "superpixels" as the config gave it ("none" unset).
+json read_eval_options(const Raw& raw, Point& p) {
+  const auto& tp = p.train_params;
   auto& eo = p.eval;
   eo.frames = p.test_frames;
   read_fields(eval::eval_options_table(), eo, raw);
@@ -305,15 +312,26 @@ Point build_point(const Raw& raw, const Experiment& ex) {
     rethrow_as_param(e, raw);
   }
   if (eo.trees > tp.M) raw.fail("trees", std::to_string(eo.trees) + " trees asked, the forest has M = " + std::to_string(tp.M));
+  return superpixels;
+}
 
+// Whether any of the named sequences is extracted by the experiment (not a prepared work folder).
+bool any_extracted(const Experiment& ex, const std::vector<std::string>& names) {
+  bool extracted = false;
+  for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
+  return extracted;
+}
+
+// The point's identity: every parameter as run.
+json point_json(const Point& p, const Experiment& ex, const json& superpixels) {
+  const auto& tp = p.train_params;
+  const auto& eo = p.eval;
   const auto side_json = [&](const std::vector<std::string>& names, const FrontEnd& fe, const char* key) -> json {
-    bool extracted = false;
-    for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
-    if (!extracted) return nullptr;  // prepared work folders: their own front end
+    if (!any_extracted(ex, names)) return nullptr;  // prepared work folders: their own front end
     const std::string k = key;
     return k == "stereo" ? json(fe.stereo) : k == "motion" ? json(fe.motion) : k == "tracker" ? json(fe.tracker) : json(fe.causal);
   };
-  p.json = {{"train", p.train},
+  json j = {{"train", p.train},
             {"test", p.test},
             {"train_frames", p.train_frames.str()},
             {"test_frames", p.test_frames.str()},
@@ -328,20 +346,31 @@ Point build_point(const Raw& raw, const Experiment& ex) {
             {"test_tracker", side_json(p.test, p.test_front_end, "tracker")},
             {"superpixels", superpixels},
             {"label", p.label}};
-  p.json.update(forest::train_params_table().to_json(tp, options::kConfig));
-  p.json.update(eval::eval_options_table().to_json(eo, options::kConfig));
-  p.json["trees"] = eo.trees > 0 ? eo.trees : tp.M;  // the trees used
+  j.update(forest::train_params_table().to_json(tp, options::kConfig));
+  j.update(eval::eval_options_table().to_json(eo, options::kConfig));
+  j["trees"] = eo.trees > 0 ? eo.trees : tp.M;  // the trees used
   // Extraction keys only where a side sets them: points of older configs keep their identity.
   for (const auto& k : config_keys(features::extract_options_table())) {
     if (!p.train_front_end.options.contains(k) && !p.test_front_end.options.contains(k)) continue;
     const auto side_value = [&](const std::vector<std::string>& names, const FrontEnd& fe) -> json {
-      bool extracted = false;
-      for (const auto& n : names) extracted |= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
-      return extracted ? fe.options.value(k, json(nullptr)) : json(nullptr);
+      return any_extracted(ex, names) ? fe.options.value(k, json(nullptr)) : json(nullptr);
     };
-    p.json["train_" + k] = side_value(p.train, p.train_front_end);
-    p.json["test_" + k] = side_value(p.test, p.test_front_end);
+    j["train_" + k] = side_value(p.train, p.train_front_end);
+    j["test_" + k] = side_value(p.test, p.test_front_end);
   }
+  return j;
+}
+
+Point build_point(const Raw& raw, const Experiment& ex) {
+  Point p;
+  p.label = raw.str("label", "");
+  read_sides(raw, ex, p);
+  read_frames_and_features(raw, ex, p);
+  p.train_front_end = side_front_end(raw, "train");
+  p.test_front_end = side_front_end(raw, "test");
+  read_train_params(raw, p);
+  const json superpixels = read_eval_options(raw, p);
+  p.json = point_json(p, ex, superpixels);
   return p;
 }
 
@@ -396,10 +425,10 @@ std::string json_hash(const json& j) {
   return buf;
 }
 
-Experiment experiment_from_json(const json& original, const fs::path& file, bool quick) {
-  Experiment ex;
-  ex.file = file;
-  ex.quick = quick;
+namespace {
+
+// The config as run: checked for its format, with its "quick" form merged over it when asked.
+json merged_config(const json& original, const fs::path& file, bool quick) {
   {
     const JsonView top(original, file);
     if (!original.is_object()) top.fail("expected a JSON object (an experiment config)");
@@ -412,8 +441,11 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
     j.merge_patch(original["quick"]);
   }
   j.erase("quick");
-  ex.config = j;
-  const JsonView v(ex.config, file);
+  return j;
+}
+
+// The top-level members: no unknown one; name, title, description; figures a list.
+void read_header(const JsonView& v, Experiment& ex) {
   static const std::set<std::string> top_keys{"format", "version", "name", "title", "description", "sequences",
                                               "fixed", "sweep", "figures"};
   for (const auto& [k, _] : ex.config.items())
@@ -424,30 +456,33 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
   ex.title = v.has("title") ? v.str("title") : ex.name;
   ex.description = v.has("description") ? v.str("description") : "";
   if (v.has("figures") && !v.at("figures").json().is_array()) v.fail("expected a list of figures", "figures");
+}
 
-  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
-  const JsonView seqs = v.at("sequences");
-  if (!seqs.json().is_object() || seqs.json().empty()) seqs.fail("expected an object naming at least one sequence");
-  for (const auto& [name, _] : seqs.json().items()) ex.sequences[name] = parse_source(seqs.at(name), base);
-
-  // The base values, then the sweep dimensions in nesting order.
+// "fixed": the base values of every point.
+std::vector<std::pair<std::string, json>> fixed_values(const JsonView& v) {
   std::vector<std::pair<std::string, json>> fixed;
   if (auto f = v.maybe("fixed")) {
     if (!f->json().is_object()) f->fail("expected an object of parameters");
     for (const auto& [k, val] : f->json().items()) fixed.emplace_back(k, val);
   }
-  struct Dim {
-    std::string key;  // parameter, or "cases"
-    std::vector<json> values;
-  };
-  std::vector<Dim> dims;
+  return fixed;
+}
+
+struct SweepDimension {
+  std::string key;  // parameter, or "cases"
+  std::vector<json> values;
+};
+
+// "sweep": its dimensions in nesting order ("cases" outermost, then the parameters' order).
+std::vector<SweepDimension> sweep_dimensions(const JsonView& v) {
+  std::vector<SweepDimension> dims;
   if (auto s = v.maybe("sweep")) {
     if (!s->json().is_object()) s->fail("expected an object of swept parameters");
     for (const auto& [k, _] : s->json().items()) {
       const JsonView d = s->at(k);
       if (k == "cases") {
         if (!d.json().is_array() || d.json().empty()) d.fail("expected a non-empty list of parameter objects");
-        Dim dim{"cases", {}};
+        SweepDimension dim{"cases", {}};
         for (std::size_t i = 0; i < d.size(); ++i) {
           if (!d.at(i).json().is_object()) d.at(i).fail("expected an object of parameters");
           dim.values.push_back(d.at(i).json());
@@ -460,50 +495,76 @@ Experiment experiment_from_json(const json& original, const fs::path& file, bool
       }
     }
   }
-  std::stable_sort(dims.begin(), dims.end(), [](const Dim& a, const Dim& b) {
+  std::stable_sort(dims.begin(), dims.end(), [](const SweepDimension& a, const SweepDimension& b) {
     const int ra = a.key == "cases" ? -1 : param_rank(a.key), rb = b.key == "cases" ? -1 : param_rank(b.key);
     return ra < rb;
   });
+  return dims;
+}
 
+// The point at one combination `at` of the dimensions' values, over the fixed values.
+Point point_at(const std::vector<std::pair<std::string, json>>& fixed, const std::vector<SweepDimension>& dims,
+               const std::vector<std::size_t>& at, const Experiment& ex) {
+  Raw raw(ex.file);
+  for (const auto& [k, val] : fixed) raw.set(k, val, "fixed." + k);
+  std::vector<std::string> swept, case_keys;
+  for (std::size_t d = 0; d < dims.size(); ++d) {
+    const json& val = dims[d].values[at[d]];
+    const std::string idx = "[" + std::to_string(at[d]) + "]";
+    if (dims[d].key == "cases") {
+      for (const auto& [k, cv] : val.items()) {
+        raw.set(k, cv, "sweep.cases" + idx + "." + k);
+        if (std::find(swept.begin(), swept.end(), k) == swept.end()) swept.push_back(k);
+        case_keys.push_back(k);
+      }
+    } else {
+      raw.set(dims[d].key, val, "sweep." + dims[d].key + idx);
+      swept.push_back(dims[d].key);
+    }
+  }
+  Point p = build_point(raw, ex);
+  p.index = static_cast<int>(ex.points.size());
+  p.swept = swept;
+  p.case_keys = case_keys;
+  return p;
+}
+
+// The next combination, last dimension fastest; false after the last.
+bool next_combination(std::vector<std::size_t>& at, const std::vector<SweepDimension>& dims) {
+  for (std::size_t d = dims.size(); d-- > 0;) {
+    if (++at[d] < dims[d].values.size()) return true;
+    at[d] = 0;
+  }
+  return false;
+}
+
+}  // namespace
+
+Experiment experiment_from_json(const json& original, const fs::path& file, bool quick) {
+  Experiment ex;
+  ex.file = file;
+  ex.quick = quick;
+  ex.config = merged_config(original, file, quick);
+  const JsonView v(ex.config, file);
+  read_header(v, ex);
+
+  const fs::path base = file.has_parent_path() ? file.parent_path() : fs::path(".");
+  const JsonView seqs = v.at("sequences");
+  if (!seqs.json().is_object() || seqs.json().empty()) seqs.fail("expected an object naming at least one sequence");
+  for (const auto& [name, _] : seqs.json().items()) ex.sequences[name] = parse_source(seqs.at(name), base);
+
+  // The base values, then the sweep dimensions in nesting order.
+  const auto fixed = fixed_values(v);
+  const std::vector<SweepDimension> dims = sweep_dimensions(v);
   std::vector<std::size_t> at(dims.size(), 0);
   std::set<std::string> seen;
-  for (;;) {
-    Raw raw(file);
-    for (const auto& [k, val] : fixed) raw.set(k, val, "fixed." + k);
-    std::vector<std::string> swept, case_keys;
-    for (std::size_t d = 0; d < dims.size(); ++d) {
-      const json& val = dims[d].values[at[d]];
-      const std::string idx = "[" + std::to_string(at[d]) + "]";
-      if (dims[d].key == "cases") {
-        for (const auto& [k, cv] : val.items()) {
-          raw.set(k, cv, "sweep.cases" + idx + "." + k);
-          if (std::find(swept.begin(), swept.end(), k) == swept.end()) swept.push_back(k);
-          case_keys.push_back(k);
-        }
-      } else {
-        raw.set(dims[d].key, val, "sweep." + dims[d].key + idx);
-        swept.push_back(dims[d].key);
-      }
-    }
-    Point p = build_point(raw, ex);
-    p.index = static_cast<int>(ex.points.size());
-    p.swept = swept;
-    p.case_keys = case_keys;
+  do {
+    Point p = point_at(fixed, dims, at, ex);
     if (!seen.insert(p.json.dump()).second)
       throw Error(file.string(), "sweep", "two points have the same parameters (" + p.describe() + ")");
     ex.points.push_back(std::move(p));
     if (ex.points.size() > 100000) v.fail("more than 100000 points", "sweep");
-    // Next combination (last dimension fastest).
-    bool done = true;
-    for (std::size_t d = dims.size(); d-- > 0;) {
-      if (++at[d] < dims[d].values.size()) {
-        done = false;
-        break;
-      }
-      at[d] = 0;
-    }
-    if (done) break;
-  }
+  } while (next_combination(at, dims));
   return ex;
 }
 

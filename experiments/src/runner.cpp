@@ -168,16 +168,12 @@ std::set<std::string> read_done_points(const fs::path& jsonl) {
   return done;
 }
 
-RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
-  const auto t_start = std::chrono::steady_clock::now();
-  if (options.out.empty()) throw Error("", "--out", "name the results folder");
-  const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
-  fs::create_directories(options.out);
-  remove_stale_temporaries(options.out);  // a killed run's config.json or cache-marker temporaries
+namespace {
 
-  // The config this folder belongs to. Only what decides the results must match; titles, descriptions
-  // and figures may change (the snapshot then takes them, for export-notebooks).
-  const fs::path snapshot = options.out / "config.json";
+// The config this folder belongs to (OUT/config.json). Only what decides the results must match; titles,
+// descriptions and figures may change (the snapshot then takes them, for export-notebooks).
+void check_snapshot(const Experiment& ex, const fs::path& out) {
+  const fs::path snapshot = out / "config.json";
   const auto results_part = [](json c) {
     for (const char* k : {"title", "description", "figures"}) c.erase(k);
     return c;
@@ -195,12 +191,14 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   } else {
     write_json_atomic(snapshot, record);
   }
+}
 
-  // Points already done.
-  const fs::path jsonl = options.out / "experiment.jsonl";
+// The points to run now: not yet in `jsonl`, among options.points, at most options.max_points. Counts
+// the done and left ones into the report.
+std::vector<const Point*> plan_points(const Experiment& ex, const RunOptions& options, const fs::path& jsonl,
+                                      RunReport& report) {
   const std::set<std::string> done = read_done_points(jsonl);
   std::vector<const Point*> todo;
-  RunReport report;
   report.total = static_cast<int>(ex.points.size());
   for (const auto& p : ex.points) {
     if (done.count(p.json.dump())) {
@@ -213,118 +211,175 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   if (report.done_before != static_cast<int>(done.size()))
     throw Error(jsonl.string(), "point", "holds points that are not in this config");
   if (options.max_points > 0 && static_cast<int>(todo.size()) > options.max_points) todo.resize(std::size_t(options.max_points));
+  return todo;
+}
+
+// The work folder of every (sequence, front end), prepared once.
+class WorkFolders {
+ public:
+  WorkFolders(const Experiment& ex, const fs::path& cache, bool progress) : ex_(ex), cache_(cache), progress_(progress) {}
+  const fs::path& of(const std::string& name, const FrontEnd& fe) {
+    const std::string key = name + "|" + fe.to_json().dump();
+    auto it = works_.find(key);
+    if (it == works_.end())
+      it = works_.emplace(key, prepare_work(name, ex_.sequences.at(name), fe, cache_, progress_)).first;
+    return it->second;
+  }
+  std::vector<fs::path> of(const std::vector<std::string>& names, const FrontEnd& fe) {
+    std::vector<fs::path> works;
+    for (const auto& n : names) works.push_back(of(n, fe));
+    return works;
+  }
+
+ private:
+  const Experiment& ex_;
+  fs::path cache_;
+  bool progress_;
+  std::map<std::string, fs::path> works_;  // key: name + front end
+};
+
+std::vector<std::string> path_strings(const std::vector<fs::path>& paths) {
+  std::vector<std::string> strings;
+  for (const auto& w : paths) strings.push_back(w.string());
+  return strings;
+}
+
+// The forest of the last training, kept while consecutive points share their training.
+struct TrainedForest {
+  std::string key;  // the training key it was made for
+  forest::Forest forest;
+  double pilot_seconds = 0;
+  std::size_t train_frames = 0;
+};
+
+// Trains the point's forest unless `trained` is already it (--windows learned: after a pilot forest).
+void train_for_point(const Point& p, const std::vector<fs::path>& train_works, const RunOptions& options,
+                     TrainedForest& trained) {
+  json tkey = p.training_key();
+  tkey["works"] = path_strings(train_works);
+  if (tkey.dump() == trained.key) return;
+  trained.key.clear();
+  const features::StackSet set = features::open_stacks(train_works, p.train_frames, true, true, p.features);
+  forest::TrainParams tp = p.train_params;
+  tp.memory_mb = options.memory_mb;
+  tp.progress = false;
+  trained.pilot_seconds = 0;
+  if (tp.windows.mode == forest::WindowSampling::Learned) {
+    forest::TrainParams pilot = tp;
+    pilot.windows.mode = forest::WindowSampling::Uniform;
+    pilot.seed = tp.seed + 1;
+    const forest::Forest pf = forest::train_forest(set.dataset, pilot);
+    trained.pilot_seconds = pf.stats.seconds;
+    tp.windows.learned = forest::learned_windows({pf});
+  }
+  trained.forest = forest::train_forest(set.dataset, tp);
+  trained.key = tkey.dump();
+  trained.train_frames = set.dataset.frames.size();
+}
+
+// The record's figures of the trees used: count, mean nodes, leaves and depth, nodes per tree and per
+// feature, the windows chosen.
+json tree_figures(const forest::Forest& used) {
+  json tree_nodes = json::array();
+  double nodes = 0, leaves = 0, depth = 0;
+  for (const auto& t : used.stats.trees) {
+    tree_nodes.push_back(t.nodes);
+    nodes += t.nodes;
+    leaves += t.leaves;
+    depth += t.depth;
+  }
+  const double n_trees = std::max<double>(1, double(used.stats.trees.size()));
+  json per_feature = json::object();
+  for (int a = 0; a < used.num_attributes(); ++a)
+    per_feature[used.attribute_name(a)] =
+        a < static_cast<int>(used.stats.nodes_per_feature.size()) ? used.stats.nodes_per_feature[std::size_t(a)] : 0;
+  return {{"trees", used.trees.size()},
+          {"nodes_per_tree", nodes / n_trees},
+          {"leaves_per_tree", leaves / n_trees},
+          {"depth_per_tree", depth / n_trees},
+          {"tree_nodes", tree_nodes},
+          {"nodes_per_feature", per_feature},
+          {"windows", forest::histograms_to_json(used.stats.windows)}};
+}
+
+// Evaluates the point with the trained forest; its experiment.jsonl record.
+json evaluate_point(const Experiment& ex, const Point& p, const std::vector<fs::path>& test_works,
+                    const TrainedForest& trained) {
+  const forest::Forest& forest = trained.forest;
+  eval::EvalOptions eo = p.eval;
+  eo.progress = false;
+  eo.pictures.clear();
+  const auto t_eval = std::chrono::steady_clock::now();
+  const eval::EvalResult r = eval::evaluate(forest, test_works, eo);
+  const double eval_seconds = seconds_since(t_eval);
+  const json full = r.to_json(forest, eo, path_strings(test_works));
+
+  forest::Forest used = eo.trees > 0 ? eval::first_trees(forest, eo.trees, "trees") : forest;
+  used.compute_stats();
+  json per_frame = json::array();
+  for (const auto& f : r.frames) per_frame.push_back(num(f.confusion.global_accuracy()));
+  const json& spread = full["accuracy_spread"];
+
+  json rec = {{"format", kRecordFormat},
+              {"version", 1},
+              {"experiment", ex.name},
+              {"index", p.index},
+              {"point", p.json},
+              {"swept", p.swept},
+              {"label", p.label},
+              {"global_accuracy", full["global_accuracy"]},
+              {"class_average_accuracy", full["class_average_accuracy"]},
+              {"mean_iou", full["mean_iou"]},
+              {"boundary_tolerant_accuracy", full["boundary_tolerant_accuracy"]},
+              {"accuracy_spread", spread},
+              {"accuracy_variance", spread.is_object() ? json(std::pow(spread["std"].get<double>(), 2)) : json(nullptr)},
+              {"per_frame_accuracy", per_frame},
+              {"per_class", full["per_class"]},
+              {"classes", forest.classes},
+              {"confusion", full["confusion"]["counts"]},
+              {"test_frames", r.frames.size()},
+              {"seconds_per_frame", r.seconds_per_frame},
+              {"superpixel_seconds_per_frame", r.superpixel_seconds_per_frame},
+              {"eval_seconds", eval_seconds},
+              {"train_seconds", forest.stats.seconds},
+              {"pilot_seconds", trained.pilot_seconds},
+              {"train_frames", trained.train_frames}};
+  rec.update(tree_figures(used));
+  return rec;
+}
+
+}  // namespace
+
+RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
+  const auto t_start = std::chrono::steady_clock::now();
+  if (options.out.empty()) throw Error("", "--out", "name the results folder");
+  const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
+  fs::create_directories(options.out);
+  remove_stale_temporaries(options.out);  // a killed run's config.json or cache-marker temporaries
+  check_snapshot(ex, options.out);
+
+  const fs::path jsonl = options.out / "experiment.jsonl";
+  RunReport report;
+  const std::vector<const Point*> todo = plan_points(ex, options, jsonl, report);
   if (todo.empty()) {
     report.seconds = seconds_since(t_start);
     return report;
   }
 
   // Data: every (sequence, front end) the remaining points need.
-  std::map<std::string, fs::path> works;  // key: name + front end
-  const auto work_of = [&](const std::string& name, const FrontEnd& fe) -> const fs::path& {
-    const std::string key = name + "|" + fe.to_json().dump();
-    auto it = works.find(key);
-    if (it == works.end()) it = works.emplace(key, prepare_work(name, ex.sequences.at(name), fe, cache, options.progress)).first;
-    return it->second;
-  };
+  WorkFolders works(ex, cache, options.progress);
   for (const Point* p : todo) {
-    for (const auto& n : p->train) work_of(n, p->train_front_end);
-    for (const auto& n : p->test) work_of(n, p->test_front_end);
+    works.of(p->train, p->train_front_end);
+    works.of(p->test, p->test_front_end);
   }
 
   Progress progress("run-experiment " + ex.name, static_cast<long>(todo.size()), options.progress);
-  std::string forest_key;
-  forest::Forest forest;
-  double pilot_seconds = 0;
-  std::size_t train_frames = 0;
+  TrainedForest trained;
   for (const Point* p : todo) {
-    std::vector<fs::path> train_works, test_works;
-    for (const auto& n : p->train) train_works.push_back(work_of(n, p->train_front_end));
-    for (const auto& n : p->test) test_works.push_back(work_of(n, p->test_front_end));
-
-    json tkey = p->training_key();
-    std::vector<std::string> tw;
-    for (const auto& w : train_works) tw.push_back(w.string());
-    tkey["works"] = tw;
-    if (tkey.dump() != forest_key) {
-      forest_key.clear();
-      const features::StackSet set = features::open_stacks(train_works, p->train_frames, true, true, p->features);
-      forest::TrainParams tp = p->train_params;
-      tp.memory_mb = options.memory_mb;
-      tp.progress = false;
-      pilot_seconds = 0;
-      if (tp.windows.mode == forest::WindowSampling::Learned) {
-        forest::TrainParams pilot = tp;
-        pilot.windows.mode = forest::WindowSampling::Uniform;
-        pilot.seed = tp.seed + 1;
-        const forest::Forest pf = forest::train_forest(set.dataset, pilot);
-        pilot_seconds = pf.stats.seconds;
-        tp.windows.learned = forest::learned_windows({pf});
-      }
-      forest = forest::train_forest(set.dataset, tp);
-      forest_key = tkey.dump();
-      train_frames = set.dataset.frames.size();
-    }
-
-    eval::EvalOptions eo = p->eval;
-    eo.progress = false;
-    eo.pictures.clear();
-    const auto t_eval = std::chrono::steady_clock::now();
-    const eval::EvalResult r = eval::evaluate(forest, test_works, eo);
-    const double eval_seconds = seconds_since(t_eval);
-    std::vector<std::string> tws;
-    for (const auto& w : test_works) tws.push_back(w.string());
-    const json full = r.to_json(forest, eo, tws);
-
-    forest::Forest used = eo.trees > 0 ? eval::first_trees(forest, eo.trees, "trees") : forest;
-    used.compute_stats();
-    json tree_nodes = json::array();
-    double nodes = 0, leaves = 0, depth = 0;
-    for (const auto& t : used.stats.trees) {
-      tree_nodes.push_back(t.nodes);
-      nodes += t.nodes;
-      leaves += t.leaves;
-      depth += t.depth;
-    }
-    const double n_trees = std::max<double>(1, double(used.stats.trees.size()));
-    json per_feature = json::object();
-    for (int a = 0; a < used.num_attributes(); ++a)
-      per_feature[used.attribute_name(a)] =
-          a < static_cast<int>(used.stats.nodes_per_feature.size()) ? used.stats.nodes_per_feature[std::size_t(a)] : 0;
-    json per_frame = json::array();
-    for (const auto& f : r.frames) per_frame.push_back(num(f.confusion.global_accuracy()));
-    const json& spread = full["accuracy_spread"];
-
-    json rec = {{"format", kRecordFormat},
-                {"version", 1},
-                {"experiment", ex.name},
-                {"index", p->index},
-                {"point", p->json},
-                {"swept", p->swept},
-                {"label", p->label},
-                {"global_accuracy", full["global_accuracy"]},
-                {"class_average_accuracy", full["class_average_accuracy"]},
-                {"mean_iou", full["mean_iou"]},
-                {"boundary_tolerant_accuracy", full["boundary_tolerant_accuracy"]},
-                {"accuracy_spread", spread},
-                {"accuracy_variance", spread.is_object() ? json(std::pow(spread["std"].get<double>(), 2)) : json(nullptr)},
-                {"per_frame_accuracy", per_frame},
-                {"per_class", full["per_class"]},
-                {"classes", forest.classes},
-                {"confusion", full["confusion"]["counts"]},
-                {"test_frames", r.frames.size()},
-                {"seconds_per_frame", r.seconds_per_frame},
-                {"superpixel_seconds_per_frame", r.superpixel_seconds_per_frame},
-                {"eval_seconds", eval_seconds},
-                {"train_seconds", forest.stats.seconds},
-                {"pilot_seconds", pilot_seconds},
-                {"train_frames", train_frames},
-                {"trees", used.trees.size()},
-                {"nodes_per_tree", nodes / n_trees},
-                {"leaves_per_tree", leaves / n_trees},
-                {"depth_per_tree", depth / n_trees},
-                {"tree_nodes", tree_nodes},
-                {"nodes_per_feature", per_feature},
-                {"windows", forest::histograms_to_json(used.stats.windows)}};
+    const std::vector<fs::path> train_works = works.of(p->train, p->train_front_end);
+    const std::vector<fs::path> test_works = works.of(p->test, p->test_front_end);
+    train_for_point(*p, train_works, options, trained);
+    const json rec = evaluate_point(ex, *p, test_works, trained);
     eval::append_jsonl(jsonl, rec);
     ++report.run;
     if (options.on_point) options.on_point(*p, rec);

@@ -225,11 +225,10 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
   return out;
 }
 
-ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
-  opt.features.validate();
-  const FrontEnd& front_end = front_end_for(seq, opt);
-  front_end.check(seq, opt);
-  const bool monocular = front_end.monocular();  // dense depth from a plane sweep over posed neighbours
+namespace {
+
+// Frames and previews asked for must lie in the sequence (Error naming the option).
+void check_frame_options(const Sequence& seq, const ExtractOptions& opt) {
   if (opt.frames.begin >= seq.frame_count())
     throw Error("", "--frames", opt.frames.str() + " selects none of the " + std::to_string(seq.frame_count()) +
                                    " frames of " + seq.manifest.string());
@@ -237,19 +236,21 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     if (f < 0 || f >= seq.frame_count())
       throw Error("", "--preview", "frame " + std::to_string(f) + " is outside the sequence (0.." +
                                        std::to_string(seq.frame_count() - 1) + ")");
-  ExtractReport report;
-  const Json options = options_json(seq, front_end, opt);
+}
 
-  // A work folder made with other options is rebuilt only when asked.
+// The work folder's stacks.json for this run, written before anything else so that an interrupted run
+// can resume. A work folder made with other options is rebuilt only when asked. resume_from_files: with
+// the same options and input, every frame whose files are on disk is kept, whether an earlier run
+// finished (listed in stacks.json) or was killed (stacks.json is written first, so the files on disk
+// were made under it).
+StackManifest start_manifest(const Sequence& seq, const fs::path& work, const Json& options,
+                             const ExtractOptions& opt, bool& resume_from_files) {
   StackManifest m;
   std::error_code ec;
   remove_stale_temporaries(work);  // what runs killed between write and rename left
   remove_stale_temporaries(work / "stacks");
   remove_stale_temporaries(work / "preview");
-  // Resume: with the same options and input, every frame whose files are on disk is kept, whether an
-  // earlier run finished (listed in stacks.json) or was killed (stacks.json is written first, so the
-  // files on disk were made under it).
-  bool resume_from_files = false;
+  resume_from_files = false;
   const std::vector<std::string> channels = stack_channel_names(opt.features);
   if (fs::exists(work / "stacks.json", ec)) {
     StackManifest old = load_stack_manifest(work);
@@ -276,11 +277,16 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     m.frames.clear();
     m.labelled_frames.clear();
   }
-  save_stack_manifest(m);  // options first: an interrupted run can resume
+  save_stack_manifest(m);
+  return m;
+}
 
-  // The front end always sees the whole sequence: fC needs the future path.
+// The front end over the whole sequence (fC needs the future path), timed into the report; its tracks
+// written to WORK/tracks.json. Error when it kept no tracked point.
+FrontEndResult run_front_end(const Sequence& seq, const fs::path& work, const FrontEnd& front_end,
+                             const ExtractOptions& opt, const Json& options, ExtractReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
-  const FrontEndResult fe = front_end.run(seq, opt);
+  FrontEndResult fe = front_end.run(seq, opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
   if (fe.tracks.empty())
@@ -289,50 +295,74 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
                     " frames (" + std::string(front_end.no_tracks_hint()) +
                     "): there is nothing to compute features from");
   write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
-  const int min_frames = front_end.min_track_frames(opt);
-  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
-  const FeatureOptions features = effective_features(front_end, opt);
-  const PointAttributes attrs = compute_point_attributes(video, features);
-  const std::optional<double> camera_height = reference_camera_height(features, video.poses);
-  report.cloud = track_cloud(fe, video, attrs);
-  {
-    std::vector<Pose> gt;
-    if (static_cast<int>(seq.gt_poses.size()) == seq.frame_count() && !fe.poses.empty())
-      gt = align_at_first_frame(seq.gt_poses, fe.first_frame, fe.poses.front());
-    write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, report.cloud, seq));
-  }
+  return fe;
+}
 
-  std::vector<int> todo, kept;
+// WORK/path.png: the camera path from above, with the ground truth's when the sequence has one.
+void write_path_picture(const Sequence& seq, const fs::path& work, const FrontEndResult& fe,
+                        const std::vector<CloudPoint>& cloud) {
+  std::vector<Pose> gt;
+  if (static_cast<int>(seq.gt_poses.size()) == seq.frame_count() && !fe.poses.empty())
+    gt = align_at_first_frame(seq.gt_poses, fe.first_frame, fe.poses.front());
+  write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, cloud, seq));
+}
+
+// The frames of --frames to write now (todo) and those whose stacks are on disk already (kept).
+void plan_frames(const Sequence& seq, const fs::path& work, const ExtractOptions& opt, const StackManifest& m,
+                 bool resume_from_files, std::vector<int>& todo, std::vector<int>& kept) {
   for (int f = 0; f < seq.frame_count(); ++f) {
     if (!opt.frames.contains(f)) continue;
     const bool done = (m.has_frame(f) || resume_from_files) && frame_files_present(work, seq, f);
     if (done && !opt.force) {
-      ++report.frames_skipped;
       kept.push_back(f);
       continue;
     }
     todo.push_back(f);
   }
+}
 
-  // The channels after the six, in stacks.json's order: appearance, then dense geometry (stereo
-  // matching, or a plane sweep over the SfM's posed neighbours).
-  const StereoOptions dense_stereo = dense_stereo_options(opt.front_end.stereo);
-  const SweepInputs sweep = monocular && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{};
-  const auto frame_depth = [&](int f) {
-    if (!monocular) return dense_depth(seq, f, dense_stereo);
+// The channels after the six, in stacks.json's order: appearance, then dense geometry (stereo
+// matching, or a plane sweep over the SfM's posed neighbours).
+class ImageRasters {
+ public:
+  ImageRasters(const Sequence& seq, const FrontEndResult& fe, const PointCloudVideo& video,
+               std::optional<double> camera_height, const ExtractOptions& opt, bool monocular)
+      : seq_(seq), video_(video), camera_height_(camera_height), opt_(opt), monocular_(monocular),
+        dense_stereo_(dense_stereo_options(opt.front_end.stereo)),
+        sweep_(monocular && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{}) {}
+
+  void append(int f, std::vector<cv::Mat>& rasters) const {
+    if (opt_.features.appearance) append_appearance_rasters(seq_.load_left(f), rasters);
+    if (opt_.features.dense)
+      append_dense_rasters(depth(f), monocular_ ? sweep_.calibration : seq_.calibration, video_.poses[f], rasters,
+                           height_shift(camera_height_, video_.poses[f]),
+                           camera_path_near(video_.poses, f, opt_.features.future_frames, opt_.features.causal));
+  }
+
+ private:
+  cv::Mat depth(int f) const {
+    if (!monocular_) return dense_depth(seq_, f, dense_stereo_);
     std::vector<SweepView> views;
-    const SweepNeighbourOptions choice{opt.features.sweep_reach, opt.features.sweep_baseline};
-    for (int g : sweep_neighbours(f, sweep.usable, video.poses, choice)) views.push_back({seq.load_left_gray(g), video.poses[g]});
-    return plane_sweep_depth(seq.load_left_gray(f), video.poses[f], views, sweep.calibration, PlaneSweepOptions{});
-  };
-  const auto append_image_rasters = [&](int f, std::vector<cv::Mat>& rasters) {
-    if (opt.features.appearance) append_appearance_rasters(seq.load_left(f), rasters);
-    if (opt.features.dense)
-      append_dense_rasters(frame_depth(f), monocular ? sweep.calibration : seq.calibration, video.poses[f], rasters,
-                           height_shift(camera_height, video.poses[f]),
-                           camera_path_near(video.poses, f, opt.features.future_frames, opt.features.causal));
-  };
-  Progress progress("extract-features", static_cast<long>(todo.size()), opt.progress);
+    const SweepNeighbourOptions choice{opt_.features.sweep_reach, opt_.features.sweep_baseline};
+    for (int g : sweep_neighbours(f, sweep_.usable, video_.poses, choice))
+      views.push_back({seq_.load_left_gray(g), video_.poses[g]});
+    return plane_sweep_depth(seq_.load_left_gray(f), video_.poses[f], views, sweep_.calibration, PlaneSweepOptions{});
+  }
+
+  const Sequence& seq_;
+  const PointCloudVideo& video_;
+  std::optional<double> camera_height_;
+  const ExtractOptions& opt_;
+  bool monocular_;
+  StereoOptions dense_stereo_;
+  SweepInputs sweep_;
+};
+
+// Writes the stacks of `todo` in parallel; returns the seconds spent computing features, summed.
+double write_stacks(const Sequence& seq, const fs::path& work, const std::vector<int>& todo,
+                    const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
+                    bool progress_on) {
+  Progress progress("extract-features", static_cast<long>(todo.size()), progress_on);
   struct Buffers {
     std::vector<cv::Mat> rasters, sats;
   };
@@ -342,7 +372,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     Buffers& b = buffers.local();
     const auto tf = std::chrono::steady_clock::now();
     rasterise_features(video, attrs, f, seq.size, b.rasters);
-    append_image_rasters(f, b.rasters);
+    image_rasters.append(f, b.rasters);
     b.sats.resize(b.rasters.size());
     for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
     double s = feature_seconds.load();
@@ -355,18 +385,24 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
     progress.tick();
   });
   progress.finish();
-  // Previews of the frames asked for, whether their stacks were written now or earlier.
-  for (int f : opt.preview) {
+  return feature_seconds.load();
+}
+
+// Previews of the frames asked for, whether their stacks were written now or earlier.
+void write_previews(const Sequence& seq, const fs::path& work, const std::vector<int>& frames,
+                    const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
+                    const std::vector<std::string>& channels) {
+  for (int f : frames) {
     char name[32];
     std::snprintf(name, sizeof name, "%06d_features.png", f);
     std::vector<cv::Mat> rasters = rasterise_features(video, attrs, f, seq.size);
-    append_image_rasters(f, rasters);
-    write_image_atomic(work / "preview" / name, feature_preview(rasters, m.features));
+    image_rasters.append(f, rasters);
+    write_image_atomic(work / "preview" / name, feature_preview(rasters, channels));
   }
-  report.frames_written = static_cast<int>(todo.size());
-  report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds.load() / double(todo.size());
+}
 
-  // Record the frames now on disk (all of them, including earlier runs', finished or killed).
+// Records the frames now on disk (all of them, including earlier runs', finished or killed).
+void record_frames(const Sequence& seq, StackManifest& m, const std::vector<int>& todo, const std::vector<int>& kept) {
   std::vector<int> frames = m.frames;
   frames.insert(frames.end(), todo.begin(), todo.end());
   frames.insert(frames.end(), kept.begin(), kept.end());
@@ -377,6 +413,63 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   for (int f : frames)
     if (seq.is_labelled(f)) m.labelled_frames.push_back(f);
   save_stack_manifest(m);
+}
+
+}  // namespace
+
+std::string report_text(const ExtractReport& r, const std::string& work) {
+  const auto& s = r.summary;
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "%s: %d frames written, %d already done; front end %.1f s (%.1f ms/frame), features %.2f ms/frame;\n"
+                "valid points per frame: mean %.0f, min %d; tracks kept %ld of %ld; mean track length %.1f; "
+                "motion inlier ratio %.2f; bridged pairs %zu; %.1f MB per frame on disk",
+                work.c_str(), r.frames_written, r.frames_skipped, r.front_end_seconds,
+                1000 * r.front_end_seconds / std::max(1, s.frames), 1000 * r.features_seconds_per_frame,
+                s.valid_points_per_frame_mean, s.valid_points_per_frame_min, s.filters.kept_tracks, s.filters.tracks,
+                s.track_length_mean, s.inlier_ratio_mean, s.bridged_pairs.size(), r.bytes_per_frame / 1e6);
+  std::string text = std::string(line) + "\n";
+  if (!s.sfm) return text;
+  const SfmSummary& m = *s.sfm;
+  std::snprintf(line, sizeof line,
+                "sfm (%s): focal %.1f px (%s); key frames %d; frames posed %d, still %d, bridged %d of %d; "
+                "reprojection RMS %.3f px over %ld observations; scale %.4g m/unit (ground inliers %d); "
+                "%.1f ms/frame SfM of which %.1f BA",
+                m.tracker.c_str(), m.focal, m.focal_source.c_str(), m.keyframes, m.posed_frames, m.still_frames,
+                m.bridged_frames, s.frames, m.reprojection_rms_px, m.observations, m.scale, m.ground_inliers,
+                1000 * m.seconds_sfm, 1000 * m.seconds_ba);
+  return text + line + "\n";
+}
+
+ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
+  opt.features.validate();
+  const FrontEnd& front_end = front_end_for(seq, opt);
+  front_end.check(seq, opt);
+  const bool monocular = front_end.monocular();  // dense depth from a plane sweep over posed neighbours
+  check_frame_options(seq, opt);
+  ExtractReport report;
+  const Json options = options_json(seq, front_end, opt);
+  bool resume_from_files = false;
+  StackManifest m = start_manifest(seq, work, options, opt, resume_from_files);
+
+  const FrontEndResult fe = run_front_end(seq, work, front_end, opt, options, report);
+  const int min_frames = front_end.min_track_frames(opt);
+  const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
+  const FeatureOptions features = effective_features(front_end, opt);
+  const PointAttributes attrs = compute_point_attributes(video, features);
+  const std::optional<double> camera_height = reference_camera_height(features, video.poses);
+  report.cloud = track_cloud(fe, video, attrs);
+  write_path_picture(seq, work, fe, report.cloud);
+
+  std::vector<int> todo, kept;
+  plan_frames(seq, work, opt, m, resume_from_files, todo, kept);
+  report.frames_skipped = static_cast<int>(kept.size());
+  const ImageRasters image_rasters(seq, fe, video, camera_height, opt, monocular);
+  const double feature_seconds = write_stacks(seq, work, todo, video, attrs, image_rasters, opt.progress);
+  write_previews(seq, work, opt.preview, video, attrs, image_rasters, m.features);
+  report.frames_written = static_cast<int>(todo.size());
+  report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds / double(todo.size());
+  record_frames(seq, m, todo, kept);
   report.bytes_per_frame = std::size_t(m.features.size()) * (seq.size.height + 1) * (seq.size.width + 1) * 8 +
                            std::size_t(seq.size.area());
   return report;

@@ -1,8 +1,6 @@
 // extract-features: a sequence -> tracks, camera path (stereo, or monocular structure from motion) and
 // per-frame feature stacks.
-#include <cstdio>
 #include <iostream>
-
 
 #include "smseg/cloud/cloud_io.hpp"
 #include "smseg/common/cli.hpp"
@@ -58,28 +56,7 @@ int main(int argc, char** argv) {
     const Sequence seq = load_sequence(seq_dir);
     const ExtractReport r = extract_features(seq, work, opt);
     write_cloud(fs::path(work) / "cloud.pcd", r.cloud, seq);
-    const auto& s = r.summary;
-    char line[512];
-    std::snprintf(line, sizeof line,
-                  "%s: %d frames written, %d already done; front end %.1f s (%.1f ms/frame), features %.2f ms/frame;\n"
-                  "valid points per frame: mean %.0f, min %d; tracks kept %ld of %ld; mean track length %.1f; "
-                  "motion inlier ratio %.2f; bridged pairs %zu; %.1f MB per frame on disk",
-                  work.c_str(), r.frames_written, r.frames_skipped, r.front_end_seconds,
-                  1000 * r.front_end_seconds / std::max(1, s.frames), 1000 * r.features_seconds_per_frame,
-                  s.valid_points_per_frame_mean, s.valid_points_per_frame_min, s.filters.kept_tracks, s.filters.tracks,
-                  s.track_length_mean, s.inlier_ratio_mean, s.bridged_pairs.size(), r.bytes_per_frame / 1e6);
-    std::cout << line << "\n";
-    if (s.sfm) {
-      const SfmSummary& m = *s.sfm;
-      std::snprintf(line, sizeof line,
-                    "sfm (%s): focal %.1f px (%s); key frames %d; frames posed %d, still %d, bridged %d of %d; "
-                    "reprojection RMS %.3f px over %ld observations; scale %.4g m/unit (ground inliers %d); "
-                    "%.1f ms/frame SfM of which %.1f BA",
-                    m.tracker.c_str(), m.focal, m.focal_source.c_str(), m.keyframes, m.posed_frames, m.still_frames, m.bridged_frames,
-                    s.frames, m.reprojection_rms_px, m.observations, m.scale, m.ground_inliers,
-                    1000 * m.seconds_sfm, 1000 * m.seconds_ba);
-      std::cout << line << "\n";
-    }
+    std::cout << report_text(r, work);
     return 0;
   });
 }

@@ -72,6 +72,10 @@ Json feature_options_json(const FeatureOptions& options);
 /// a mono one) is an Error. Frames whose stacks exist are skipped unless force.
 ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& options);
 
+/// What extract-features prints of a run into `work`: one summary (two lines), and one line of the
+/// structure from motion when it ran. Each line ends with a newline.
+std::string report_text(const ExtractReport& report, const std::string& work);
+
 /// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.
 cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names);
 
