@@ -187,7 +187,7 @@ int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
   if (trees) {
     const forest::Forest part = forest::train_forest_trees(set.dataset, a.p, *trees);
-    forest::save_forest_part(part, *trees, a.out);
+    forest::save_forest_part(part, *trees, a.out, features::training_data_record(set));
     return report(part, "trees " + trees->to_string() + " of " + std::to_string(a.p.M) + " " + on_frames, a.out);
   }
   return save_and_report(forest::train_forest(set.dataset, a.p), a.out, on_frames);

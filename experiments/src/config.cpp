@@ -8,6 +8,7 @@
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/point_features.hpp"
+#include "smseg/common/digest.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg/common/options.hpp"
 
@@ -413,17 +414,7 @@ std::string Point::describe() const {
   return s.empty() ? "point " + std::to_string(index) : s;
 }
 
-std::string json_hash(const json& j) {
-  const std::string s = j.dump();
-  std::uint64_t h = 1469598103934665603ULL;
-  for (unsigned char c : s) {
-    h ^= c;
-    h *= 1099511628211ULL;
-  }
-  char buf[17];
-  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(h));
-  return buf;
-}
+std::string json_hash(const json& j) { return fnv1a64_hex(j.dump()); }
 
 namespace {
 

@@ -279,6 +279,16 @@ TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
   EXPECT_EQ(count_lines(gap.out), 1) << gap.out;
   EXPECT_NE(gap.out.find("a.json: trees: trees 3..4 are in no part"), std::string::npos) << gap.out;
   EXPECT_FALSE(fs::exists(d / "g.json"));
+  // A part of the same options trained on other frames is refused, not merged. (Before: merged.)
+  const auto other_frames = run(tool("train-forest") + " " + q(work) + " --train-frames 0:11 -K 30 -M 5 --seed 3 -q " +
+                                "--trees 3: -o " + q(d / "other.json"));
+  ASSERT_EQ(other_frames.status, 0) << other_frames.out;
+  const auto mixed = run(tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d / "other.json") + " -o " +
+                         q(d / "mixed.json"));
+  EXPECT_EQ(mixed.status, 1) << mixed.out;
+  EXPECT_EQ(count_lines(mixed.out), 1) << mixed.out;
+  EXPECT_NE(mixed.out.find("the parts were trained on other data"), std::string::npos) << mixed.out;
+  EXPECT_FALSE(fs::exists(d / "mixed.json"));
 }
 
 TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {

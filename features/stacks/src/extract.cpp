@@ -14,6 +14,7 @@
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
+#include "smseg/common/digest.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
@@ -38,14 +39,7 @@ FeatureOptions effective_features(const FrontEnd& front_end, const ExtractOption
 std::string sequence_digest(const Sequence& seq) {
   std::error_code ec;
   if (seq.manifest.empty() || !fs::is_regular_file(seq.manifest, ec)) return "none";  // made in memory
-  std::uint64_t h = 1469598103934665603ull;
-  for (const unsigned char c : read_file(seq.manifest)) {
-    h ^= c;
-    h *= 1099511628211ull;
-  }
-  char hex[17];
-  std::snprintf(hex, sizeof hex, "%016llx", static_cast<unsigned long long>(h));
-  return hex;
+  return fnv1a64_hex(read_file(seq.manifest));
 }
 
 Json options_json(const Sequence& seq, const FrontEnd& front_end, const ExtractOptions& o) {

@@ -12,6 +12,8 @@
 #include <cstring>
 #include <limits>
 
+#include "smseg/common/digest.hpp"
+
 namespace smseg::features {
 
 namespace {
@@ -399,6 +401,22 @@ std::string frames_without_points_message(const StackSet& set, const std::vector
             std::to_string(selected) + " frames hold no tracked point (" + named + ")";
   }
   return text;
+}
+
+Json training_data_record(const StackSet& set) {
+  Json works = Json::array();
+  for (std::size_t w = 0; w < set.manifests.size(); ++w) {
+    const StackManifest& m = set.manifests[w];
+    Json frames = Json::array();
+    for (const auto& [work, frame] : set.origin)
+      if (work == static_cast<int>(w)) frames.push_back(frame);
+    std::error_code ec;
+    const fs::path path = fs::weakly_canonical(m.work, ec);
+    works.push_back({{"path", (ec ? m.work : path).string()},
+                     {"stacks_json_fnv1a64", fnv1a64_hex(read_file(m.manifest_path()))},
+                     {"frames", frames}});
+  }
+  return {{"works", works}, {"features", set.dataset.features}};
 }
 
 }  // namespace smseg::features

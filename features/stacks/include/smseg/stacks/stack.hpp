@@ -96,6 +96,11 @@ struct StackSet {
   forest::Dataset dataset;
 };
 
+/// What a training read from `set`: per work folder its path, a digest of its stacks.json and the
+/// labelled frames used, and the features. Forest parts record it, so that only parts trained on the
+/// same data are merged (forest/parts.hpp).
+Json training_data_record(const StackSet& set);
+
 /// Opens the frames of `works` inside `range` (labelled only if `labelled_only`; with labels if
 /// `with_labels`), selecting `features` by name (empty: all the stack has). All work folders must share
 /// image size and class list; Error naming the folder otherwise, or when no frame is selected.
