@@ -1,4 +1,4 @@
-// Fuzzes the sequence manifest reader (load_sequence on sequence.json, DESIGN 3.1), as check-sequence,
+// Fuzzes the sequence manifest reader (load_sequence on sequence.json, docs/design.md 3.1), as check-sequence,
 // extract-features and every tool that takes a sequence folder call it.
 #include "fuzz_support.hpp"
 #include "smseg/sequence/sequence.hpp"

@@ -1,4 +1,4 @@
-// Cost of the monocular structure-from-motion front end per frame (DESIGN 4, thesis 3.2.6) on short
+// Cost of the monocular structure-from-motion front end per frame (docs/design.md 4, thesis 3.2.6) on short
 // synthetic corridor videos (make-sequence's default scene, left images only): the whole front end
 // (image decoding, keypoints, KLT tracking, focal from the manifest, initialisation, PnP, key frames,
 // local and global bundle adjustment with Ceres, ground plane), and one bundle adjustment of a

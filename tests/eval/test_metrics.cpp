@@ -1,4 +1,4 @@
-// Metrics on hand-made confusion matrices (DESIGN section 5); void never counts.
+// Metrics on hand-made confusion matrices (docs/design.md section 5); void never counts.
 #include <gtest/gtest.h>
 
 #include <cmath>

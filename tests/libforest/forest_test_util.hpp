@@ -1,6 +1,6 @@
 #pragma once
 // Helpers shared by the libforest tests: plain reference implementations written straight from the
-// specification (thesis sections 2.3.3-2.3.4, DESIGN section 4), to check the fast paths against.
+// specification (thesis sections 2.3.3-2.3.4, docs/design.md section 4), to check the fast paths against.
 
 #include <algorithm>
 #include <cmath>

@@ -9,10 +9,10 @@ def extract_features(sequence_dir, out_dir, **options):
     """extract-features SEQUENCE -o OUT as a call: writes the work folder OUT (stacks.json, stacks/,
     tracks.json, path.png; not cloud.pcd) and returns its summary as a dict.
 
-    Options (extract-features's, '-' as '_'): motion ("auto" | "stereo" | "sfm"), stereo, keypoints,
-    tracker, max_keypoints, camera_height, focal, frames ("A:B"), future_frames, appearance (bool), dense
-    (bool: stereo matching, or a plane sweep on SfM runs), gravity ("level" | "estimate", stereo), force,
-    progress (on a terminal only), n_jobs (0: all cores), verbose (the solver's summaries on stderr).
+    Options: every option of extract-features, '-' as '_' (motion, stereo, keypoints, tracker,
+    max_keypoints, camera_height, focal, future_frames, appearance, dense, gravity, force, ...; the whole
+    list with defaults in smseg.option_tables()["extract_features"]; "--seed" is sfm_seed), and frames
+    ("A:B"), progress (on a terminal only), n_jobs (0: all cores), verbose (the solver's summaries).
     """
     return _smseg.extract_features(os.fspath(sequence_dir), os.fspath(out_dir), dict(options))
 
@@ -21,9 +21,10 @@ def evaluate(forest, works, **options):
     """eval-forest FOREST WORK... as a call: returns the results dict (what results.json holds).
 
     forest: a forest file, or a fitted ExtraTreesWindowClassifier. works: a work folder or a list.
-    Options (eval-forest's): test_frames ("110:"), grid, superpixels ("small" | "large" | N), votes,
-    vote ("sum" | "majority"), trees, tolerance, seed, smooth ("none" | "graphcut"), lambda_, progress,
-    n_jobs; out (a folder: also writes out/results.json) and pictures (also out/frames/*.png).
+    Options: every option of eval-forest, '-' as '_' (grid, superpixels, votes, vote, trees, tolerance,
+    seed, smooth, lambda_ for --lambda, connectivity, smooth_cycles, smooth_window, smooth_bands,
+    smooth_contrast; smseg.option_tables()["evaluate"]), and test_frames ("110:"), progress, n_jobs;
+    out (a folder: also writes out/results.json) and pictures (also out/frames/*.png).
     """
     if isinstance(works, (str, os.PathLike)):
         works = [works]

@@ -1,4 +1,4 @@
-// Bundle adjustment for the monocular SfM, with Ceres (DESIGN 7): the reprojection error of every
+// Bundle adjustment for the monocular SfM, with Ceres (docs/design.md 7): the reprojection error of every
 // observation, a Huber loss, cameras as (angle-axis, translation) parameter blocks (world-to-camera
 // X_c = R X + t), points as 3-vectors; fixed cameras are constant blocks (the gauge, scale included).
 // The Schur complement eliminates the points (DENSE_SCHUR for a sliding window, SPARSE_SCHUR for many

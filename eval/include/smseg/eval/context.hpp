@@ -1,5 +1,5 @@
 #pragma once
-// Auto-context (Tu & Bai, TPAMI 2010; issue 14, lever 4): a second forest whose windows also read the
+// Auto-context (Tu & Bai, TPAMI 2010): a second forest whose windows also read the
 // first forest's class posteriors. `add-context` writes, for each work folder, a new work folder whose
 // stacks hold the first forest's features and, per class c, a channel "fCtx:<class c>": the first
 // forest's posterior of c at each pixel (the mean over its trees of the leaf distributions, in [0, 1]),

@@ -1,5 +1,5 @@
 #pragma once
-// Evaluating a forest on the labelled frames of work folders (thesis 2.3.4, 3.2.7, 4.5.1; DESIGN
+// Evaluating a forest on the labelled frames of work folders (thesis 2.3.4, 3.2.7, 4.5.1; docs/design.md
 // section 5): per-pixel classification, grid or superpixel voting, scores, and pictures per test frame.
 //
 // Regions and votes (thesis 4.5.1). Per pixel: every pixel runs through every tree and takes the class

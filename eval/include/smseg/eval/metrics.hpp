@@ -1,5 +1,5 @@
 #pragma once
-// Scores of a labelling against ground truth (DESIGN section 5). Void pixels never count.
+// Scores of a labelling against ground truth (docs/design.md section 5). Void pixels never count.
 //   global accuracy         share of (non-void) pixels labelled right ("correctness" in the thesis)
 //   class-average accuracy  mean over classes present in the ground truth of per-class recall
 //   mean IoU                mean over classes present in ground truth or prediction of TP/(TP+FP+FN)

@@ -1,5 +1,5 @@
 #pragma once
-// Sweeps of an evaluation parameter without retraining (thesis 4.3, 4.5.1; DESIGN section 5):
+// Sweeps of an evaluation parameter without retraining (thesis 4.3, 4.5.1; docs/design.md section 5):
 //   M=A:B[:S]  the first m trees of the forest for m = A, A+S, ..., B (a forest of the largest M
 //              serves every smaller M)
 //   B=A:B[:S]  grid cell size (per-pixel evaluation is not a point of this sweep)

@@ -1,5 +1,5 @@
 #pragma once
-// The input contract of the forest (DESIGN section 2), in the spirit of Sherwood's
+// The input contract of the forest (docs/design.md section 2), in the spirit of Sherwood's
 // IDataPointCollection: plain arrays owned by the caller, which features/ fills from a feature stack.
 // libforest never sees OpenCV; a cv::Mat made by cv::integral(..., CV_64F) can be passed as is.
 

@@ -1,5 +1,5 @@
 #pragma once
-// The forest model (DESIGN section 3.4): classes, the image size its windows were sized for, feature
+// The forest model (docs/design.md section 3.4): classes, the image size its windows were sized for, feature
 // names, training parameters and seed, per tree a flat node array, and training statistics.
 // File format "smseg-forest" version 1 (JSON):
 //   { "format": "smseg-forest", "version": 1,

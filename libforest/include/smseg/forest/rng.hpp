@@ -20,7 +20,7 @@ constexpr std::uint64_t mix64(std::uint64_t x) noexcept {
   return x ^ (x >> 31);
 }
 
-/// The seed of tree `tree` of a forest trained with `seed` (DESIGN section 7: one generator per tree).
+/// The seed of tree `tree` of a forest trained with `seed` (docs/design.md section 7: one generator per tree).
 constexpr std::uint64_t tree_seed(std::uint64_t seed, int tree) noexcept {
   return mix64(mix64(seed) ^ mix64(0xA5A5A5A5ULL + static_cast<std::uint64_t>(tree)));
 }

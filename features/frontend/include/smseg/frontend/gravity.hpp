@@ -1,5 +1,5 @@
 #pragma once
-// Gravity and the ground plane of a stereo camera path (issue 14, lever 2).
+// Gravity and the ground plane of a stereo camera path.
 //
 // The stereo front end builds its world frame from the first camera: Y up along that camera's up axis,
 // i.e. it assumes the first camera level. A camera that looks down at a table (the tabletop scene:

@@ -1,5 +1,5 @@
 #pragma once
-// Camera motion from stereo point tracks (thesis 3.2.2, DESIGN section 4 "Motion"), and the whole
+// Camera motion from stereo point tracks (thesis 3.2.2, docs/design.md section 4 "Motion"), and the whole
 // stereo front end: disparity -> keypoints -> matching -> tracks -> filters -> motion -> camera path.
 //
 // Per consecutive frame pair (t, t+1), the rigid motion M_t = (R, T) with X_{t+1} = R X_t + T maps the
@@ -170,7 +170,7 @@ inline TrackingOptions stereo_default_tracking() {
 struct FrontEndOptions {
   StereoOptions stereo;
   TrackingOptions tracking = stereo_default_tracking();
-  /// klt (default since 2026-12-04: lower path error and better forests than the thesis's descriptor
+  /// klt (the default: lower path error and better forests than the thesis's descriptor
   /// matching on the synthetic corridor, lab and KITTI; docs/stereo.md) or descriptors (the thesis)
   FrameTracker tracker = FrameTracker::Klt;
   KltOptions klt;                                    ///< used by the klt tracker

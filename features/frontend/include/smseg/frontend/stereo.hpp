@@ -1,5 +1,5 @@
 #pragma once
-// Stereo disparity for the stereo front end (thesis 3.2.2, DESIGN section 4 "Point tracking").
+// Stereo disparity for the stereo front end (thesis 3.2.2, docs/design.md section 4 "Point tracking").
 //
 // The default is cross-correlation block matching with a validity check, the equivalent of the
 // Triclops library the thesis used: OpenCV StereoBM with its texture and uniqueness thresholds, then

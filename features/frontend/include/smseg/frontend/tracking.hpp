@@ -1,9 +1,9 @@
 #pragma once
-// Keypoint tracks for the stereo front end (thesis 3.2.2, DESIGN section 4 "Point tracking").
+// Keypoint tracks for the stereo front end (thesis 3.2.2, docs/design.md section 4 "Point tracking").
 //
 // The thesis's tracker (FrameTracker::Descriptors): keypoints (SIFT, the stand-in for the thesis's SURF;
 // ORB and AKAZE selectable) are matched from each frame to the next by nearest descriptor in both
-// directions, keeping only symmetric matches. The stereo front end's default since 2026-12-04 is
+// directions, keeping only symmetric matches. The stereo front end's default is
 // FrameTracker::Klt (klt_step: Shi-Tomasi corners followed by pyramidal Lucas-Kanade), which drifts
 // less (docs/stereo.md). Chains of matches are tracks. Then the filters, in this order, each counting
 // what it removed:

@@ -1,5 +1,5 @@
 #pragma once
-// The tracks-and-poses file (DESIGN 3.2), format "smseg-tracks" version 1, e.g. work/tracks.json:
+// The tracks-and-poses file (docs/design.md 3.2), format "smseg-tracks" version 1, e.g. work/tracks.json:
 //
 // {
 //   "format": "smseg-tracks", "version": 1,

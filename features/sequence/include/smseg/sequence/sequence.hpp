@@ -1,5 +1,5 @@
 #pragma once
-// The sequence format (DESIGN section 3.1): a folder with a JSON manifest `sequence.json` that names
+// The sequence format (docs/design.md section 3.1): a folder with a JSON manifest `sequence.json` that names
 // the frames, the calibration, the labelled frames and the classes. The reader validates everything it
 // can without decoding images; images are validated (existence, size, label values) when loaded.
 //
@@ -44,7 +44,7 @@ struct Calibration {
 };
 
 /// A camera pose: camera-to-world rotation R (row-major 3x3) and camera centre t in the world frame,
-/// world Y up, origin on the ground under the first camera position (DESIGN 3.2). Camera frame: x right,
+/// world Y up, origin on the ground under the first camera position (docs/design.md 3.2). Camera frame: x right,
 /// y down, z forward (OpenCV convention).
 struct Pose {
   std::array<double, 9> R{1, 0, 0, 0, 1, 0, 0, 0, 1};

@@ -1,5 +1,5 @@
 #pragma once
-// Monocular structure from motion (thesis 3.2.6, Brostow et al. 2008's input; DESIGN section 4
+// Monocular structure from motion (thesis 3.2.6, Brostow et al. 2008's input; docs/design.md section 4
 // "Monocular SfM"): the same FrontEndResult as the stereo front end, from the left images alone.
 //
 // The pipeline (run_mono_front_end):
@@ -47,7 +47,7 @@
 //      reconstruction is scaled so that the median camera height above the plane is camera_height
 //      (without a plane: the median height of the cameras over the candidates, along the mean "up"), and rotated so that the plane normal is world
 //      +Y, the first camera's optical axis projected on the plane is world +Z, and the origin is the
-//      first camera centre's foot on the plane (DESIGN 3.2).
+//      first camera centre's foot on the plane (docs/design.md 3.2).
 //
 // Output: FrontEndResult as run_stereo_front_end gives it, with summary.sfm (sfm_summary). Per observation, `points` is the track's
 // 3D point in that frame's camera (metres); `disparities` holds the inverse depth 1/Z in 1/metres (mono

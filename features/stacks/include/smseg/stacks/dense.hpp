@@ -1,5 +1,5 @@
 #pragma once
-// Dense geometry channels (extract-features --dense; issue 14, lever 1).
+// Dense geometry channels (extract-features --dense).
 //
 // The six structure-and-motion features live at the tracked points only (100-300 per frame); a window
 // that holds none says nothing about the surface under it. A stereo pair gives depth almost everywhere:
@@ -21,7 +21,7 @@
 //         and the ones before it), 0 where invalid. Road under the path is about the camera height away,
 //         pavement and parked cars a few metres, facades further (thesis 2.3.2's fC, for every pixel)
 // All of them come from the stereo geometry and the camera path, none from image appearance: they
-// count as structure and motion (issue 14). Monocular runs get their depth from a plane sweep over
+// count as structure and motion. Monocular runs get their depth from a plane sweep over
 // the SfM's posed neighbour frames instead (plane_sweep.hpp); the channels are the same.
 
 #include <string>

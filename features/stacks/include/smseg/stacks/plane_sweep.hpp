@@ -1,7 +1,7 @@
 #pragma once
 // Dense depth of a monocular frame from its posed neighbours: a plane sweep (Collins 1996; Gallup et
 // al. 2007), the monocular source of the dense geometry channels (extract-features --dense on a
-// structure-from-motion run; issue 14, lever 1).
+// structure-from-motion run).
 //
 // For each of a set of fronto-parallel planes of the reference camera, uniform in inverse depth
 // between 1/max_depth and 1/min_depth (as many as it takes for a point to move at most max_step_px

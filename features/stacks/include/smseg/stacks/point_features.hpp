@@ -1,5 +1,5 @@
 #pragma once
-// The structure-and-motion features of thesis 2.3.2 / 3.2.3 (DESIGN section 4, "Features"), rasters of
+// The structure-and-motion features of thesis 2.3.2 / 3.2.3 (docs/design.md section 4, "Features"), rasters of
 // the image size that are then turned into summed-area tables:
 //   fH  height of the point above the ground (world Y), at the point's pixel; with
 //       HeightReference::Camera above the ground under the frame's camera (see HeightReference)

@@ -1,5 +1,5 @@
 #pragma once
-// Feature stacks on disk (DESIGN section 3.3). A work folder holds
+// Feature stacks on disk (docs/design.md section 3.3). A work folder holds
 //   stacks.json                   format "smseg-stacks" version 1: the sequence, image size, feature
 //                                 names, class names, the frames written, and the options used
 //   stacks/NNNNNN.sat.npy         float64, shape (F, H+1, W+1): one summed-area table per feature

@@ -1,5 +1,5 @@
 #pragma once
-// The tracked points as a labelled point cloud, for PCL viewers and CloudCompare (DESIGN 3.2), and a
+// The tracked points as a labelled point cloud, for PCL viewers and CloudCompare (docs/design.md 3.2), and a
 // top-down picture of the camera path and the cloud, for people. Writing it as a PCD/PLY file needs PCL
 // and lives in the point-cloud module (smseg/cloud/cloud_io.hpp).
 //

@@ -37,9 +37,9 @@
 //   ~1 m/s (corridor: one or two, along the left side of a segment; lab: two, across the room and the
 //   robot's path), with a phase chosen so that they keep at least 0.6 m (corridor) / 0.8 m (lab) from
 //   the camera when the candidates allow.
-// - World frame (DESIGN 3.2): Y up, origin on the floor under the first camera position; poses are
+// - World frame (docs/design.md 3.2): Y up, origin on the floor under the first camera position; poses are
 //   camera-to-world R (columns = camera x right, y down, z forward in world coordinates) and centre t.
-// - Tabletop (for the point-cloud segmenters of issue 8): a 6.4 x 5.6 m room (floor, walls with
+// - Tabletop (for the point-cloud segmenters): a 6.4 x 5.6 m room (floor, walls with
 //   posters and a door, ceiling with lights) with a wooden table in the middle (0.75 m high, 1.2-1.6 x
 //   0.75-0.95 m top, four legs) and 3-6 objects on it, boxes and cylinders (24-sided prisms with a disc
 //   lid) of distinct saturated colours, plain, striped or checked, placed from the seed without touching

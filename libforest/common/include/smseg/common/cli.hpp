@@ -1,6 +1,6 @@
 #pragma once
 // What every command-line tool shares: CLI11 parsing with our exit codes (2 for bad usage), and
-// errors turned into one line on stderr with exit status 1 (DESIGN section 7, "Errors").
+// errors turned into one line on stderr with exit status 1 (docs/design.md section 7, "Errors").
 
 #include <exception>
 #include <iostream>

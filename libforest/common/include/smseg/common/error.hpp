@@ -1,6 +1,6 @@
 #pragma once
 // The one error type of the toolkit: it names the file, the field and what was wrong, so that a
-// command-line tool can print it as one line (DESIGN section 7, "Errors").
+// command-line tool can print it as one line (docs/design.md section 7, "Errors").
 
 #include <stdexcept>
 #include <string>

@@ -1,6 +1,6 @@
 #pragma once
 // File helpers shared by every stage: atomic writes (temporary file, then rename), JSON reading with
-// errors that name the file and the field, and format/version checks (DESIGN section 3).
+// errors that name the file and the field, and format/version checks (docs/design.md section 3).
 
 #include <cstdint>
 #include <filesystem>
