@@ -10,6 +10,7 @@
 #include "smseg/forest/slurm_train.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/slurm.hpp"
+#include "smseg/common/slurm_cli.hpp"
 
 namespace {
 
@@ -92,18 +93,12 @@ void add_options(CLI::App& app, Args& a) {
                  "train only trees A..B-1 of the M (A:B half-open; A: = up to M) and write a forest part, for --merge");
   app.add_option("--merge", a.merge, "join these forest parts (from --trees) into the forest -o; no training")
       ->expected(1, -1);
-  app.add_flag("--slurm", a.on_slurm,
-               "train as a Slurm job array (sbatch) and a gather job that merges the parts into -o; wait for both");
-  app.add_option("--tasks", a.slurm.tasks, "with --slurm: array tasks, each training a range of trees (1..M; 0: one per tree)")
-      ->capture_default_str();
-  app.add_option("--slurm-dir", a.slurm_dir,
-                 "with --slurm: job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)");
-  app.add_option("--slurm-arg", a.slurm.sbatch_options,
-                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
-      ->allow_extra_args(false);
-  app.add_flag("--no-wait", a.no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes -o");
-  app.add_flag("--slurm-dry-run", a.slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
-  app.add_option("--poll", a.slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  slurm::add_options(app,
+                     {"train as a Slurm job array (sbatch) and a gather job that merges the parts into -o; wait for both",
+                      "array tasks, each training a range of trees (1..M; 0: one per tree)",
+                      "job folder (job.sh, logs/, parts/), kept; a rerun submits only missing parts (default: OUT.slurm)",
+                      "-o"},
+                     a.on_slurm, a.slurm.tasks, a.slurm_dir, a.slurm.sbatch_options, a.no_wait, a.slurm.mode);
   app.add_option("--features", a.features_opt, "comma-separated features to use (default: all in the stacks)");
   app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   add_threads_option(app, a.threads, "the forest does not depend on it");

@@ -8,6 +8,7 @@
 #include <opencv2/core/utility.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/slurm_cli.hpp"
 #include "smseg/experiments/runner.hpp"
 #include "smseg/experiments/shards.hpp"
 #include "smseg/common/slurm.hpp"
@@ -93,16 +94,12 @@ void add_options(CLI::App& app, Args& a) {
   app.add_flag("--check", a.check, "validate the config and list its points, run nothing");
   app.add_flag("-q,--quiet", a.quiet, "no progress on stderr, no line per point");
   app.add_option("--points", a.points, "run only these points (comma-separated indices, as --check lists them)");
-  app.add_flag("--slurm", a.on_slurm,
-               "run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both");
-  app.add_option("--tasks", a.tasks, "with --slurm: array tasks (at least 1; more than the forests the points left need are not used)");
-  app.add_option("--slurm-dir", a.slurm_dir, "with --slurm: job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)");
-  app.add_option("--slurm-arg", a.slurm.sbatch_options,
-                 "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short (repeatable)")
-      ->allow_extra_args(false);
-  app.add_flag("--no-wait", a.no_wait, "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes OUT");
-  app.add_flag("--slurm-dry-run", a.slurm.mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
-  app.add_option("--poll", a.slurm.mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  smseg::slurm::add_options(
+      app,
+      {"run the points as a Slurm job array (sbatch) and a gather job that collects their records; wait for both",
+       "array tasks (at least 1; more than the forests the points left need are not used)",
+       "job folder (job.sh, logs/, tasks/), kept (default: OUT/slurm)", "OUT"},
+      a.on_slurm, a.tasks, a.slurm_dir, a.slurm.sbatch_options, a.no_wait, a.slurm.mode);
   // The gather job's own command: the tasks' records (under --slurm-dir) into OUT. Not for users.
   app.add_flag("--slurm-gather", a.gather)->group("");
 }
