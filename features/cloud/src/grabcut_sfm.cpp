@@ -54,6 +54,53 @@ bool project_point(const Eigen::Vector3f& world, const Pose& pose, const Pinhole
   return true;
 }
 
+namespace {
+
+/// Of hypotheses scored in two clouds (plane, inliers in the first, inliers in the second), the plane
+/// both hold: the highest lesser share of either cloud's best count (a plane that is the best of one
+/// cloud and nearly empty in the other loses to one that is good in both).
+Eigen::Vector4d plane_both_hold(const std::vector<std::array<double, 6>>& scored, int* count) {
+  double max_own = 0, max_agree = 0;
+  for (const auto& h : scored) {
+    max_own = std::max(max_own, h[4]);
+    max_agree = std::max(max_agree, h[5]);
+  }
+  double best_score = -1;
+  Eigen::Vector4d best(0, 0, 0, 0);
+  for (const auto& h : scored) {
+    const double score = std::min(h[4] / std::max(max_own, 1.0), h[5] / std::max(max_agree, 1.0));
+    if (score > best_score) {
+      best_score = score;
+      best = Eigen::Vector4d(h[0], h[1], h[2], h[3]);
+      *count = int(h[4]);
+    }
+  }
+  return best;
+}
+
+/// Least-squares refit to the plane's inliers: the normal is the covariance's smallest eigenvector;
+/// `mean` the inliers' mean.
+Eigen::Vector3d least_squares_normal(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector4d& plane,
+                                     double distance, Eigen::Vector3d* mean) {
+  *mean = Eigen::Vector3d::Zero();
+  int m = 0;
+  for (const auto& p : points)
+    if (std::abs(plane.head<3>().dot(p.cast<double>()) + plane[3]) <= distance) {
+      *mean += p.cast<double>();
+      ++m;
+    }
+  *mean /= m;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points)
+    if (std::abs(plane.head<3>().dot(p.cast<double>()) + plane[3]) <= distance) {
+      const Eigen::Vector3d d = p.cast<double>() - *mean;
+      cov += d * d.transpose();
+    }
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0).normalized();
+}
+
+}  // namespace
+
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
                                double min_cos, bool up_is_known, const std::vector<Eigen::Vector3f>* agree) {
@@ -101,42 +148,10 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
       best = pl;
     }
   }
-  if (agree && !scored.empty()) {
-    // The plane both clouds hold: the highest lesser share of either cloud's best count (a plane that
-    // is the best of one cloud and nearly empty in the other loses to one that is good in both).
-    double max_own = 0, max_agree = 0;
-    for (const auto& h : scored) {
-      max_own = std::max(max_own, h[4]);
-      max_agree = std::max(max_agree, h[5]);
-    }
-    double best_score = -1;
-    for (const auto& h : scored) {
-      const double score = std::min(h[4] / std::max(max_own, 1.0), h[5] / std::max(max_agree, 1.0));
-      if (score > best_score) {
-        best_score = score;
-        best = Eigen::Vector4d(h[0], h[1], h[2], h[3]);
-        best_count = int(h[4]);
-      }
-    }
-  }
+  if (agree && !scored.empty()) best = plane_both_hold(scored, &best_count);
   if (best_count < 3) return inlier;
-  // Least-squares refit to the inliers: the normal is the covariance's smallest eigenvector.
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  int m = 0;
-  for (const auto& p : points)
-    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
-      mean += p.cast<double>();
-      ++m;
-    }
-  mean /= m;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : points)
-    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
-      const Eigen::Vector3d d = p.cast<double>() - mean;
-      cov += d * d.transpose();
-    }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  Eigen::Vector3d nrm = es.eigenvectors().col(0).normalized();
+  Eigen::Vector3d mean;
+  Eigen::Vector3d nrm = least_squares_normal(points, best, distance, &mean);
   if (up_is_known && nrm.dot(up) < 0) nrm = -nrm;
   const Eigen::Vector4d refit(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(mean));
   const bool refit_faces_up = !up_is_known || nrm.dot(up) >= min_cos;
@@ -147,6 +162,118 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
   return inlier;
 }
 
+namespace {
+
+/// Rows of `dim` floats and what k-means does with them.
+struct KmeansData {
+  const std::vector<float>& data;
+  std::size_t n, d, k;
+  double dist2(std::size_t i, const float* c) const {
+    double s = 0;
+    for (std::size_t j = 0; j < d; ++j) {
+      const double v = double(data[i * d + j]) - double(c[j]);
+      s += v * v;
+    }
+    return s;
+  }
+};
+
+/// k-means++ seeding: the first centre a random row, each next one a row drawn with probability
+/// proportional to its squared distance from the nearest centre so far.
+void kmeanspp_seeds(const KmeansData& x, std::mt19937_64& rng, std::vector<float>& centres, std::vector<double>& nearest) {
+  const std::size_t first = draw(rng, x.n), d = x.d;
+  std::copy_n(&x.data[first * d], d, &centres[0]);
+  for (std::size_t i = 0; i < x.n; ++i) nearest[i] = x.dist2(i, &centres[0]);
+  for (std::size_t c = 1; c < x.k; ++c) {
+    double total = 0;
+    for (double v : nearest) total += v;
+    std::size_t pick = 0;
+    if (total > 0) {
+      double r = draw_unit(rng) * total;
+      pick = x.n - 1;
+      for (std::size_t i = 0; i < x.n; ++i) {
+        r -= nearest[i];
+        if (r < 0) {
+          pick = i;
+          break;
+        }
+      }
+    } else {
+      pick = draw(rng, x.n);
+    }
+    std::copy_n(&x.data[pick * d], d, &centres[c * d]);
+    for (std::size_t i = 0; i < x.n; ++i) nearest[i] = std::min(nearest[i], x.dist2(i, &centres[c * d]));
+  }
+}
+
+/// Each row to its nearest centre; `nearest` its squared distance. Returns whether a label changed and
+/// adds the squared distances to `cost`.
+bool assign_rows(const KmeansData& x, const std::vector<float>& centres, std::vector<int>& labels,
+                 std::vector<double>& nearest, double& cost) {
+  bool changed = false;
+  for (std::size_t i = 0; i < x.n; ++i) {
+    int bl = 0;
+    double bd = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < x.k; ++c) {
+      const double v = x.dist2(i, &centres[c * x.d]);
+      if (v < bd) {
+        bd = v;
+        bl = int(c);
+      }
+    }
+    nearest[i] = bd;
+    cost += bd;
+    if (labels[i] != bl) {
+      labels[i] = bl;
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+/// Each centre to the mean of its rows; an empty cluster takes the row farthest from its centre.
+void update_centres(const KmeansData& x, const std::vector<int>& labels, std::vector<float>& centres,
+                    std::vector<double>& nearest) {
+  const std::size_t d = x.d;
+  std::vector<double> sum(x.k * d, 0.0);
+  std::vector<std::size_t> cnt(x.k, 0);
+  for (std::size_t i = 0; i < x.n; ++i) {
+    const std::size_t c = std::size_t(labels[i]);
+    ++cnt[c];
+    for (std::size_t j = 0; j < d; ++j) sum[c * d + j] += x.data[i * d + j];
+  }
+  for (std::size_t c = 0; c < x.k; ++c) {
+    if (cnt[c] == 0) {
+      const std::size_t far = std::size_t(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
+      std::copy_n(&x.data[far * d], d, &centres[c * d]);
+      nearest[far] = 0;
+      continue;
+    }
+    for (std::size_t j = 0; j < d; ++j) centres[c * d + j] = float(sum[c * d + j] / double(cnt[c]));
+  }
+}
+
+/// Clusters numbered by their first row (so the labelling does not depend on the seeding order).
+std::vector<int> canonical_labels(const KmeansData& x, const std::vector<int>& labels, const std::vector<float>& centres,
+                                  std::vector<float>* centres_out) {
+  std::vector<int> order(x.k, -1);
+  int next = 0;
+  for (std::size_t i = 0; i < x.n; ++i)
+    if (order[std::size_t(labels[i])] < 0) order[std::size_t(labels[i])] = next++;
+  for (auto& o : order)
+    if (o < 0) o = next++;
+  std::vector<int> out(x.n);
+  for (std::size_t i = 0; i < x.n; ++i) out[i] = order[std::size_t(labels[i])];
+  if (centres_out) {
+    centres_out->assign(x.k * x.d, 0.f);
+    for (std::size_t c = 0; c < x.k; ++c)
+      std::copy_n(&centres[c * x.d], x.d, &(*centres_out)[std::size_t(order[c]) * x.d]);
+  }
+  return out;
+}
+
+}  // namespace
+
 std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int attempts, int max_iterations,
                         std::uint64_t seed, std::vector<float>* centres_out) {
   if (dim < 1 || data.size() % std::size_t(dim) != 0) throw Error("", "kmeans", "data size is not a multiple of dim");
@@ -154,88 +281,20 @@ std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int atte
   if (k < 1) throw Error("", "k", "must be >= 1");
   if (n < std::size_t(k))
     throw Error("", "k", std::to_string(n) + " points cannot make " + std::to_string(k) + " clusters");
-  const std::size_t d = std::size_t(dim), kk = std::size_t(k);
-  const auto dist2 = [&](std::size_t i, const float* c) {
-    double s = 0;
-    for (std::size_t j = 0; j < d; ++j) {
-      const double v = double(data[i * d + j]) - double(c[j]);
-      s += v * v;
-    }
-    return s;
-  };
+  const KmeansData x{data, n, std::size_t(dim), std::size_t(k)};
   std::mt19937_64 rng(seed);
-  std::vector<int> best_labels;
-  std::vector<float> best_centres;
-  double best_cost = std::numeric_limits<double>::infinity();
-  std::vector<int> labels(n);
-  std::vector<float> centres(kk * d);
+  std::vector<int> best_labels, labels(n);
+  std::vector<float> best_centres, centres(x.k * x.d);
   std::vector<double> nearest(n);
+  double best_cost = std::numeric_limits<double>::infinity();
   for (int attempt = 0; attempt < attempts; ++attempt) {
-    // k-means++ seeding.
-    std::size_t first = draw(rng, n);
-    std::copy_n(&data[first * d], d, &centres[0]);
-    for (std::size_t i = 0; i < n; ++i) nearest[i] = dist2(i, &centres[0]);
-    for (std::size_t c = 1; c < kk; ++c) {
-      double total = 0;
-      for (double v : nearest) total += v;
-      std::size_t pick = 0;
-      if (total > 0) {
-        double r = draw_unit(rng) * total;
-        pick = n - 1;
-        for (std::size_t i = 0; i < n; ++i) {
-          r -= nearest[i];
-          if (r < 0) {
-            pick = i;
-            break;
-          }
-        }
-      } else {
-        pick = draw(rng, n);
-      }
-      std::copy_n(&data[pick * d], d, &centres[c * d]);
-      for (std::size_t i = 0; i < n; ++i) nearest[i] = std::min(nearest[i], dist2(i, &centres[c * d]));
-    }
-    // Lloyd iterations.
+    kmeanspp_seeds(x, rng, centres, nearest);
     std::fill(labels.begin(), labels.end(), -1);
     double cost = 0;
-    for (int it = 0; it < max_iterations; ++it) {
-      bool changed = false;
+    for (int it = 0; it < max_iterations; ++it) {  // Lloyd iterations
       cost = 0;
-      for (std::size_t i = 0; i < n; ++i) {
-        int bl = 0;
-        double bd = std::numeric_limits<double>::infinity();
-        for (std::size_t c = 0; c < kk; ++c) {
-          const double v = dist2(i, &centres[c * d]);
-          if (v < bd) {
-            bd = v;
-            bl = int(c);
-          }
-        }
-        nearest[i] = bd;
-        cost += bd;
-        if (labels[i] != bl) {
-          labels[i] = bl;
-          changed = true;
-        }
-      }
-      if (!changed) break;
-      std::vector<double> sum(kk * d, 0.0);
-      std::vector<std::size_t> cnt(kk, 0);
-      for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t c = std::size_t(labels[i]);
-        ++cnt[c];
-        for (std::size_t j = 0; j < d; ++j) sum[c * d + j] += data[i * d + j];
-      }
-      for (std::size_t c = 0; c < kk; ++c) {
-        if (cnt[c] == 0) {
-          // An empty cluster takes the point farthest from its centre.
-          const std::size_t far = std::size_t(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
-          std::copy_n(&data[far * d], d, &centres[c * d]);
-          nearest[far] = 0;
-          continue;
-        }
-        for (std::size_t j = 0; j < d; ++j) centres[c * d + j] = float(sum[c * d + j] / double(cnt[c]));
-      }
+      if (!assign_rows(x, centres, labels, nearest, cost)) break;
+      update_centres(x, labels, centres, nearest);
     }
     if (cost < best_cost) {
       best_cost = cost;
@@ -243,21 +302,7 @@ std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int atte
       best_centres = centres;
     }
   }
-  // Canonical order: clusters numbered by their first point.
-  std::vector<int> order(kk, -1);
-  int next = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (order[std::size_t(best_labels[i])] < 0) order[std::size_t(best_labels[i])] = next++;
-  for (auto& o : order)
-    if (o < 0) o = next++;
-  std::vector<int> out(n);
-  for (std::size_t i = 0; i < n; ++i) out[i] = order[std::size_t(best_labels[i])];
-  if (centres_out) {
-    centres_out->assign(kk * d, 0.f);
-    for (std::size_t c = 0; c < kk; ++c)
-      std::copy_n(&best_centres[c * d], d, &(*centres_out)[std::size_t(order[c]) * d]);
-  }
-  return out;
+  return canonical_labels(x, best_labels, best_centres, centres_out);
 }
 
 std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size) {

@@ -25,9 +25,12 @@ int main(int argc, char** argv) {
       "    splatted into the frame (OUT.png) and the saliency map (OUT.saliency.png); F1 per object and the\n"
       "    confusion matrix against the frame's instance image (make-sequence --scene tabletop) when it has one.\n"
       "  --method grabcut-sfm (GrabCutSFM, paper 001): the object nearest the camera in one frame of a work\n"
-      "    folder (--sequence SEQ --work WORK --frame N; cloud WORK/cloud.pcd or CLOUD, poses and focal from\n"
-      "    WORK/tracks.json): RANSAC plane removal, 3D k-means (--k), the cluster nearest the camera projected\n"
-      "    into the frame, 2D RANSAC outlier removal, its bounding box, OpenCV grabCut. -o MASK.png; also\n"
+      "    folder (--sequence SEQ --work WORK --frame N; poses and focal from WORK/tracks.json). Defaults with\n"
+      "    no distance in metres (--support table): the frame's dense depth (stereo) or the tracks around it,\n"
+      "    the table found as the highest wide horizontal patch with points standing on it, the points on it\n"
+      "    clustered at the cloud's own spacing, the nearest cluster; --support plane is 001's recipe (RANSAC\n"
+      "    plane removal, 3D k-means --k on WORK/cloud.pcd or CLOUD, the nearest cluster centre). Then 2D\n"
+      "    RANSAC outlier removal, the bounding box, OpenCV grabCut. -o MASK.png; also\n"
       "    MASK.overlay.png, the baselines' masks MASK.kmeans2.png (2D k-means, k = 2, on colour) and MASK.box.png\n"
       "    (grabCut on the truth's bounding box), and MASK.png.json with F1 of all three against --truth-label\n"
       "    NAME (the frame's label image), --truth-instance nearest|all|ID (instance images) or --truth-mask FILE.\n"
@@ -39,5 +42,6 @@ int main(int argc, char** argv) {
   segment_cloud::add_mrf_options(app, o);
   segment_cloud::add_centroid_options(app, o);
   segment_cloud::add_grabcut_sfm_options(app, o);
+  segment_cloud::add_grabcut_sfm_overrides(app, o);
   return smseg::run_tool(app, argc, argv, o.threads, [&] { return segment_cloud::run_method(app, o); });
 }

@@ -24,8 +24,8 @@ constexpr int kDefaultWindow = 10;  // frames either side: the tracks of a monoc
 
 /// The choices given as words (--support, --cluster, --nearest, --plane-up, --box-to-plane) into the
 /// parameters; "auto" follows the support: table -> Euclidean clusters at the cloud's spacing, the up
-/// direction estimated from the camera path, the box down to the table; plane -> 001's k-means, the
-/// camera's up axis, no feet.
+/// direction estimated from the camera path, the box down to the table, the nearest cluster by the median
+/// depth of its points; plane -> 001's k-means, the camera's up axis, no feet, the nearest centre.
 void resolve_choices(GrabCutSfmCli& o) {
   if (o.support != "table" && o.support != "plane") throw UsageError("", "--support", "must be table or plane");
   const bool table = o.support == "table";
@@ -33,8 +33,9 @@ void resolve_choices(GrabCutSfmCli& o) {
   if (o.cluster != "auto" && o.cluster != "kmeans" && o.cluster != "euclidean")
     throw Error("", "--cluster", "must be auto, kmeans or euclidean");
   o.params.euclidean = o.cluster == "euclidean" || (o.cluster == "auto" && table);
-  if (o.nearest != "centre" && o.nearest != "median" && o.nearest != "depth")
-    throw Error("", "--nearest", "must be centre, median or depth");
+  if (o.nearest != "auto" && o.nearest != "centre" && o.nearest != "median" && o.nearest != "depth")
+    throw Error("", "--nearest", "must be auto, centre, median or depth");
+  if (o.nearest == "auto") o.nearest = table ? "depth" : "centre";
   o.params.median_distance = o.nearest == "median" || o.nearest == "depth";
   o.params.median_depth = o.nearest == "depth";
   if (o.up != "auto" && o.up != "camera" && o.up != "world" && o.up != "estimate")

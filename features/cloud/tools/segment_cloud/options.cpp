@@ -131,6 +131,11 @@ void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o) {
   app.add_option("--plane-min-share", o.gc.params.plane_min_share,
                  "grabcut-sfm: a second or later plane is removed only if it holds this share of the points left")
       ->capture_default_str();
+}
+
+/// The tuning of --method grabcut-sfm: every default is relative to the scene (or 001's with --support
+/// plane); each option overrides one.
+void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
   app.add_option("--support", o.gc.support,
                  "grabcut-sfm: table (the highest horizontal patch with points standing on it, every distance relative "
                  "to the scene; keeps the points standing on it) or plane (001: the dominant RANSAC plane, distances in "
@@ -185,8 +190,8 @@ void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o) {
                  "grabcut-sfm, --support table: a cluster is an object when it reaches this many slabs above the table")
       ->capture_default_str();
   app.add_option("--nearest", o.gc.nearest,
-                 "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001) or its points' median "
-                 "distance (median) or median depth along the optical axis (depth)")->capture_default_str();
+                 "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001), its points' median "
+                 "distance (median) or median depth along the optical axis (depth); auto: table: depth, plane: centre")->capture_default_str();
 }
 
 int run_method(const CLI::App& app, SegmentCloudOptions& o) {

@@ -76,7 +76,7 @@ struct GrabCutSfmCli {
   int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
   int plane_window = -1;  // >= 0: the first plane is fitted to the tracks seen within this many frames
   std::string support = "table";  // --support table|plane
-  std::string cluster = "auto", nearest = "centre", up = "auto";  // up: --plane-up camera|world|estimate|auto
+  std::string cluster = "auto", nearest = "auto", up = "auto";  // up: --plane-up camera|world|estimate|auto
   bool box_to_plane_given = false;  // --box-to-plane on the command line (support plane: off unless given)
   smseg::features::GrabCutSfmParams params;
 };
@@ -98,6 +98,7 @@ void add_io_options(CLI::App& app, SegmentCloudOptions& o);        ///< the clou
 void add_mrf_options(CLI::App& app, SegmentCloudOptions& o);       ///< --method mrf, its plane and saliency seeds
 void add_centroid_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method centroid-mincut
 void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method grabcut-sfm, the truth
+void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o);  ///< grabcut-sfm's tuning options
 /// Runs the method the options ask for (or writes a synthetic tabletop cloud); the exit status.
 int run_method(const CLI::App& app, SegmentCloudOptions& o);
 

@@ -1,6 +1,14 @@
 #pragma once
 // GrabCutSFM (paper 001, He & Upcroft): unsupervised segmentation of the object nearest the camera in one
-// frame of a video, from the structure-and-motion cloud and the frame's camera pose:
+// frame of a video, from the structure-and-motion cloud and the frame's camera pose.
+//
+// The defaults (SupportChoice::Table, not in 001) give no distance in metres: the supporting plane is the
+// table find_table() finds (the highest wide horizontal patch with points standing on it), its slab a
+// share of the points' distance from the camera; only the points standing on it, up to the camera's height
+// above it, are clustered, Euclidean at the cloud's own spacing (cloud_spacing); the nearest cluster by the
+// median depth of its points; then 001's 2D RANSAC, box and GrabCut (docs/graphcuts.md).
+//
+// SupportChoice::Plane (GrabCutSfmParams::paper()) is 001's recipe:
 //   0. (options, not in 001) only the points within max_distance of the camera and / or projecting into the
 //      frame (frustum_only) are used: a street-long SfM cloud has far and stray points that k-means would
 //      spend clusters on;
