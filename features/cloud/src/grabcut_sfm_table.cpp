@@ -185,6 +185,7 @@ void TableParams::validate() const {
   if (!(max_refit_tilt >= 0 && max_refit_tilt <= 90)) throw Error("", "--table-max-tilt", "must be 0..90 degrees");
   if (!(edge_margin >= 0)) throw Error("", "--edge-margin", "must be >= 0");
   if (!(min_rise >= 0)) throw Error("", "--min-rise", "must be >= 0");
+  if (!(min_depression >= 0)) throw Error("", "--table-min-depression", "must be >= 0");
   if (!(min_prominence >= 1)) throw Error("", "--table-prominence", "must be >= 1");
 }
 
@@ -227,7 +228,9 @@ TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Ve
       const Eigen::Vector3d p = cloud[hp.index[i]].cast<double>();
       if (t.height_of(p) > t.thickness && t.under(p)) ++t.standing;
     }
-    t.found = t.width >= params.min_width_share * t.camera_height &&
+    // The camera looks down at a table: its height above the plane is a share of the patch's distance
+    // (a wall's slice just below the camera's height, metres away, is seen nearly level).
+    t.found = t.camera_height >= params.min_depression * range && t.width >= params.min_width_share * t.camera_height &&
               t.standing >= std::max(params.min_points, int(params.min_standing_share * t.inliers));
     if (t.found) {
       t.candidates = best.candidates;

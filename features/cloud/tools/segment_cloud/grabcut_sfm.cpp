@@ -372,7 +372,9 @@ int run_grabcut_sfm(const GrabCutSfmCli& cli) {
   const Frame f = load_frame(o);
   resolve_scene_defaults(o, f);
   std::string cloud_path;
+  const auto t_cloud = std::chrono::steady_clock::now();
   const Cloud cloud = frame_cloud(o, f, &cloud_path);
+  const double cloud_seconds = seconds_since(t_cloud);
   const Cloud plane_cloud = plane_window_cloud(o, f);
   const Truth truth = load_truth(o, f);
   sf::GrabCutSfmReport rep;
@@ -393,6 +395,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& cli) {
                   {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"focal_source", f.focal_source}}},
                   {"params", params_json(o)}, {"mask_pixels", cv::countNonZero(mask)}};
   summary.update(report_json(o, rep));
+  summary["seconds"]["cloud"] = cloud_seconds;  // reading or computing the cloud (the dense depth), before "total"
   std::string line = summary_line(o.frame, rep);
   score(f.image, mask, truth, o.params.seed, o.params.grabcut_iterations, stem, summary, line);
   write_json_atomic(o.out + ".json", summary);

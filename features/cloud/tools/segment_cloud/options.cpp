@@ -57,8 +57,9 @@ void add_mrf_options(CLI::App& app, SegmentCloudOptions& o) {
   app.add_option("--mrf-lambda", o.mrf_lambda, "mrf: weight of the pairwise term")->capture_default_str();
   app.add_option("--iterations", o.mrf.max_iterations, "mrf: at most this many GMM re-estimation rounds")->capture_default_str();
   app.add_option("--plane-distance", o.plane.plane_distance,
-                 "RANSAC plane inlier distance, metres: mrf plane seeds (default shown); grabcut-sfm plane removal "
-                 "(default 0.05; 0: no plane removal)")->capture_default_str();
+                 "RANSAC plane inlier distance, metres: mrf plane seeds (default shown); grabcut-sfm, the supporting "
+                 "plane's slab (default: --support table: --slab-share x the table's distance; plane: 0.05, 0: no "
+                 "plane removal)")->capture_default_str();
   app.add_option("--colour-tolerance", o.plane.colour_tolerance, "mrf plane seeds: RGB distance within one cluster")
       ->capture_default_str();
   app.add_option("--min-cluster", o.plane.min_cluster, "mrf plane seeds: smallest cluster that seeds an object")
@@ -145,6 +146,20 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
       ->capture_default_str();
   app.add_option("--table-min-width", o.gc.params.table.min_width_share,
                  "grabcut-sfm, --support table: a table is at least this x the camera's height above it wide")
+      ->capture_default_str();
+  app.add_option("--table-min-share", o.gc.params.table.min_share,
+                 "grabcut-sfm, --support table: a candidate plane holds at least this share of the points below the camera")
+      ->capture_default_str();
+  app.add_option("--table-min-points", o.gc.params.table.min_points,
+                 "grabcut-sfm, --support table: ... and at least this many points")->capture_default_str();
+  app.add_option("--table-prominence", o.gc.params.table.min_prominence,
+                 "grabcut-sfm, --support table: ... and this x the mean count three slabs above and below it")
+      ->capture_default_str();
+  app.add_option("--table-max-tilt", o.gc.params.table.max_refit_tilt,
+                 "grabcut-sfm, --support table: degrees; the table's least-squares plane is kept within this of up")
+      ->capture_default_str();
+  app.add_option("--table-min-depression", o.gc.params.table.min_depression,
+                 "grabcut-sfm, --support table: the camera's height above a table at least this x its distance")
       ->capture_default_str();
   app.add_option("--table-min-standing", o.gc.params.table.min_standing_share,
                  "grabcut-sfm, --support table: points standing on a table, share of its own points at least")

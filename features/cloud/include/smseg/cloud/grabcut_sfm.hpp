@@ -81,6 +81,8 @@ struct TableParams {
   double min_prominence = 2;         ///< ... and this x the mean count three slabs above and below it
   double min_width_share = 0.5;      ///< a table's patch is at least this x the camera's height above it wide
   double min_standing_share = 0.05;  ///< points standing on a table: at least this share of its patch's points
+  double min_depression = 0.1;       ///< the camera looks down at a table: its height above it at least this x the
+                                     ///< patch's median distance (about 6 degrees)
   void validate() const;             ///< Error naming the field
 };
 
@@ -103,8 +105,8 @@ struct TablePlane {
 
 /// The supporting plane chosen as a table is: the cloud's points below the camera, candidate planes
 /// normal to `up` at the heights where many points lie within their slab (a share of their distance
-/// from the camera); from the highest down, the first whose largest connected patch is wide (relative to
-/// the camera's height above it) and has points standing on it (above its slab, their foot inside its
+/// from the camera); from the highest down, the first that the camera looks down at, whose largest connected
+/// patch is wide (relative to the camera's height above it) and has points standing on it (above its slab, their foot inside its
 /// hull). A floor lies below the table; an object's top, above it, has nothing standing on it; a wall's
 /// slice is narrow. When no candidate passes, the one with most points (found = false).
 TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Vector3d& camera,
