@@ -329,6 +329,21 @@ struct PcdHeader {
   int data_line = 0;            ///< the DATA line's number, for ASCII data errors
 };
 
+/// Each field's scalar type and count from the header's SIZE, TYPE and COUNT values (checked before).
+void set_field_types(PcdHeader& h, const std::vector<std::string_view>& sizes_given,
+                     const std::vector<std::string_view>& types_given, const std::vector<std::string_view>& counts_given) {
+  for (std::size_t f = 0; f < h.fields.size(); ++f) {
+    const char t = types_given[f][0];
+    h.types.push_back({t == 'I'   ? Scalar::Int
+                       : t == 'U' ? Scalar::UInt
+                                  : Scalar::Float,
+                       std::size_t(sizes_given[f][0] - '0')});
+    std::uint64_t count = 1;
+    if (!counts_given.empty()) whole_number(counts_given[f], 4, count);
+    h.counts.push_back(count);
+  }
+}
+
 /// The PCD header exactly as PCL writes it: each keyword once, in the format's order (VERSION, COUNT and
 /// VIEWPOINT optional), FIELDS/SIZE/TYPE/COUNT of one length with the format's values, WIDTH x HEIGHT =
 /// POINTS > 0, DATA ascii, binary or binary_compressed; all within the first 64 KiB.
@@ -404,16 +419,7 @@ PcdHeader parse_pcd_header(std::string_view bytes, const std::string& file) {
     bad("POINTS", "is " + std::to_string(h.points) + ", not WIDTH x HEIGHT");
   if (h.points == 0) bad("points", "the cloud is empty");
   if (sizes_given.empty() || types_given.empty()) bad("", "not a PCD file (no SIZE or TYPE line)");
-  for (std::size_t f = 0; f < h.fields.size(); ++f) {
-    const char t = types_given[f][0];
-    h.types.push_back({t == 'I'   ? Scalar::Int
-                       : t == 'U' ? Scalar::UInt
-                                  : Scalar::Float,
-                       std::size_t(sizes_given[f][0] - '0')});
-    std::uint64_t count = 1;
-    if (!counts_given.empty()) whole_number(counts_given[f], 4, count);
-    h.counts.push_back(count);
-  }
+  set_field_types(h, sizes_given, types_given, counts_given);
   h.data_offset = lines.pos();
   return h;
 }

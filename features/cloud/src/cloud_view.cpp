@@ -72,23 +72,26 @@ void SaliencyParams::validate() const {
   if (!(step > 0 && step < 1)) throw Error("", "--saliency-step", "must be in (0, 1)");
 }
 
-SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params) {
-  params.validate();
-  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("", "image", "expected an 8-bit colour image");
-  // One saliency map of an 8-bit image (the module's algorithms work on its intensity), as float 0..1.
-  auto compute = [&](const cv::Mat& full, bool fine) {
-    cv::Mat image = full, raw;
-    if (params.scale < 1.0) cv::resize(full, image, cv::Size(), params.scale, params.scale, cv::INTER_AREA);
-    const bool ok = fine ? cv::saliency::StaticSaliencyFineGrained::create()->computeSaliency(image, raw)
-                         : cv::saliency::StaticSaliencySpectralResidual::create()->computeSaliency(image, raw);
-    if (!ok || raw.empty()) throw Error("", "--saliency", "OpenCV could not compute the " + params.method + " saliency");
-    cv::Mat m;
-    raw.convertTo(m, CV_32F);
-    if (m.channels() != 1) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
-    if (m.size() != bgr.size()) cv::resize(m, m, bgr.size(), 0, 0, cv::INTER_LINEAR);
-    cv::normalize(m, m, 0.0, 1.0, cv::NORM_MINMAX);
-    return m;
-  };
+namespace {
+
+/// One saliency map of an 8-bit image (the module's algorithms work on its intensity), as float 0..1 at
+/// `size`.
+cv::Mat saliency_of(const cv::Mat& full, bool fine, cv::Size size, const SaliencyParams& params) {
+  cv::Mat image = full, raw;
+  if (params.scale < 1.0) cv::resize(full, image, cv::Size(), params.scale, params.scale, cv::INTER_AREA);
+  const bool ok = fine ? cv::saliency::StaticSaliencyFineGrained::create()->computeSaliency(image, raw)
+                       : cv::saliency::StaticSaliencySpectralResidual::create()->computeSaliency(image, raw);
+  if (!ok || raw.empty()) throw Error("", "--saliency", "OpenCV could not compute the " + params.method + " saliency");
+  cv::Mat m;
+  raw.convertTo(m, CV_32F);
+  if (m.channels() != 1) cv::cvtColor(m, m, cv::COLOR_BGR2GRAY);
+  if (m.size() != size) cv::resize(m, m, size, 0, 0, cv::INTER_LINEAR);
+  cv::normalize(m, m, 0.0, 1.0, cv::NORM_MINMAX);
+  return m;
+}
+
+/// The image's saliency map (params.method), blurred and normalised to 0..1.
+cv::Mat saliency_map(const cv::Mat& bgr, const SaliencyParams& params) {
   cv::Mat sal;
   if (params.method == "colour") {
     // Itti-style conspicuity (as in Rasolzadeh et al., paper 000's saliency): the fine-grained
@@ -105,14 +108,23 @@ SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params)
       cv::Mat c8, c3;
       cv::normalize(c, c8, 0, 255, cv::NORM_MINMAX, CV_8U);
       cv::cvtColor(c8, c3, cv::COLOR_GRAY2BGR);
-      sal += compute(c3, true) / 3.0f;
+      sal += saliency_of(c3, true, bgr.size(), params) / 3.0f;
     }
   } else {
-    sal = compute(bgr, params.method == "fine-grained");
+    sal = saliency_of(bgr, params.method == "fine-grained", bgr.size(), params);
   }
   if (params.blur > 0) cv::blur(sal, sal, cv::Size(2 * params.blur + 1, 2 * params.blur + 1), cv::Point(-1, -1),
                                 cv::BORDER_REFLECT_101);
   cv::normalize(sal, sal, 0.0, 1.0, cv::NORM_MINMAX);
+  return sal;
+}
+
+}  // namespace
+
+SalientRegions salient_regions(const cv::Mat& bgr, const SaliencyParams& params) {
+  params.validate();
+  if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("", "image", "expected an 8-bit colour image");
+  const cv::Mat sal = saliency_map(bgr, params);
   SalientRegions out;
   out.saliency = sal;
   if (params.threshold > 0) {

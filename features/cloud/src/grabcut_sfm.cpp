@@ -14,6 +14,7 @@
 #include <Eigen/Dense>
 #include <opencv2/imgproc.hpp>
 
+#include "grabcut_sfm_detail.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
@@ -21,33 +22,14 @@ namespace smseg::features {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double seconds_since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+using detail::median;
+using detail::stage_seed;
 
 /// Uniform integer in [0, n) from the generator (its own arithmetic: std::uniform_int_distribution's
 /// draws differ between standard libraries).
 std::size_t draw(std::mt19937_64& rng, std::size_t n) { return static_cast<std::size_t>(rng() % n); }
 
 double draw_unit(std::mt19937_64& rng) { return double(rng() >> 11) * 0x1.0p-53; }
-
-/// Seeds for separate stages, so that changing one stage's draws does not shift another's.
-std::uint64_t stage_seed(std::uint64_t seed, std::uint64_t stage) {
-  std::uint64_t z = seed + 0x9E3779B97F4A7C15ull * (stage + 1);
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  const std::size_t m = v.size() / 2;
-  std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(m), v.end());
-  double hi = v[m];
-  if (v.size() % 2 == 1) return hi;
-  const double lo = *std::max_element(v.begin(), v.begin() + std::ptrdiff_t(m));
-  return 0.5 * (lo + hi);
-}
 
 const cv::Scalar kPalette[] = {{40, 40, 230},  {60, 180, 60},  {230, 120, 30}, {30, 200, 230},
                                {200, 60, 200}, {230, 220, 40}, {120, 120, 255}, {20, 120, 160}};
@@ -61,37 +43,6 @@ void PinholeIntrinsics::validate() const {
   if (!std::isfinite(cx) || !std::isfinite(cy)) throw Error("", "intrinsics", "the principal point must be finite");
 }
 
-void GrabCutSfmParams::validate() const {
-  if (!(plane_distance >= 0) || !std::isfinite(plane_distance))
-    throw Error("", "--plane-distance", "must be >= 0 metres (0: no plane removal)");
-  if (plane_iterations < 1) throw Error("", "--plane-iterations", "must be >= 1");
-  if (k < 1 || k > 100) throw Error("", "--k", "must be 1..100");
-  if (attempts < 1) throw Error("", "--attempts", "must be >= 1");
-  if (kmeans_iterations < 1) throw Error("", "--kmeans-iterations", "must be >= 1");
-  if (min_cluster_points < 1) throw Error("", "--min-cluster-points", "must be >= 1");
-  if (!(outlier_threshold > 0) || !std::isfinite(outlier_threshold))
-    throw Error("", "--outlier-threshold", "must be > 0 (robust standard deviations)");
-  if (ransac_iterations < 1) throw Error("", "--ransac-iterations", "must be >= 1");
-  if (!(box_margin >= 0 && box_margin <= 1)) throw Error("", "--box-margin", "must be in [0, 1]");
-  if (!(max_distance >= 0) || !std::isfinite(max_distance))
-    throw Error("", "--max-distance", "must be >= 0 metres (0: no limit)");
-  if (grabcut_iterations < 1 || grabcut_iterations > 100) throw Error("", "--grabcut-iterations", "must be 1..100");
-  if (planes < 1 || planes > 20) throw Error("", "--planes", "must be 1..20");
-  if (!(plane_min_share >= 0 && plane_min_share <= 1)) throw Error("", "--plane-min-share", "must be in [0, 1]");
-  if (!(height_band >= 0) || !std::isfinite(height_band))
-    throw Error("", "--height-band", "must be >= 0 metres (0: no band)");
-  if (height_band > 0 && !(height_band > plane_distance))
-    throw Error("", "--height-band", "must exceed --plane-distance (the band starts there)");
-  if (height_band > 0 && !(plane_distance > 0))
-    throw Error("", "--height-band", "needs plane removal (--plane-distance > 0): the band lies above a removed plane");
-  if (!(support_radius >= 0) || !std::isfinite(support_radius))
-    throw Error("", "--support-radius", "must be >= 0 metres (0: any point in the band)");
-  if (!(max_tilt >= 0 && max_tilt <= 90)) throw Error("", "--max-tilt", "must be 0..90 degrees");
-  if (!(cluster_tolerance > 0) || !std::isfinite(cluster_tolerance))
-    throw Error("", "--cluster-tolerance", "must be > 0 metres");
-  if (min_cluster_size < 1) throw Error("", "--min-cluster-size", "must be >= 1");
-}
-
 bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
                    double* depth) {
   const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
@@ -102,6 +53,53 @@ bool project_point(const Eigen::Vector3f& world, const Pose& pose, const Pinhole
   if (pixel) *pixel = cv::Point2f(float(k.fx * x.x() / x.z() + k.cx), float(k.fy * x.y() / x.z() + k.cy));
   return true;
 }
+
+namespace {
+
+/// Of hypotheses scored in two clouds (plane, inliers in the first, inliers in the second), the plane
+/// both hold: the highest lesser share of either cloud's best count (a plane that is the best of one
+/// cloud and nearly empty in the other loses to one that is good in both).
+Eigen::Vector4d plane_both_hold(const std::vector<std::array<double, 6>>& scored, int* count) {
+  double max_own = 0, max_agree = 0;
+  for (const auto& h : scored) {
+    max_own = std::max(max_own, h[4]);
+    max_agree = std::max(max_agree, h[5]);
+  }
+  double best_score = -1;
+  Eigen::Vector4d best(0, 0, 0, 0);
+  for (const auto& h : scored) {
+    const double score = std::min(h[4] / std::max(max_own, 1.0), h[5] / std::max(max_agree, 1.0));
+    if (score > best_score) {
+      best_score = score;
+      best = Eigen::Vector4d(h[0], h[1], h[2], h[3]);
+      *count = int(h[4]);
+    }
+  }
+  return best;
+}
+
+/// Least-squares refit to the plane's inliers: the normal is the covariance's smallest eigenvector;
+/// `mean` the inliers' mean.
+Eigen::Vector3d least_squares_normal(const std::vector<Eigen::Vector3f>& points, const Eigen::Vector4d& plane,
+                                     double distance, Eigen::Vector3d* mean) {
+  *mean = Eigen::Vector3d::Zero();
+  int m = 0;
+  for (const auto& p : points)
+    if (std::abs(plane.head<3>().dot(p.cast<double>()) + plane[3]) <= distance) {
+      *mean += p.cast<double>();
+      ++m;
+    }
+  *mean /= m;
+  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
+  for (const auto& p : points)
+    if (std::abs(plane.head<3>().dot(p.cast<double>()) + plane[3]) <= distance) {
+      const Eigen::Vector3d d = p.cast<double>() - *mean;
+      cov += d * d.transpose();
+    }
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(cov).eigenvectors().col(0).normalized();
+}
+
+}  // namespace
 
 std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, double distance, int iterations,
                                std::uint64_t seed, Eigen::Vector4d* plane_out, const Eigen::Vector3d& up,
@@ -150,42 +148,10 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
       best = pl;
     }
   }
-  if (agree && !scored.empty()) {
-    // The plane both clouds hold: the highest lesser share of either cloud's best count (a plane that
-    // is the best of one cloud and nearly empty in the other loses to one that is good in both).
-    double max_own = 0, max_agree = 0;
-    for (const auto& h : scored) {
-      max_own = std::max(max_own, h[4]);
-      max_agree = std::max(max_agree, h[5]);
-    }
-    double best_score = -1;
-    for (const auto& h : scored) {
-      const double score = std::min(h[4] / std::max(max_own, 1.0), h[5] / std::max(max_agree, 1.0));
-      if (score > best_score) {
-        best_score = score;
-        best = Eigen::Vector4d(h[0], h[1], h[2], h[3]);
-        best_count = int(h[4]);
-      }
-    }
-  }
+  if (agree && !scored.empty()) best = plane_both_hold(scored, &best_count);
   if (best_count < 3) return inlier;
-  // Least-squares refit to the inliers: the normal is the covariance's smallest eigenvector.
-  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  int m = 0;
-  for (const auto& p : points)
-    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
-      mean += p.cast<double>();
-      ++m;
-    }
-  mean /= m;
-  Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const auto& p : points)
-    if (std::abs(best.head<3>().dot(p.cast<double>()) + best[3]) <= distance) {
-      const Eigen::Vector3d d = p.cast<double>() - mean;
-      cov += d * d.transpose();
-    }
-  Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(cov);
-  Eigen::Vector3d nrm = es.eigenvectors().col(0).normalized();
+  Eigen::Vector3d mean;
+  Eigen::Vector3d nrm = least_squares_normal(points, best, distance, &mean);
   if (up_is_known && nrm.dot(up) < 0) nrm = -nrm;
   const Eigen::Vector4d refit(nrm.x(), nrm.y(), nrm.z(), -nrm.dot(mean));
   const bool refit_faces_up = !up_is_known || nrm.dot(up) >= min_cos;
@@ -196,6 +162,118 @@ std::vector<char> ransac_plane(const std::vector<Eigen::Vector3f>& points, doubl
   return inlier;
 }
 
+namespace {
+
+/// Rows of `dim` floats and what k-means does with them.
+struct KmeansData {
+  const std::vector<float>& data;
+  std::size_t n, d, k;
+  double dist2(std::size_t i, const float* c) const {
+    double s = 0;
+    for (std::size_t j = 0; j < d; ++j) {
+      const double v = double(data[i * d + j]) - double(c[j]);
+      s += v * v;
+    }
+    return s;
+  }
+};
+
+/// k-means++ seeding: the first centre a random row, each next one a row drawn with probability
+/// proportional to its squared distance from the nearest centre so far.
+void kmeanspp_seeds(const KmeansData& x, std::mt19937_64& rng, std::vector<float>& centres, std::vector<double>& nearest) {
+  const std::size_t first = draw(rng, x.n), d = x.d;
+  std::copy_n(&x.data[first * d], d, &centres[0]);
+  for (std::size_t i = 0; i < x.n; ++i) nearest[i] = x.dist2(i, &centres[0]);
+  for (std::size_t c = 1; c < x.k; ++c) {
+    double total = 0;
+    for (double v : nearest) total += v;
+    std::size_t pick = 0;
+    if (total > 0) {
+      double r = draw_unit(rng) * total;
+      pick = x.n - 1;
+      for (std::size_t i = 0; i < x.n; ++i) {
+        r -= nearest[i];
+        if (r < 0) {
+          pick = i;
+          break;
+        }
+      }
+    } else {
+      pick = draw(rng, x.n);
+    }
+    std::copy_n(&x.data[pick * d], d, &centres[c * d]);
+    for (std::size_t i = 0; i < x.n; ++i) nearest[i] = std::min(nearest[i], x.dist2(i, &centres[c * d]));
+  }
+}
+
+/// Each row to its nearest centre; `nearest` its squared distance. Returns whether a label changed and
+/// adds the squared distances to `cost`.
+bool assign_rows(const KmeansData& x, const std::vector<float>& centres, std::vector<int>& labels,
+                 std::vector<double>& nearest, double& cost) {
+  bool changed = false;
+  for (std::size_t i = 0; i < x.n; ++i) {
+    int bl = 0;
+    double bd = std::numeric_limits<double>::infinity();
+    for (std::size_t c = 0; c < x.k; ++c) {
+      const double v = x.dist2(i, &centres[c * x.d]);
+      if (v < bd) {
+        bd = v;
+        bl = int(c);
+      }
+    }
+    nearest[i] = bd;
+    cost += bd;
+    if (labels[i] != bl) {
+      labels[i] = bl;
+      changed = true;
+    }
+  }
+  return changed;
+}
+
+/// Each centre to the mean of its rows; an empty cluster takes the row farthest from its centre.
+void update_centres(const KmeansData& x, const std::vector<int>& labels, std::vector<float>& centres,
+                    std::vector<double>& nearest) {
+  const std::size_t d = x.d;
+  std::vector<double> sum(x.k * d, 0.0);
+  std::vector<std::size_t> cnt(x.k, 0);
+  for (std::size_t i = 0; i < x.n; ++i) {
+    const std::size_t c = std::size_t(labels[i]);
+    ++cnt[c];
+    for (std::size_t j = 0; j < d; ++j) sum[c * d + j] += x.data[i * d + j];
+  }
+  for (std::size_t c = 0; c < x.k; ++c) {
+    if (cnt[c] == 0) {
+      const std::size_t far = std::size_t(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
+      std::copy_n(&x.data[far * d], d, &centres[c * d]);
+      nearest[far] = 0;
+      continue;
+    }
+    for (std::size_t j = 0; j < d; ++j) centres[c * d + j] = float(sum[c * d + j] / double(cnt[c]));
+  }
+}
+
+/// Clusters numbered by their first row (so the labelling does not depend on the seeding order).
+std::vector<int> canonical_labels(const KmeansData& x, const std::vector<int>& labels, const std::vector<float>& centres,
+                                  std::vector<float>* centres_out) {
+  std::vector<int> order(x.k, -1);
+  int next = 0;
+  for (std::size_t i = 0; i < x.n; ++i)
+    if (order[std::size_t(labels[i])] < 0) order[std::size_t(labels[i])] = next++;
+  for (auto& o : order)
+    if (o < 0) o = next++;
+  std::vector<int> out(x.n);
+  for (std::size_t i = 0; i < x.n; ++i) out[i] = order[std::size_t(labels[i])];
+  if (centres_out) {
+    centres_out->assign(x.k * x.d, 0.f);
+    for (std::size_t c = 0; c < x.k; ++c)
+      std::copy_n(&centres[c * x.d], x.d, &(*centres_out)[std::size_t(order[c]) * x.d]);
+  }
+  return out;
+}
+
+}  // namespace
+
 std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int attempts, int max_iterations,
                         std::uint64_t seed, std::vector<float>* centres_out) {
   if (dim < 1 || data.size() % std::size_t(dim) != 0) throw Error("", "kmeans", "data size is not a multiple of dim");
@@ -203,88 +281,20 @@ std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int atte
   if (k < 1) throw Error("", "k", "must be >= 1");
   if (n < std::size_t(k))
     throw Error("", "k", std::to_string(n) + " points cannot make " + std::to_string(k) + " clusters");
-  const std::size_t d = std::size_t(dim), kk = std::size_t(k);
-  const auto dist2 = [&](std::size_t i, const float* c) {
-    double s = 0;
-    for (std::size_t j = 0; j < d; ++j) {
-      const double v = double(data[i * d + j]) - double(c[j]);
-      s += v * v;
-    }
-    return s;
-  };
+  const KmeansData x{data, n, std::size_t(dim), std::size_t(k)};
   std::mt19937_64 rng(seed);
-  std::vector<int> best_labels;
-  std::vector<float> best_centres;
-  double best_cost = std::numeric_limits<double>::infinity();
-  std::vector<int> labels(n);
-  std::vector<float> centres(kk * d);
+  std::vector<int> best_labels, labels(n);
+  std::vector<float> best_centres, centres(x.k * x.d);
   std::vector<double> nearest(n);
+  double best_cost = std::numeric_limits<double>::infinity();
   for (int attempt = 0; attempt < attempts; ++attempt) {
-    // k-means++ seeding.
-    std::size_t first = draw(rng, n);
-    std::copy_n(&data[first * d], d, &centres[0]);
-    for (std::size_t i = 0; i < n; ++i) nearest[i] = dist2(i, &centres[0]);
-    for (std::size_t c = 1; c < kk; ++c) {
-      double total = 0;
-      for (double v : nearest) total += v;
-      std::size_t pick = 0;
-      if (total > 0) {
-        double r = draw_unit(rng) * total;
-        pick = n - 1;
-        for (std::size_t i = 0; i < n; ++i) {
-          r -= nearest[i];
-          if (r < 0) {
-            pick = i;
-            break;
-          }
-        }
-      } else {
-        pick = draw(rng, n);
-      }
-      std::copy_n(&data[pick * d], d, &centres[c * d]);
-      for (std::size_t i = 0; i < n; ++i) nearest[i] = std::min(nearest[i], dist2(i, &centres[c * d]));
-    }
-    // Lloyd iterations.
+    kmeanspp_seeds(x, rng, centres, nearest);
     std::fill(labels.begin(), labels.end(), -1);
     double cost = 0;
-    for (int it = 0; it < max_iterations; ++it) {
-      bool changed = false;
+    for (int it = 0; it < max_iterations; ++it) {  // Lloyd iterations
       cost = 0;
-      for (std::size_t i = 0; i < n; ++i) {
-        int bl = 0;
-        double bd = std::numeric_limits<double>::infinity();
-        for (std::size_t c = 0; c < kk; ++c) {
-          const double v = dist2(i, &centres[c * d]);
-          if (v < bd) {
-            bd = v;
-            bl = int(c);
-          }
-        }
-        nearest[i] = bd;
-        cost += bd;
-        if (labels[i] != bl) {
-          labels[i] = bl;
-          changed = true;
-        }
-      }
-      if (!changed) break;
-      std::vector<double> sum(kk * d, 0.0);
-      std::vector<std::size_t> cnt(kk, 0);
-      for (std::size_t i = 0; i < n; ++i) {
-        const std::size_t c = std::size_t(labels[i]);
-        ++cnt[c];
-        for (std::size_t j = 0; j < d; ++j) sum[c * d + j] += data[i * d + j];
-      }
-      for (std::size_t c = 0; c < kk; ++c) {
-        if (cnt[c] == 0) {
-          // An empty cluster takes the point farthest from its centre.
-          const std::size_t far = std::size_t(std::max_element(nearest.begin(), nearest.end()) - nearest.begin());
-          std::copy_n(&data[far * d], d, &centres[c * d]);
-          nearest[far] = 0;
-          continue;
-        }
-        for (std::size_t j = 0; j < d; ++j) centres[c * d + j] = float(sum[c * d + j] / double(cnt[c]));
-      }
+      if (!assign_rows(x, centres, labels, nearest, cost)) break;
+      update_centres(x, labels, centres, nearest);
     }
     if (cost < best_cost) {
       best_cost = cost;
@@ -292,21 +302,7 @@ std::vector<int> kmeans(const std::vector<float>& data, int dim, int k, int atte
       best_centres = centres;
     }
   }
-  // Canonical order: clusters numbered by their first point.
-  std::vector<int> order(kk, -1);
-  int next = 0;
-  for (std::size_t i = 0; i < n; ++i)
-    if (order[std::size_t(best_labels[i])] < 0) order[std::size_t(best_labels[i])] = next++;
-  for (auto& o : order)
-    if (o < 0) o = next++;
-  std::vector<int> out(n);
-  for (std::size_t i = 0; i < n; ++i) out[i] = order[std::size_t(best_labels[i])];
-  if (centres_out) {
-    centres_out->assign(kk * d, 0.f);
-    for (std::size_t c = 0; c < kk; ++c)
-      std::copy_n(&best_centres[c * d], d, &(*centres_out)[std::size_t(order[c]) * d]);
-  }
-  return out;
+  return canonical_labels(x, best_labels, best_centres, centres_out);
 }
 
 std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, double tolerance, int min_size) {
@@ -533,249 +529,6 @@ std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, i
     if (count > 0) out.push_back((sum / count).cast<float>());
   }
   return out;
-}
-
-cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
-                    const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report_out,
-                    const std::vector<Eigen::Vector3f>* plane_cloud) {
-  params.validate();
-  intrinsics.validate();
-  if (points.empty()) throw Error("", "cloud", "the cloud is empty");
-  if (image.empty() || image.type() != CV_8UC3) throw Error("", "image", "GrabCutSFM needs an 8-bit colour image");
-  const auto t_start = Clock::now();
-  GrabCutSfmReport rep;
-  rep.points = int(points.size());
-  const cv::Rect frame(0, 0, image.cols, image.rows);
-  const auto in_frame = [&](const Eigen::Vector3f& p, cv::Point2f* px) {
-    cv::Point2f q;
-    if (!project_point(p, pose, intrinsics, &q)) return false;
-    if (px) *px = q;
-    return q.x >= 0 && q.y >= 0 && q.x < float(image.cols) && q.y < float(image.rows);
-  };
-
-  // 1. Plane removal.
-  auto t0 = Clock::now();
-  const Eigen::Vector3f cam_f(float(pose.t[0]), float(pose.t[1]), float(pose.t[2]));
-  const auto within_reach = [&](const std::vector<Eigen::Vector3f>& cloud) {
-    std::vector<Eigen::Vector3f> out;
-    out.reserve(cloud.size());
-    for (const auto& p : cloud) {
-      if (params.max_distance > 0 && (p - cam_f).norm() > params.max_distance) continue;
-      if (!params.frustum_only || in_frame(p, nullptr)) out.push_back(p);
-    }
-    return out;
-  };
-  const std::vector<Eigen::Vector3f> considered = within_reach(points);
-  rep.considered = int(considered.size());
-  // The first plane's own cloud (see the header), within the same reach; empty without one.
-  std::vector<Eigen::Vector3f> plane_considered =
-      plane_cloud ? within_reach(*plane_cloud) : std::vector<Eigen::Vector3f>();
-  if (params.world_up && params.height_band > 0)  // a supporting plane lies below the camera (not the ceiling)
-    plane_considered.erase(std::remove_if(plane_considered.begin(), plane_considered.end(),
-                                          [&](const Eigen::Vector3f& p) { return p.y() >= cam_f.y(); }),
-                           plane_considered.end());
-  if (plane_cloud && plane_considered.size() < 3)
-    throw Error("", "cloud", "the plane cloud has " + std::to_string(plane_considered.size()) +
-                                 " points in reach (" + std::to_string(plane_cloud->size()) + " in all), too few for a plane");
-  std::vector<Eigen::Vector3f> rest = considered;
-  const Eigen::Vector3d cam(pose.t[0], pose.t[1], pose.t[2]);
-  // The camera's up axis in the world (camera y points down), or world +Y when the work folder's world
-  // was levelled by gravity estimation. Not world +Y of a level-first-camera work folder: that world is
-  // tilted by the first camera's pitch (13.6 degrees on the tabletop sequence), the camera's up by the
-  // frame's own pitch (8-15 degrees there); only a levelled world has +Y within 1.5 degrees of gravity.
-  const Eigen::Matrix3d Rcw = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
-  const Eigen::Vector3d up = params.world_up ? Eigen::Vector3d::UnitY() : Eigen::Vector3d(-Rcw.col(1));
-  const double min_cos = params.height_band > 0 ? std::cos(params.max_tilt * 3.14159265358979323846 / 180) : -1;
-  std::vector<Eigen::Vector3f> support_points;  // the first plane's inliers
-  if (params.plane_distance > 0) {
-    // Planes in turn (001: one): the first always (with height_band, facing up: the supporting plane), a
-    // later one while it holds plane_min_share of the rest.
-    for (int pi = 0; pi < params.planes; ++pi) {
-      Eigen::Vector4d pl;
-      const bool own_cloud = pi == 0 && plane_cloud;
-      std::vector<char> on_plane =
-          ransac_plane(own_cloud ? plane_considered : rest, params.plane_distance, params.plane_iterations,
-                       stage_seed(params.seed, pi == 0 ? 1 : 100 + std::uint64_t(pi)), &pl, up, pi == 0 ? min_cos : -1,
-                       pi == 0 && params.world_up && params.height_band > 0, own_cloud ? &rest : nullptr);
-      if (own_cloud) {  // the plane found in its own cloud; its inliers are those of the segmented one
-        on_plane.assign(rest.size(), 0);
-        if (pl.head<3>().squaredNorm() > 0)
-          for (std::size_t i = 0; i < rest.size(); ++i)
-            on_plane[i] = std::abs(pl.head<3>().dot(rest[i].cast<double>()) + pl[3]) <= params.plane_distance ? 1 : 0;
-      }
-      const int count = int(std::count(on_plane.begin(), on_plane.end(), char(1)));
-      if (count < 3 || (pi > 0 && double(count) < params.plane_min_share * double(rest.size()))) break;
-      if (pi == 0) rep.plane = pl;
-      if (pl.head<3>().dot(cam) + pl[3] < 0) pl = -pl;  // normal towards the camera
-      rep.planes.push_back(pl);
-      rep.planes_inliers.push_back(count);
-      std::vector<Eigen::Vector3f> kept;
-      kept.reserve(rest.size() - std::size_t(count));
-      for (std::size_t i = 0; i < rest.size(); ++i)
-        if (!on_plane[i])
-          kept.push_back(rest[i]);
-        else if (pi == 0)
-          support_points.push_back(rest[i]);
-      rest.swap(kept);
-    }
-    rep.plane_inliers = int(considered.size() - rest.size());
-  }
-  if (params.height_band > 0) {
-    if (rep.planes.empty() || rep.planes[0].head<3>().dot(up) < min_cos)
-      throw Error("", "cloud",
-                  "no plane facing up within --max-tilt " + std::to_string(params.max_tilt) +
-                      " degrees below the camera, so --height-band has no supporting plane");
-    rep.support = 0;
-    const Eigen::Vector4d& sp = rep.planes[0];
-    const Eigen::Vector3d n = sp.head<3>();
-    const double r2 = params.support_radius * params.support_radius;
-    // Standing on the plane: the point's foot (its projection onto the plane) within support_radius of a
-    // plane inlier's foot.
-    const auto on_support = [&](const Eigen::Vector3d& p) {
-      const Eigen::Vector3d foot = p - (n.dot(p) + sp[3]) * n;
-      for (const auto& q : support_points) {
-        const Eigen::Vector3d qd = q.cast<double>();
-        if ((qd - (n.dot(qd) + sp[3]) * n - foot).squaredNorm() <= r2) return true;
-      }
-      return false;
-    };
-    std::vector<Eigen::Vector3f> kept;
-    for (const auto& p : rest) {
-      const double h = n.dot(p.cast<double>()) + sp[3];
-      if (h > params.plane_distance && h <= params.height_band &&
-          (params.support_radius <= 0 || on_support(p.cast<double>())))
-        kept.push_back(p);
-    }
-    rest.swap(kept);
-    rep.in_band = int(rest.size());
-  }
-  rep.seconds_plane = seconds_since(t0);
-  if (!params.euclidean && int(rest.size()) < params.k)
-    throw Error("", "cloud",
-                std::to_string(rest.size()) + " points are left " +
-                    (params.frustum_only ? "in the frame " : "") +
-                    (params.max_distance > 0 ? "within --max-distance " : "") + "after plane removal" +
-                    (params.height_band > 0 ? " and the height band" : "") + " (of " +
-                    std::to_string(points.size()) + "), fewer than k = " + std::to_string(params.k) + " clusters");
-
-  // 2. 3D k-means (or Euclidean clustering).
-  t0 = Clock::now();
-  std::vector<int> cluster;
-  std::size_t K = 0;
-  std::vector<float> centres;
-  if (params.euclidean) {
-    cluster = euclidean_clusters(rest, params.cluster_tolerance, params.min_cluster_size);
-    for (int c : cluster) K = std::max(K, std::size_t(c + 1));
-    if (K == 0)
-      throw Error("", "cloud", "no Euclidean cluster of " + std::to_string(params.min_cluster_size) + " or more points among the " +
-                                   std::to_string(rest.size()) + " points left");
-    centres.assign(K * 3, 0.f);
-    std::vector<double> sum(K * 3, 0.0);
-    std::vector<int> cnt(K, 0);
-    for (std::size_t i = 0; i < rest.size(); ++i) {
-      if (cluster[i] < 0) continue;
-      const std::size_t c = std::size_t(cluster[i]);
-      for (int j = 0; j < 3; ++j) sum[c * 3 + std::size_t(j)] += rest[i][j];
-      ++cnt[c];
-    }
-    for (std::size_t c = 0; c < K; ++c)
-      for (std::size_t j = 0; j < 3; ++j) centres[c * 3 + j] = float(sum[c * 3 + j] / cnt[c]);
-  } else {
-    std::vector<float> data(rest.size() * 3);
-    for (std::size_t i = 0; i < rest.size(); ++i)
-      for (int j = 0; j < 3; ++j) data[i * 3 + std::size_t(j)] = rest[i][j];
-    cluster = kmeans(data, 3, params.k, params.attempts, params.kmeans_iterations, stage_seed(params.seed, 2), &centres);
-    K = std::size_t(params.k);
-  }
-  rep.seconds_kmeans = seconds_since(t0);
-
-  // 3. The nearest cluster with enough projections in the frame.
-  t0 = Clock::now();
-  rep.cluster_sizes.assign(K, 0);
-  rep.cluster_in_frame.assign(K, 0);
-  rep.cluster_distances.assign(K, 0);
-  std::vector<std::vector<double>> point_distances(params.median_distance ? K : 0);
-  std::vector<std::size_t> projected_point;  // per rep.projected, its point in `rest`
-  for (std::size_t i = 0; i < rest.size(); ++i) {
-    if (cluster[i] < 0) continue;
-    ++rep.cluster_sizes[std::size_t(cluster[i])];
-    if (params.median_distance)
-      point_distances[std::size_t(cluster[i])].push_back(params.median_depth ? (rest[i].cast<double>() - cam).dot(Rcw.col(2))
-                                                                              : (rest[i].cast<double>() - cam).norm());
-    cv::Point2f q;
-    if (in_frame(rest[i], &q)) {
-      ++rep.cluster_in_frame[std::size_t(cluster[i])];
-      rep.projected.push_back(q);
-      rep.projected_cluster.push_back(cluster[i]);
-      projected_point.push_back(i);
-    }
-  }
-  double best = std::numeric_limits<double>::infinity();
-  for (std::size_t c = 0; c < K; ++c) {
-    const Eigen::Vector3d ctr(centres[c * 3], centres[c * 3 + 1], centres[c * 3 + 2]);
-    rep.cluster_distances[c] = params.median_distance ? median(point_distances[c]) : (ctr - cam).norm();
-    if (rep.cluster_in_frame[c] >= params.min_cluster_points && rep.cluster_distances[c] < best) {
-      best = rep.cluster_distances[c];
-      rep.chosen = int(c);
-    }
-  }
-  if (rep.chosen < 0)
-    throw Error("", "cloud",
-                "no cluster has " + std::to_string(params.min_cluster_points) +
-                    " or more points in front of the camera inside the frame (is the pose right?)");
-  std::vector<std::size_t> chosen_point;  // per rep.chosen_points, its point in `rest`
-  for (std::size_t i = 0; i < rep.projected.size(); ++i)
-    if (rep.projected_cluster[i] == rep.chosen) {
-      rep.chosen_points.push_back(rep.projected[i]);
-      chosen_point.push_back(projected_point[i]);
-    }
-
-  // 4. 2D RANSAC, 5. box.
-  rep.chosen_inlier =
-      compact_inliers_2d(rep.chosen_points, params.outlier_threshold, params.ransac_iterations, stage_seed(params.seed, 3));
-  float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
-  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
-    if (rep.chosen_inlier[i]) {
-      ++rep.inliers_2d;
-      x0 = std::min(x0, rep.chosen_points[i].x);
-      y0 = std::min(y0, rep.chosen_points[i].y);
-      x1 = std::max(x1, rep.chosen_points[i].x);
-      y1 = std::max(y1, rep.chosen_points[i].y);
-    }
-  if (rep.inliers_2d == 0) throw Error("", "cloud", "the 2D RANSAC kept no projection of the nearest cluster");
-  if (params.box_to_plane && rep.support == 0) {
-    // The object stands on the supporting plane, but its lower part lies in the plane's slab or has no
-    // tracked point: the box reaches down to where the kept points' feet on the plane project.
-    const Eigen::Vector3d n = rep.planes[0].head<3>();
-    for (std::size_t i = 0; i < rep.chosen_points.size(); ++i) {
-      if (!rep.chosen_inlier[i]) continue;
-      const Eigen::Vector3d p = rest[chosen_point[i]].cast<double>();
-      cv::Point2f q;
-      if (!in_frame((p - (n.dot(p) + rep.planes[0][3]) * n).cast<float>(), &q)) continue;
-      ++rep.feet_in_box;
-      x0 = std::min(x0, q.x);
-      y0 = std::min(y0, q.y);
-      x1 = std::max(x1, q.x);
-      y1 = std::max(y1, q.y);
-    }
-  }
-  const int ix0 = int(std::floor(x0)), iy0 = int(std::floor(y0));
-  rep.inlier_box = cv::Rect(ix0, iy0, int(std::ceil(x1)) + 1 - ix0, int(std::ceil(y1)) + 1 - iy0) & frame;
-  const double mx = params.box_margin * rep.inlier_box.width, my = params.box_margin * rep.inlier_box.height;
-  const int bx0 = std::max(1, int(std::floor(rep.inlier_box.x - mx)));
-  const int by0 = std::max(1, int(std::floor(rep.inlier_box.y - my)));
-  const int bx1 = std::min(image.cols - 1, int(std::ceil(rep.inlier_box.br().x + mx)));
-  const int by1 = std::min(image.rows - 1, int(std::ceil(rep.inlier_box.br().y + my)));
-  rep.box = cv::Rect(bx0, by0, std::max(0, bx1 - bx0), std::max(0, by1 - by0));
-  rep.seconds_projection = seconds_since(t0);
-
-  // 6. GrabCut.
-  t0 = Clock::now();
-  cv::Mat mask = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
-  rep.seconds_grabcut = seconds_since(t0);
-  rep.seconds_total = seconds_since(t_start);
-  if (report_out) *report_out = std::move(rep);
-  return mask;
 }
 
 cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const GrabCutSfmReport& rep) {

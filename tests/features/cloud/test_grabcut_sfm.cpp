@@ -144,7 +144,7 @@ Scene make_scene(std::uint64_t seed = 5) {
 // The supporting plane (the ground) and the 1 m band of points standing on it, Euclidean clusters: the
 // box scene's parameters for the height-band tests.
 GrabCutSfmParams standing_on_the_ground() {
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   p.height_band = 1.0;
   p.support_radius = 0.3;
   p.euclidean = true;
@@ -172,7 +172,7 @@ TEST(GrabCutSfm, SceneHasAClearObject) {
 
 TEST(GrabCutSfm, SegmentsTheNearestObjectAndTheBaselinesToo) {
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   GrabCutSfmReport rep;
   const cv::Mat mask = grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
   ASSERT_EQ(mask.size(), sc.image.size());
@@ -211,7 +211,7 @@ TEST(GrabCutSfm, SegmentsTheNearestObjectAndTheBaselinesToo) {
 
 TEST(GrabCutSfm, SameSeedSameMask) {
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   p.seed = 9;
   GrabCutSfmReport a, b;
   const cv::Mat m1 = grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &a);
@@ -227,7 +227,7 @@ TEST(GrabCutSfm, WithoutPlaneRemovalTheGroundJoinsTheNearestCluster) {
   // nearest cluster mixes the box with the ground around it and its box grows well beyond the object's;
   // with it, the box fits the object (GrabCut's colour models still find this red box in either box).
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   GrabCutSfmReport with, without;
   grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &with);
   p.plane_distance = 0;
@@ -305,7 +305,7 @@ TEST(GrabCutSfm, MaskF1IgnoresVoid) {
 
 TEST(GrabCutSfm, BadInputIsAnError) {
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   EXPECT_THROW(grabcut_sfm({}, sc.k, sc.pose, sc.image, p), Error);  // empty cloud
   try {  // looking away from the scene: every point behind the camera
     grabcut_sfm(sc.cloud, sc.k, camera(0.0, M_PI), sc.image, p);
@@ -317,7 +317,7 @@ TEST(GrabCutSfm, BadInputIsAnError) {
   EXPECT_THROW(grabcut_sfm(few, sc.k, sc.pose, sc.image, p), Error);  // 4 points, k = 6
   p.k = 0;
   EXPECT_THROW(grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p), Error);
-  EXPECT_THROW(grabcut_sfm(sc.cloud, PinholeIntrinsics{0, 0, 1, 1}, sc.pose, sc.image, GrabCutSfmParams{}), Error);
+  EXPECT_THROW(grabcut_sfm(sc.cloud, PinholeIntrinsics{0, 0, 1, 1}, sc.pose, sc.image, GrabCutSfmParams::paper()), Error);
   EXPECT_THROW(grabcut_box(sc.image, cv::Rect(500, 500, 10, 10), 3, 1), Error);
 }
 
@@ -497,7 +497,7 @@ TEST(GrabCutSfm, SeveralPlanesTakeTheGroundThenTheWall) {
   // The ground first (the dominant plane), then the wall at z = 8 while it holds 10% of the points left;
   // a share of 1 stops after the ground.
   const Scene sc = make_scene();
-  GrabCutSfmParams p;
+  GrabCutSfmParams p = GrabCutSfmParams::paper();
   p.planes = 3;
   GrabCutSfmReport rep;
   grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
@@ -553,14 +553,120 @@ TEST(GrabCutSfm, APlaneCloudFindsTheGroundWhereTheClusteredCloudSeesMoreOfALower
   GrabCutSfmReport own, with;
   try {
     grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, &own);
-    EXPECT_NEAR(own.planes.at(0)[3], 0.6, p.plane_distance);  // the lower floor
+    EXPECT_NEAR(own.planes.at(0)[3], 0.6, own.plane_distance);  // the lower floor
   } catch (const Error&) {  // or no cluster is left to choose: either way not the ground
   }
   const cv::Mat mask = grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, &with, &sc.cloud);
   ASSERT_FALSE(with.planes.empty());
-  EXPECT_NEAR(with.planes[0][3], 0.0, p.plane_distance);  // the ground (within the inlier distance)
+  EXPECT_NEAR(with.planes[0][3], 0.0, with.plane_distance);  // the ground (within the inlier distance)
   EXPECT_GE(with.planes_inliers[0], 1400);     // its points, removed from the clustered cloud
   EXPECT_GE(mask_f1(mask, sc.truth), 0.9);
   const std::vector<Eigen::Vector3f> too_few(sc.cloud.begin(), sc.cloud.begin() + 2);
   EXPECT_THROW(grabcut_sfm(cloud, sc.k, sc.pose, sc.image, p, nullptr, &too_few), Error);
+}
+
+namespace {
+
+/// A room seen from a camera 1.15 m above the floor and 1.5 m from a table: the floor (4 x 4 m, the
+/// largest horizontal plane), a 1.2 x 0.8 m table top 0.75 m up, two boxes on it (one 0.2 m tall, one
+/// 0.1 m) and a wall; points every 2 cm with 3 mm noise.
+std::vector<Eigen::Vector3f> room_with_a_table(std::uint64_t seed) {
+  std::mt19937_64 rng(seed);
+  std::normal_distribution<double> N(0, 0.003);
+  std::vector<Eigen::Vector3f> c;
+  const auto add = [&](double x, double y, double z) {
+    c.emplace_back(float(x + N(rng)), float(y + N(rng)), float(z + N(rng)));
+  };
+  for (double x = -2; x <= 2; x += 0.02)
+    for (double z = -2; z <= 2; z += 0.02)
+      if (std::abs(x) > 0.6 || std::abs(z) > 0.4) add(x, 0, z);  // the floor, under the table hidden
+  for (double x = -0.6; x <= 0.6; x += 0.02)
+    for (double z = -0.4; z <= 0.4; z += 0.02) add(x, 0.75, z);  // the table top
+  for (double a = 0; a <= 0.2; a += 0.02)
+    for (double h = 0; h <= 0.2; h += 0.02) {
+      add(-0.3 + a, 0.75 + h, -0.1);  // box 1's front face and top
+      add(-0.3 + a, 0.95, -0.1 + h);
+      add(0.2 + a, 0.75 + std::min(h, 0.1), 0.1);  // box 2, 10 cm tall
+    }
+  for (double x = -2; x <= 2; x += 0.02)
+    for (double y = 0; y <= 2.5; y += 0.02) add(x, y, 2);  // a wall behind the table
+  return c;
+}
+
+}  // namespace
+
+TEST(FindTable, TheTableIsTheHighestWidePatchWithPointsStandingOnItNotTheLargestPlane) {
+  const auto cloud = room_with_a_table(3);
+  const Eigen::Vector3d camera(0, 1.15, -1.5);
+  const TablePlane t = find_table(cloud, camera, Eigen::Vector3d::UnitY());
+  ASSERT_TRUE(t.found);
+  EXPECT_NEAR(-t.plane[3] / t.plane[1], 0.75, 0.01);  // the table top, not the floor (y = 0)
+  EXPECT_NEAR(t.camera_height, 0.40, 0.01);
+  EXPECT_GT(t.standing, 100);                          // the boxes
+  EXPECT_GT(t.width, 0.5);
+  EXPECT_TRUE(t.under(Eigen::Vector3d(-0.2, 0.9, -0.05)));  // above a box: inside the table's outline
+  EXPECT_FALSE(t.under(Eigen::Vector3d(1.5, 0.9, 0.0)));    // beside the table
+  // The slab is a share of the distance from the camera (1.25-2 m here): 2-3 cm, not a set number of metres.
+  EXPECT_GT(t.thickness, 0.015);
+  EXPECT_LT(t.thickness, 0.04);
+}
+
+TEST(FindTable, ScalesWithTheScene) {
+  // The same room twice as large, seen from twice as far: the same table, at twice the height.
+  auto cloud = room_with_a_table(4);
+  for (auto& p : cloud) p *= 2;
+  const TablePlane t = find_table(cloud, Eigen::Vector3d(0, 2.3, -3.0), Eigen::Vector3d::UnitY());
+  ASSERT_TRUE(t.found);
+  EXPECT_NEAR(-t.plane[3] / t.plane[1], 1.5, 0.02);
+  // Without a table (the table top and boxes gone) the largest plane is returned, not found as a table.
+  std::vector<Eigen::Vector3f> floor_only;
+  for (const auto& p : room_with_a_table(5))
+    if (p.y() < 0.5 && p.z() < 1.9) floor_only.push_back(p);
+  const TablePlane f = find_table(floor_only, Eigen::Vector3d(0, 1.15, -1.5), Eigen::Vector3d::UnitY());
+  EXPECT_FALSE(f.found);
+  EXPECT_GT(f.inliers, 1000);
+}
+
+TEST(CloudSpacing, IsTheDistanceToTheKthNeighbourOfAGrid) {
+  std::vector<Eigen::Vector3f> grid;
+  for (int i = 0; i < 30; ++i)
+    for (int j = 0; j < 30; ++j) grid.emplace_back(0.01f * float(i), 0.01f * float(j), 0.f);
+  EXPECT_NEAR(cloud_spacing(grid, 4), 0.01, 1e-4);         // 4 neighbours at 1 cm
+  EXPECT_NEAR(cloud_spacing(grid, 8), 0.01 * std::sqrt(2.0), 1e-4);  // then 4 diagonals
+  EXPECT_EQ(cloud_spacing({}, 4), 0.0);
+}
+
+TEST(GrabCutSfm, TheDefaultsNeedNoDistanceInMetres) {
+  // The defaults (support table): the ground is the supporting plane (the highest wide patch with the box
+  // standing on it), the clusters at the cloud's own spacing, the same box as 001's recipe.
+  const Scene sc = make_scene();
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  GrabCutSfmReport rep;
+  const cv::Mat mask = grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &rep);
+  EXPECT_TRUE(rep.table.found);
+  EXPECT_NEAR(rep.planes[0][3], 0.0, 0.02);  // the ground, y = 0
+  EXPECT_GT(rep.cluster_tolerance, 0.0);
+  EXPECT_GE(mask_f1(mask, sc.truth), 0.9);
+  // Scaled by 3 (a larger scene farther away), the same mask.
+  Scene big = sc;
+  for (auto& q : big.cloud) q *= 3;
+  for (double& t : big.pose.t) t *= 3;
+  GrabCutSfmReport rep3;
+  const cv::Mat mask3 = grabcut_sfm(big.cloud, big.k, big.pose, big.image, p, &rep3);
+  EXPECT_NEAR(rep3.cluster_tolerance, 3 * rep.cluster_tolerance, 1e-3 * rep.cluster_tolerance + 1e-6);
+  EXPECT_GE(mask_f1(mask3, sc.truth), 0.9);
+}
+
+TEST(NearestInstance, IsTheObjectWithTheSmallestMedianDepth) {
+  cv::Mat inst = cv::Mat::zeros(4, 6, CV_8UC1), depth(4, 6, CV_32FC1, cv::Scalar(5.f));
+  inst(cv::Rect(0, 0, 2, 4)) = 1;
+  depth(cv::Rect(0, 0, 2, 4)) = 2.f;
+  depth.at<float>(0, 0) = 0.5f;  // one near pixel does not make object 1 the nearest
+  inst(cv::Rect(3, 0, 3, 4)) = 2;
+  depth(cv::Rect(3, 0, 3, 4)) = 1.5f;
+  EXPECT_EQ(nearest_instance(inst, depth), 2);
+  EXPECT_EQ(nearest_instance(cv::Mat::zeros(4, 6, CV_8UC1), depth), 0);
+  const cv::Mat largest = largest_region((inst == 2) | ((inst == 1) & (depth > 1.f)));
+  EXPECT_EQ(cv::countNonZero(largest), 12);  // object 2 (12 pixels) over object 1 (7)
 }

@@ -6,6 +6,40 @@
 
 namespace segment_cloud {
 
+namespace {
+
+/// F1 per ground-truth label of the cloud, each predicted label standing for the ground-truth label most
+/// of its seed carries, and the confusion matrix, into the summary and the line.
+void score_against_labels(const smseg::features::ColouredCloud& cloud, const smseg::features::MrfSeeds& sd,
+                          const std::vector<int>& labels, int label_count, smseg::Json& summary, std::string& line) {
+  using namespace smseg;
+  // Each predicted label stands for the ground-truth label most of its seed carries.
+  const std::vector<int> map = features::seed_truth(cloud, sd);
+  std::vector<int> mapped(labels.size());
+  for (std::size_t i = 0; i < labels.size(); ++i) mapped[i] = map[std::size_t(labels[i])];
+  int truth_max = 0;
+  for (int t : cloud.labels) truth_max = std::max(truth_max, t);
+  Json f1 = Json::array();
+  line += ", F1";
+  for (int t = 0; t <= truth_max; ++t) {
+    const double v = features::f1_score(cloud.labels, mapped, t);
+    f1.push_back({{"truth_label", t}, {"f1", nan_null(v)}});
+    line += " " + std::to_string(t) + ":" + fmt(v, "%.3f");
+  }
+  Json confusion = Json::array();  // rows: truth labels 0..max; columns: predicted labels 0..L-1
+  for (int t = 0; t <= truth_max; ++t) {
+    std::vector<long> row(std::size_t(label_count), 0);
+    for (std::size_t i = 0; i < labels.size(); ++i)
+      if (cloud.labels[i] == t) ++row[std::size_t(labels[i])];
+    confusion.push_back(row);
+  }
+  summary["seed_truth"] = map;
+  summary["f1"] = f1;
+  summary["confusion"] = confusion;
+}
+
+}  // namespace
+
 /// segment-cloud --method mrf with --seeds plane or a seed file, on a cloud file.
 int run_mrf_on_cloud(const MrfCloudRun& run) {
   using namespace smseg;
@@ -61,31 +95,7 @@ int run_mrf_on_cloud(const MrfCloudRun& run) {
   std::string line = input + ": " + std::to_string(cloud.size()) + " points, " + std::to_string(rep.labels) +
                      " labels (" + sd.method + " seeds), " + std::to_string(rep.iterations) + " rounds, " +
                      fmt(total * 1000, "%.1f") + " ms";
-  if (cloud.has_labels()) {
-    // Each predicted label stands for the ground-truth label most of its seed carries.
-    const std::vector<int> map = features::seed_truth(cloud, sd);
-    std::vector<int> mapped(labels.size());
-    for (std::size_t i = 0; i < labels.size(); ++i) mapped[i] = map[std::size_t(labels[i])];
-    int truth_max = 0;
-    for (int t : cloud.labels) truth_max = std::max(truth_max, t);
-    Json f1 = Json::array();
-    line += ", F1";
-    for (int t = 0; t <= truth_max; ++t) {
-      const double v = features::f1_score(cloud.labels, mapped, t);
-      f1.push_back({{"truth_label", t}, {"f1", nan_null(v)}});
-      line += " " + std::to_string(t) + ":" + fmt(v, "%.3f");
-    }
-    Json confusion = Json::array();  // rows: truth labels 0..max; columns: predicted labels 0..L-1
-    for (int t = 0; t <= truth_max; ++t) {
-      std::vector<long> row(std::size_t(rep.labels), 0);
-      for (std::size_t i = 0; i < labels.size(); ++i)
-        if (cloud.labels[i] == t) ++row[std::size_t(labels[i])];
-      confusion.push_back(row);
-    }
-    summary["seed_truth"] = map;
-    summary["f1"] = f1;
-    summary["confusion"] = confusion;
-  }
+  if (cloud.has_labels()) score_against_labels(cloud, sd, labels, rep.labels, summary, line);
   write_json_atomic(out + ".json", summary);
   std::cout << line << " -> " << out << "\n";
   return 0;

@@ -9,6 +9,7 @@
 #include "smseg/cloud/cloud_segment.hpp"
 #include "smseg/cloud/cloud_view.hpp"
 #include "smseg/cloud/grabcut_sfm.hpp"
+#include "smseg/common/cli.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg/common/output.hpp"
 
@@ -74,9 +75,31 @@ struct GrabCutSfmCli {
   int dense_cloud = 0;  // > 0: the cloud of the frame's dense depth, every this-many pixels (stereo)
   int window = -1;      // >= 0: the cloud of the tracks seen within this many frames (tracks.json)
   int plane_window = -1;  // >= 0: the first plane is fitted to the tracks seen within this many frames
-  std::string cluster = "kmeans", nearest = "centre", up = "camera";  // up: --plane-up
+  std::string support = "table";  // --support table|plane
+  std::string cluster = "auto", nearest = "auto", up = "auto";  // up: --plane-up camera|world|estimate|auto
+  bool box_to_plane_given = false;  // --box-to-plane on the command line (support plane: off unless given)
   smseg::features::GrabCutSfmParams params;
 };
 int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp
+
+/// Everything segment-cloud's command line fills (options.cpp).
+struct SegmentCloudOptions {
+  std::string input, out, method = "centroid-mincut", solver = "maxflow", up = "y", seeds = "plane";
+  smseg::features::CentroidMinCutParams mc;
+  smseg::features::TabletopCloudOptions tab;
+  smseg::features::MrfParams mrf;
+  smseg::features::PlaneSeedParams plane;
+  double mrf_lambda = smseg::features::MrfParams{}.lambda;
+  int make_tabletop = 0, threads = 0, truth_object = 1;
+  SaliencyRun sal;
+  GrabCutSfmCli gc;
+};
+void add_io_options(CLI::App& app, SegmentCloudOptions& o);        ///< the cloud, -o, --method, --make-tabletop, ...
+void add_mrf_options(CLI::App& app, SegmentCloudOptions& o);       ///< --method mrf, its plane and saliency seeds
+void add_centroid_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method centroid-mincut
+void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method grabcut-sfm, the truth
+void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o);  ///< grabcut-sfm's tuning options
+/// Runs the method the options ask for (or writes a synthetic tabletop cloud); the exit status.
+int run_method(const CLI::App& app, SegmentCloudOptions& o);
 
 }  // namespace segment_cloud

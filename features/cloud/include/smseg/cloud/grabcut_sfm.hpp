@@ -1,6 +1,14 @@
 #pragma once
 // GrabCutSFM (paper 001, He & Upcroft): unsupervised segmentation of the object nearest the camera in one
-// frame of a video, from the structure-and-motion cloud and the frame's camera pose:
+// frame of a video, from the structure-and-motion cloud and the frame's camera pose.
+//
+// The defaults (SupportChoice::Table, not in 001) give no distance in metres: the supporting plane is the
+// table find_table() finds (the highest wide horizontal patch with points standing on it), its slab a
+// share of the points' distance from the camera; only the points standing on it, up to the camera's height
+// above it, are clustered, Euclidean at the cloud's own spacing (cloud_spacing); the nearest cluster by the
+// median depth of its points; then 001's 2D RANSAC, box and GrabCut (docs/graphcuts.md).
+//
+// SupportChoice::Plane (GrabCutSfmParams::paper()) is 001's recipe:
 //   0. (options, not in 001) only the points within max_distance of the camera and / or projecting into the
 //      frame (frustum_only) are used: a street-long SfM cloud has far and stray points that k-means would
 //      spend clusters on;
@@ -33,6 +41,7 @@
 // coordinates into the world, t is the camera centre); camera x right, y down, z forward.
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include <Eigen/Core>
@@ -52,8 +61,71 @@ struct PinholeIntrinsics {
 bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
                    double* depth = nullptr);
 
+/// How the supporting plane is found (not in 001's sense of "a plane": 001 removes the dominant one).
+enum class SupportChoice {
+  Table,  ///< default: find_table() (the highest horizontal patch with points standing on it), every
+          ///< distance relative to the scene; only the points standing on it are clustered
+  Plane   ///< 001: the dominant RANSAC plane (the options below in metres: planes, height_band, ...)
+};
+
+/// find_table()'s rules: every distance a share of the scene's own (the points' distance from the
+/// camera, the camera's height above the plane), none in metres.
+struct TableParams {
+  double slab_share = 0.016;         ///< a point lies on a plane within this share of its distance from the camera
+  double min_share = 0.02;           ///< a candidate plane holds at least this share of the points below the camera
+  int min_points = 20;               ///< ... and at least this many
+  double edge_margin = 1;            ///< slabs: the objects kept stand this far inside the table's outline (GrabCutSFM;
+                                     ///< its edge and what stands beyond it, a wall, are not objects on it)
+  double min_rise = 3;               ///< an object's cluster reaches this many slabs above the table (GrabCutSFM)
+  double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
+  double min_prominence = 2;         ///< ... and this x the mean count three slabs above and below it
+  double min_width_share = 0.5;      ///< a table's patch is at least this x the camera's height above it wide
+  double min_standing_share = 0.05;  ///< points standing on a table: at least this share of its patch's points
+  double min_depression = 0.1;       ///< the camera looks down at a table: its height above it at least this x the
+                                     ///< patch's median distance (about 6 degrees)
+  void validate() const;             ///< Error naming the field
+};
+
+/// A supporting plane found by find_table(): n . X + d = 0 with n the up direction.
+struct TablePlane {
+  Eigen::Vector4d plane{0, 0, 0, 0};
+  Eigen::Vector3d e1{1, 0, 0}, e2{0, 0, 1};  ///< the plane's axes (feet are (e1 . X, e2 . X))
+  std::vector<cv::Point2f> hull;     ///< the convex hull of its largest patch's feet (PCL's polygonal prism)
+  double thickness = 0;              ///< metres: slab_share x the patch's median distance from the camera
+  double camera_height = 0;          ///< metres: the camera above the plane
+  double width = 0;                  ///< metres: the patch's smaller principal width
+  int inliers = 0;                   ///< points of the largest patch
+  int standing = 0;                  ///< points above the slab whose foot lies inside the hull
+  int candidates = 0;                ///< candidate heights examined
+  bool found = false;                ///< a table; false: the candidate with most points (or none: inliers 0)
+  /// p's foot on the plane lies inside the hull, at least `inset` metres from its outline
+  bool under(const Eigen::Vector3d& p, double inset = 0) const;
+  double height_of(const Eigen::Vector3d& p) const;  ///< signed, along the up direction
+};
+
+/// The supporting plane chosen as a table is: the cloud's points below the camera, candidate planes
+/// normal to `up` at the heights where many points lie within their slab (a share of their distance
+/// from the camera); from the highest down, the first that the camera looks down at, whose largest connected
+/// patch is wide (relative to the camera's height above it) and has points standing on it (above its slab, their foot inside its
+/// hull). A floor lies below the table; an object's top, above it, has nothing standing on it; a wall's
+/// slice is narrow. When no candidate passes, the one with most points (found = false).
+TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Vector3d& camera,
+                      const Eigen::Vector3d& up, const TableParams& params = {});
+
+/// The median distance from a point to its k-th nearest neighbour (0 with k or fewer points): the
+/// cloud's own spacing, the scale of Euclidean clustering by default.
+double cloud_spacing(const std::vector<Eigen::Vector3f>& points, int k);
+
 struct GrabCutSfmParams {
-  double plane_distance = 0.05;  ///< metres, RANSAC plane inlier distance; 0: no plane removal
+  SupportChoice support = SupportChoice::Table;
+  TableParams table;
+  Eigen::Vector3d up{0, 0, 0};   ///< the world's up direction (extract-features' estimate_gravity); zero: the
+                                 ///< camera's up axis (or world +Y with world_up)
+  bool refine_up = false;        ///< support Table: the up direction is first taken from the dominant plane
+                                 ///< within 20 degrees of it (a floor and a table top share their normal): for
+                                 ///< an up not known to within a degree (a short or straight camera path)
+  double plane_distance = -1;    ///< metres, the plane's slab; < 0: from the scene (table: its thickness;
+                                 ///< plane: 0.05, 001); 0 (plane only): no plane removal
   int plane_iterations = 500;    ///< RANSAC hypotheses for the plane
   int k = 6;                     ///< 3D k-means clusters (001: 6)
   int attempts = 3;              ///< k-means runs (k-means++ seeds); the lowest sum of squared distances wins
@@ -65,29 +137,35 @@ struct GrabCutSfmParams {
   int grabcut_iterations = 5;    ///< cv::grabCut iterations
   bool frustum_only = false;     ///< cluster only the points projecting into the frame (not in 001)
   double max_distance = 0;       ///< metres: cluster only points this close to the camera (0: all; not in 001)
-  // Several planes and the supporting plane (not in 001, which removes one plane):
+  // Several planes and the supporting plane (not in 001, which removes one plane), support Plane:
   int planes = 1;                ///< planes removed in turn at most (001: 1)
   double plane_min_share = 0.1;  ///< a second or later plane is removed only if it holds this share of the rest
-  double height_band = 0;        ///< metres: > 0: the first plane is the supporting plane, RANSAC hypotheses
-                                 ///< restricted to normals within max_tilt of the camera's up axis (or world +Y,
-                                 ///< world_up), and only
-                                 ///< the points between plane_distance and height_band above it are kept
-                                 ///< (0: no band, 001)
-  double max_tilt = 30;          ///< degrees, see height_band
-  bool box_to_plane = false;     ///< with height_band: the box also holds the projections of the kept
-                                 ///< points' feet on the supporting plane (the object's lower part)
+  double height_band = -1;       ///< metres: > 0: only the points between the slab and this height above the
+                                 ///< supporting plane are kept. Plane: the first plane is then the supporting
+                                 ///< plane, RANSAC hypotheses restricted to normals within max_tilt of the up
+                                 ///< direction; < 0 or 0: no band (001). Table: < 0 = the camera's height above it
+  double max_tilt = 30;          ///< degrees, see height_band (support Plane)
+  bool box_to_plane = true;      ///< with a supporting plane (table, or plane with a height band): the box also
+                                 ///< holds the projections of the kept points' feet on it (the object's lower part)
   bool world_up = false;         ///< the supporting plane faces world +Y (a work folder levelled by
                                  ///< extract-features --gravity estimate) instead of the camera's up axis
-  double support_radius = 0;     ///< metres: > 0 keeps, of the band, only the points standing on the supporting
-                                 ///< plane: the foot of the point within this of a plane inlier's foot
+  double support_radius = -1;    ///< metres: > 0 keeps, of the band, only the points standing on the supporting
+                                 ///< plane: the foot of the point within this of a plane inlier's foot; < 0: table:
+                                 ///< inside its hull, plane: any point in the band (also 0)
   // Clustering and the choice of the nearest cluster:
-  bool euclidean = false;        ///< Euclidean clustering (points within cluster_tolerance chained) instead of k-means
-  double cluster_tolerance = 0.03;  ///< metres, Euclidean clustering
-  int min_cluster_size = 10;     ///< Euclidean clustering: smaller clusters are dropped
-  bool median_distance = false;  ///< nearest by the median distance of the cluster's points (else its centre's)
+  bool euclidean = true;         ///< Euclidean clustering (points within cluster_tolerance chained); false: 001's k-means
+  double cluster_tolerance = -1;  ///< metres, Euclidean clustering; < 0: tolerance_share x cloud_spacing (4th neighbour)
+  double tolerance_share = 1.2;  ///< see cluster_tolerance
+  int min_cluster_size = -1;     ///< Euclidean clustering: smaller clusters are dropped; < 0: min_cluster_share of the
+                                 ///< points clustered (at least 10)
+  double min_cluster_share = 0.05;  ///< see min_cluster_size
+  bool median_distance = false;  ///< nearest by the median distance of the cluster's points (else its centre's, 001)
   bool median_depth = false;     ///< with median_distance: depth (along the optical axis) instead of distance
   std::uint64_t seed = 1;
   void validate() const;         ///< Error naming the option (--plane-distance, --k, ...)
+  /// 001's recipe as published: the dominant plane within 5 cm removed, k-means with k = 6, the box from the
+  /// nearest cluster centre (the defaults before the scene-relative ones).
+  static GrabCutSfmParams paper();
 };
 
 struct GrabCutSfmReport {
@@ -97,7 +175,12 @@ struct GrabCutSfmReport {
   Eigen::Vector4d plane{0, 0, 0, 0};    ///< the first plane: n . X + d = 0, |n| = 1 (zero without plane removal)
   std::vector<Eigen::Vector4d> planes;  ///< every plane removed, in order (normals towards the camera)
   std::vector<int> planes_inliers;      ///< per plane, its inliers
-  int support = -1;                     ///< with height_band: the supporting plane's index in `planes` (0)
+  int support = -1;                     ///< with a supporting plane (table, or height_band): its index in `planes` (0)
+  TablePlane table;                     ///< support Table: the table found
+  double plane_distance = 0;            ///< the slab used (metres)
+  double height_band = 0;               ///< the band used (metres; 0: none)
+  double cluster_tolerance = 0;         ///< Euclidean clustering: the tolerance used (metres)
+  int min_cluster_size = 0;             ///< Euclidean clustering: the smallest cluster kept
   int in_band = 0;                      ///< with height_band: points kept in the band
   int feet_in_box = 0;                  ///< with box_to_plane: feet of the chosen points added to the box
   std::vector<int> cluster_sizes;       ///< per cluster, points
@@ -140,6 +223,23 @@ std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int f
 /// points on surfaces no keypoint was tracked on (low-contrast objects). Error for step < 1.
 std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
                                                int step);
+
+/// The up direction of a work folder's world from its camera path and tracks (estimate_gravity, as
+/// extract-features --gravity estimate: the plane of a circling or turning path, else the ground under a
+/// straight one). The camera height it needs for its thresholds is the first camera's.
+/// `planar_path` (optional): whether it came from a planar camera path (a circle or a turn), the reliable case.
+Eigen::Vector3d scene_up(const FrontEndResult& front_end, bool* planar_path = nullptr);
+
+/// The pinhole intrinsics of a work folder's frames: the SfM focal of a monocular run (tracks.json), else
+/// the sequence's fx / fy; principal point from the sequence. `source` says which. Error without a focal.
+PinholeIntrinsics frame_intrinsics(const Sequence& sequence, const FrontEndResult& front_end, std::string* source);
+
+/// The object of an instance image (ids 1..255, 0 none) nearest the camera: the smallest median of the
+/// ground-truth depth (> 0) over its pixels; 0 when no object shows. The truth of --truth-instance nearest.
+int nearest_instance(const cv::Mat& instances, const cv::Mat& depth);
+
+/// The largest 8-connected region of a mask (255 / 0); an empty mask stays empty.
+cv::Mat largest_region(const cv::Mat& mask);
 
 // ---- building blocks (exposed for tests) ------------------------------------------------------------
 
