@@ -1,6 +1,6 @@
 #pragma once
 // The tracked cloud of the stacks stage (smseg/stacks/track_cloud.hpp) written as a point-cloud file
-// with PCL, for PCL viewers and CloudCompare (DESIGN 3.2). In this module because it links PCL (and the
+// with PCL, for PCL viewers and CloudCompare (docs/design.md 3.2). In this module because it links PCL (and the
 // VTK it drags along), which the stages below must not need.
 
 #include <vector>

@@ -5,7 +5,7 @@
 // label per salient region and the background from the non-salient area, and score a labelling of the
 // visible points against the frame's instance image.
 //
-// Conventions (DESIGN 3.2): poses are camera-to-world, camera x right, y down, z forward; a world point X
+// Conventions (docs/design.md 3.2): poses are camera-to-world, camera x right, y down, z forward; a world point X
 // is at camera coordinates R^T (X - t) and pixel (fx x / z + cx, fy y / z + cy), pixel centres at
 // integer coordinates.
 
