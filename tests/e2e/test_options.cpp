@@ -153,3 +153,31 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
     EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
   }
 }
+
+// Every option declared in an options table (smseg/common/options.hpp) is checked by the parser: a
+// non-finite number or a name that is not one of the choices is bad usage, exit status 2, naming the
+// option. (Before the tables, --camera-height inf and --fps inf were taken, and --motion, --vote,
+// --smooth and an empty --test-frames range exited 1.)
+TEST_F(Options, NonFiniteNumbersAndUnknownNamesAreBadUsage) {
+  const std::vector<std::pair<std::string, Absurd>> cases = {
+      {"extract-features", {"{S} -o {O} --camera-height inf", 2, "--camera-height"}},
+      {"extract-features", {"{S} -o {O} --dense --sweep-baseline nan", 2, "--sweep-baseline"}},
+      {"extract-features", {"{S} -o {O} --focal -inf", 2, "--focal"}},
+      {"extract-features", {"{S} -o {O} --motion lidar", 2, "--motion"}},
+      {"extract-features", {"{S} -o {O} --keypoints fast", 2, "--keypoints"}},
+      {"label-stream", {"{S} {F} -o {O} --camera-height nan", 2, "--camera-height"}},
+      {"eval-forest", {"{F} {W} -o {O} --smooth graphcut --lambda inf", 2, "--lambda"}},
+      {"eval-forest", {"{F} {W} -o {O} --vote loudest", 2, "--vote"}},
+      {"eval-forest", {"{F} {W} -o {O} --smooth blur", 2, "--smooth"}},
+      {"eval-forest", {"{F} {W} -o {O} --test-frames 5:2", 2, "--test-frames"}},
+      {"make-sequence", {"--fps inf -o {O}", 2, "--fps"}},
+      {"make-sequence", {"--baseline nan -o {O}", 2, "--baseline"}},
+      {"train-forest", {"{W} -o {O} -M nan", 2, "-M"}},
+      {"train-forest", {"{W} -o {O} --balance most", 2, "--balance"}},
+  };
+  for (const auto& [name, a] : cases) {
+    const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
+    expect_one_line(a, r);
+    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+  }
+}
