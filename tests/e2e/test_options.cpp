@@ -156,7 +156,7 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
 
 // Every option declared in an options table (smseg/common/options.hpp) is checked by the parser: a
 // non-finite number or a name that is not one of the choices is bad usage, exit status 2, naming the
-// option. (Before the tables, --camera-height inf and --fps inf were taken, and --motion, --vote,
+// option. (Before the tables, --camera-height inf was taken, and --motion, --vote,
 // --smooth and an empty --test-frames range exited 1.)
 TEST_F(Options, NonFiniteNumbersAndUnknownNamesAreBadUsage) {
   const std::vector<std::pair<std::string, Absurd>> cases = {
