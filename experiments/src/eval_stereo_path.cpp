@@ -39,6 +39,7 @@ StereoPathEvaluation evaluate_stereo_path(const std::string& sequence, const std
   e.tracks = work;
   if (fs::is_directory(e.tracks)) e.tracks /= "tracks.json";
   const TracksFile tf = read_tracks(e.tracks);
+  check_made_from(tf, e.tracks, seq);
   const FrontEndResult& r = tf.result;
   if (seq.gt_poses.empty()) throw Error(seq.manifest.string(), "gt_poses", "the sequence has no ground-truth poses");
   const int n = static_cast<int>(r.poses.size());

@@ -109,3 +109,32 @@ TEST(HostileFiles, AFileTheProcessHasNoRoomForIsNamedBeforeItIsRead) {
   EXPECT_FALSE(fs::exists(dir / "forest.json"));
   fs::remove_all(dir);
 }
+
+// A work folder given with another sequence than the one it was made from: the tools that read its
+// tracks beside a sequence say so in one line naming tracks.json. (Before: eval-stereo-path scored the
+// other sequence's ground truth against these tracks, and segment-cloud's saliency seeds projected
+// them into the other sequence's images.)
+TEST(HostileFiles, AWorkFolderOfAnotherSequenceIsRefused) {
+  const fs::path dir = smseg::test::temp_dir("hostile-other-sequence");
+  const std::string seq1 = (dir / "corridor").string(), seq2 = (dir / "lab").string(), work = (dir / "work").string();
+  Outcome r = run(tool("make-sequence") + " --scene corridor --frames 12 --size 96x72 -q -o " + seq1);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run(tool("make-sequence") + " --scene lab --seed 2 --frames 12 --size 96x72 -q -o " + seq2);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run(tool("extract-features") + " -q " + seq1 + " -o " + work);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::string tracks = (dir / "work" / "tracks.json").string();
+  ASSERT_EQ(run(tool("eval-stereo-path") + " " + seq1 + " " + work).status, 0);
+  for (const std::string& command :
+       {tool("eval-stereo-path") + " " + seq2 + " " + work,
+        tool("segment-cloud") + " --method mrf --seeds saliency --sequence " + seq2 + " --work " + work +
+            " --frame 3 -o " + (dir / "out.pcd").string()}) {
+    r = run(command);
+    EXPECT_EQ(r.status, 1) << command << "\n" << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_NE(r.out.find(tracks + ": sequence: is for sequence \"synth-corridor-seed1\", not \"synth-lab-seed2\""),
+              std::string::npos)
+        << command << "\n" << r.out;
+  }
+  fs::remove_all(dir);
+}

@@ -441,4 +441,21 @@ TracksFile read_tracks(const fs::path& path) {
   return out;
 }
 
+void check_made_from(const TracksFile& tracks, const fs::path& path, const Sequence& seq) {
+  const auto size_text = [](cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); };
+  if (tracks.sequence_name != seq.name)
+    throw Error(path.string(), "sequence",
+                "is for sequence \"" + tracks.sequence_name + "\", not \"" + seq.name + "\" (" +
+                    seq.manifest.string() + "): a work folder of another sequence");
+  if (tracks.image_size != seq.size)
+    throw Error(path.string(), "image_size",
+                "is " + size_text(tracks.image_size) + ", the sequence's images are " + size_text(seq.size) + " (" +
+                    seq.manifest.string() + ")");
+  const long last = tracks.result.first_frame + static_cast<long>(tracks.result.poses.size());
+  if (last > seq.frame_count())
+    throw Error(path.string(), "frame_count",
+                "poses frames up to " + std::to_string(last - 1) + ", the sequence has " +
+                    std::to_string(seq.frame_count()) + " frames (" + seq.manifest.string() + ")");
+}
+
 }  // namespace smseg::features

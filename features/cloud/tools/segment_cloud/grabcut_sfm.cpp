@@ -85,9 +85,7 @@ Frame load_frame(const GrabCutSfmCli& o) {
   if (!fs::is_regular_file(f.tracks_path, ec))
     throw Error(f.tracks_path.string(), "", "no camera poses: run extract-features on the sequence first");
   f.tracks = sf::read_tracks(f.tracks_path);
-  if (f.tracks.sequence_name != f.seq.name)
-    throw Error(f.tracks_path.string(), "sequence",
-                "is for sequence \"" + f.tracks.sequence_name + "\", not \"" + f.seq.name + "\"");
+  sf::check_made_from(f.tracks, f.tracks_path, f.seq);
   const int first = f.tracks.result.first_frame, posed = static_cast<int>(f.tracks.result.poses.size());
   if (o.frame < first || o.frame >= first + posed)
     throw Error(f.tracks_path.string(), "poses",

@@ -44,6 +44,7 @@ SaliencyInput load_saliency_input(const SaliencyRun& run) {
     throw Error(seq.manifest.string(), "calibration", "projecting a cloud needs the focal length (fx, fy)");
   if (!fs::is_directory(in.work)) throw Error(in.work.string(), "--work", "no such work folder (run extract-features first)");
   in.tracks = read_tracks(in.work / "tracks.json");
+  check_made_from(in.tracks, in.work / "tracks.json", seq);
   const FrontEndResult& fe = in.tracks.result;
   in.pose_index = run.frame - fe.first_frame;
   if (in.pose_index < 0 || in.pose_index >= static_cast<int>(fe.poses.size()))

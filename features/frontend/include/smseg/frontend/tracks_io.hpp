@@ -42,5 +42,8 @@ FrontEndSummary summary_from_json(const JsonView& j);
 void write_tracks(const fs::path& path, const FrontEndResult& result, const std::string& sequence_name,
                   cv::Size image_size, const Json& options = Json::object());
 TracksFile read_tracks(const fs::path& path);
+/// Error naming `path` unless its tracks were made from `seq`: the same sequence name and image size,
+/// and no posed frame past the sequence's end (a work folder given with another sequence).
+void check_made_from(const TracksFile& tracks, const fs::path& path, const Sequence& seq);
 
 }  // namespace smseg::features
