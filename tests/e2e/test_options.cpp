@@ -26,6 +26,8 @@ struct Absurd {
   std::string named;    ///< the option (or file) the line must name
 };
 
+void expect_one_line(const Absurd& a, const Outcome& r);
+
 class Options : public ::testing::Test {
  protected:
   static fs::path dir;
@@ -40,6 +42,16 @@ class Options : public ::testing::Test {
     ASSERT_EQ(r.status, 0) << r.out;
   }
   static void TearDownTestSuite() { fs::remove_all(dir); }
+
+  /// Runs each (tool, case): one line naming the option, the expected status, nothing written.
+  static void expect_each_refused(const std::vector<std::pair<std::string, Absurd>>& cases) {
+    for (const auto& [name, a] : cases) {
+      const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
+      expect_one_line(a, r);
+      EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
+      EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
+    }
+  }
 
   static std::string expand(std::string s) {
     const std::vector<std::pair<std::string, fs::path>> names = {
@@ -146,12 +158,7 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --memory-mb 0 -o {O}", 2, "--memory-mb"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --max-points -1 -o {O}", 2, "--max-points"}},
   };
-  for (const auto& [name, a] : cases) {
-    const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
-    expect_one_line(a, r);
-    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
-    EXPECT_FALSE(fs::exists(dir / "out.pcd")) << a.command;
-  }
+  expect_each_refused(cases);
 }
 
 // Every option declared in an options table (smseg/common/options.hpp) is checked by the parser: a
@@ -175,9 +182,5 @@ TEST_F(Options, NonFiniteNumbersAndUnknownNamesAreBadUsage) {
       {"train-forest", {"{W} -o {O} -M nan", 2, "-M"}},
       {"train-forest", {"{W} -o {O} --balance most", 2, "--balance"}},
   };
-  for (const auto& [name, a] : cases) {
-    const Outcome r = run("timeout 120 " + tool(name) + " -q " + expand(a.command));
-    expect_one_line(a, r);
-    EXPECT_FALSE(fs::exists(dir / "out")) << a.command;
-  }
+  expect_each_refused(cases);
 }

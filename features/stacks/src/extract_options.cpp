@@ -14,7 +14,6 @@ using options::kCommandLine;
 using options::kConfig;
 using options::kPython;
 
-std::string same_name(const std::string& s) { return s; }
 
 // Names checked here and resolved by ExtractOptions::resolve (which front end, which tracker).
 std::string motion_name(const std::string& name, const std::string& field) {
@@ -35,7 +34,7 @@ void declare_choices(options::Table<E>& t) {
   t.named("motion", "--motion",
           "the front end tracks and camera motion come from (auto: stereo for stereo sequences, sfm, monocular\n"
           "structure from motion on the left images, for mono ones)",
-          +[](E& o) -> std::string& { return o.motion; }, front_end_choices(), &motion_name, &same_name)
+          +[](E& o) -> std::string& { return o.motion; }, front_end_choices(), &motion_name, &options::as_written)
       .only(kCommandLine | kPython);
   t.named("stereo", "--stereo", "disparity (bm: block matching, sgbm: semi-global, given: from the sequence)",
           +[](E& o) -> StereoMethod& { return o.front_end.stereo.method; }, "bm | sgbm | given",
@@ -52,7 +51,7 @@ void declare_choices(options::Table<E>& t) {
           "keypoint detector (auto: stereo gftt with the klt tracker, sift with descriptors; sfm: sift; gftt:\n"
           "Shi-Tomasi corners, no descriptors: --tracker klt only)",
           +[](E& o) -> std::string& { return o.keypoints; }, "auto | sift | orb | akaze | gftt", &keypoints_name,
-          &same_name)
+          &options::as_written)
       .checked_as("tracking.detector");
   t.optional_number("max_keypoints", "--max-keypoints",
                     "strongest keypoints kept per frame (default: " + std::to_string(TrackingOptions{}.max_keypoints) +
@@ -68,7 +67,7 @@ void declare_choices(options::Table<E>& t) {
           "Lucas-Kanade from each point, forward-backward checked, new keypoints filling gaps; for video) | auto\n"
           "(stereo: klt, which drifts less than the thesis's descriptor matching; sfm: descriptors with\n"
           "whole-image matching and Lowe ratio 0.8 when frames are more than 0.25 s apart, else klt)",
-          +[](E& o) -> std::string& { return o.tracker; }, "auto | klt | descriptors", &tracker_name, &same_name)
+          +[](E& o) -> std::string& { return o.tracker; }, "auto | klt | descriptors", &tracker_name, &options::as_written)
       .only(kCommandLine | kPython);
 }
 

@@ -35,7 +35,6 @@ std::string scene_name(const std::string& name, const std::string& field) {
     throw Error("", field, "is \"" + name + "\", expected \"corridor\", \"lab\" or \"tabletop\"");
   return name;
 }
-std::string same_name(const std::string& s) { return s; }
 
 }  // namespace
 
@@ -48,7 +47,7 @@ const options::Table<SynthOptions>& synth_options_table() {
     t.named("scene", "--scene",
             "corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling it; also writes "
             "instance images)",
-            +[](O& o) -> std::string& { return o.scene; }, "corridor | lab | tabletop", &scene_name, &same_name);
+            +[](O& o) -> std::string& { return o.scene; }, "corridor | lab | tabletop", &scene_name, &options::as_written);
     t.number("seed", "--seed", "random seed for layout, textures, people and noise",
              +[](O& o) -> std::uint64_t& { return o.seed; }, std::uint64_t{0},
              std::numeric_limits<std::uint64_t>::max());

@@ -58,6 +58,10 @@ std::string choices_text(const std::array<EnumName<E>, N>& table) {
   return s;
 }
 
+/// The name of a text field as it is written: Table::named's name function for a field that holds the
+/// name itself (a front end's, a scene's), which its parse function checks.
+inline std::string as_written(const std::string& name) { return name; }
+
 /// One declared field of the options struct S.
 template <class S>
 struct Field {
