@@ -178,7 +178,8 @@ Json stream_summary(const StreamRun& run, const StreamOptions& options, const St
           {"latency_ms_p90", log.latency_quantile(0.9)},
           {"latency_ms_max", log.latency_quantile(1.0)},
           {"stage_ms", log.stages()},
-          {"stopped_by_user", run.stopped_by_user}};
+          {"stopped_by_user", run.stopped_by_user},
+          {"frames_without_points", run.frames_without_points}};
 }
 
 std::vector<std::string> stream_report_lines(const StreamRun& run, const StageLog& log, const fs::path& out,

@@ -180,7 +180,30 @@ int run_python(const std::string& python, const fs::path& dir, const fs::path& s
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-/// Runs the notebook's code (helper, loading, every figure) as a plain script in `dir` to write the PNGs.
+/// The last non-empty line of a log (a Python traceback's exception), "" when there is none.
+std::string last_line_of(const fs::path& log) {
+  std::error_code ec;
+  std::istringstream in(fs::exists(log, ec) ? smseg::read_file(log) : "");
+  std::string last;
+  for (std::string line; std::getline(in, line);)
+    if (!line.empty()) last = line;
+  return last;
+}
+
+/// What went wrong when the drawing did not leave every figure: said as it is, not guessed.
+std::string drawing_failure(const std::string& python, int status, const std::string& err, const std::string& missing) {
+  if (status == 127 && err.empty()) return python + " could not be run (not found, or not executable)";
+  if (status < 0) return python + " was killed";
+  if (status != 0) {
+    const bool no_matplotlib = err.find("No module named 'matplotlib'") != std::string::npos;
+    return python + " failed (exit " + std::to_string(status) + ")" + (err.empty() ? "" : ": " + err) +
+           (no_matplotlib ? " (install python3-matplotlib, or pass --no-png)" : "");
+  }
+  return python + " exited 0 without drawing " + missing + " (is it a Python 3 with matplotlib? --no-png skips the figures)";
+}
+
+/// Runs the notebook's code (helper, loading, every figure) as a plain script in `dir` to write the PNGs;
+/// Error unless it exits 0 and every figure's PNG is there.
 void render_pngs(const ExperimentResults& r, const fs::path& rel_jsonl, const fs::path& out, const std::string& python) {
   std::string script = std::string(kSmsegPlotsPy) + "\n" + load_code(r, rel_jsonl) + "\n";
   for (const auto& fig : r.figures) script += figure_code(r, fig) + "plt.close(\"all\")\n";
@@ -188,21 +211,15 @@ void render_pngs(const ExperimentResults& r, const fs::path& rel_jsonl, const fs
   const fs::path log = out / (".render-" + r.name + "-" + std::to_string(::getpid()) + ".log");
   smseg::write_file_atomic(tmp, script);
   const int status = run_python(python, out, tmp, log);
-  std::string err;
-  if (status != 0) {
-    std::error_code ec;
-    std::string text = fs::exists(log, ec) ? smseg::read_file(log) : "";
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);)
-      if (!line.empty()) err = line;  // the last line: the exception
-  }
+  const std::string err = status != 0 ? last_line_of(log) : "";
   std::error_code ec;
   fs::remove(tmp, ec);
   fs::remove(log, ec);
-  if (status != 0)
-    throw Error((out / (r.name + ".ipynb")).string(), "figures",
-                "drawing the figures with " + python + " failed" + (err.empty() ? "" : ": " + err) +
-                    " (needs python3-matplotlib)");
+  std::string missing;
+  for (const auto& fig : r.figures)
+    if (missing.empty() && !fs::exists(out / r.name / png_name(fig), ec)) missing = r.name + "/" + png_name(fig);
+  if (status != 0 || !missing.empty())
+    throw Error((out / (r.name + ".ipynb")).string(), "figures", "drawing them: " + drawing_failure(python, status, err, missing));
 }
 
 std::string html_escape(const std::string& s) {
@@ -281,6 +298,7 @@ int main(int argc, char** argv) {
   app.add_flag("--no-png", no_png, "write the notebooks and index only");
   app.add_flag("-q,--quiet", quiet, "no line per experiment");
   return run_tool(app, argc, argv, [&] {
+    const smseg::OutputLock one_writer(out, {results});
     const std::vector<fs::path> dirs = results_folders(results);
     const fs::path out_dir = fs::absolute(out).lexically_normal();
     // Everything is written into a folder beside OUT and swapped in whole at the end: a killed or failed

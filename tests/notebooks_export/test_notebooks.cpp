@@ -2,7 +2,11 @@
 // executes, PNG figures, and an index linking them; bad input answered in one line.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
+#include <string>
+#include <utility>
+#include <vector>
 #include <fstream>
 
 #include "run_tool.hpp"
@@ -97,4 +101,32 @@ TEST_F(Notebooks, BadInputIsOneLine) {
   EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
   EXPECT_NE(r.out.find("config.json"), std::string::npos) << r.out;
   EXPECT_NE(r.out.find("smseg-experiment-run"), std::string::npos) << r.out;
+}
+
+// An interpreter that runs but draws nothing is not a success, and a failure is said as it is: no
+// blanket "needs python3-matplotlib" when the interpreter is not even there.
+TEST_F(Notebooks, FiguresNotDrawnAreAFailureSaidAsItIs) {
+  const fs::path config = dir / "tiny.json";
+  smseg::write_json_atomic(config, json::parse(R"({
+    "format": "smseg-experiment", "version": 1, "name": "tiny",
+    "sequences": {"s": {"synthetic": {"frames": 12, "label_every": 2, "width": 64, "height": 48}}},
+    "fixed": {"train": "s", "train_frames": "0:6", "test_frames": "6:", "M": 2},
+    "sweep": {"K": [20, 40]},
+    "figures": [{"id": "k", "title": "K", "x": "K", "y": "train_seconds", "xlabel": "K", "ylabel": "s"}]})"));
+  Outcome r = run(tool("run-experiment") + " -q --cache " + (dir / "cache").string() + " " + config.string() + " -o " +
+                  (dir / "tiny-results").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {"/bin/true", "exited 0 without drawing tiny/fig-k.png"},
+      {"/bin/false", "failed (exit 1)"},
+      {(dir / "no-such-python").string(), "could not be run"}};
+  for (const auto& [python, said] : cases) {
+    r = run(tool("export-notebooks") + " -q " + (dir / "tiny-results").string() + " --python " + python + " -o " +
+            (dir / "nb-tiny").string());
+    EXPECT_EQ(r.status, 1) << python << ": " << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_NE(r.out.find(said), std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("python3-matplotlib"), std::string::npos) << r.out;
+    EXPECT_FALSE(fs::exists(dir / "nb-tiny")) << python;
+  }
 }

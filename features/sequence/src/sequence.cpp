@@ -299,7 +299,10 @@ Sequence load_sequence(const fs::path& dir_or_manifest) {
   }
 }
 
-void check_before_saving(const Sequence& seq) { sequence_from_json(sequence_to_json(seq), seq.manifest); }
+void check_before_saving(const Sequence& seq) {
+  // Through the text a reader will parse: a number JSON cannot hold (inf) is null there, not here.
+  sequence_from_json(Json::parse(json_text(sequence_to_json(seq), seq.manifest)), seq.manifest);
+}
 
 Json sequence_to_json(const Sequence& seq) {
   Json j;
@@ -343,6 +346,7 @@ Json sequence_to_json(const Sequence& seq) {
 }
 
 void save_sequence(const Sequence& seq) {
+  check_before_saving(seq);  // a manifest that would not read back never replaces the one there
   write_json_atomic(seq.root / kManifestName, sequence_to_json(seq));
 }
 

@@ -66,8 +66,17 @@ void write_file_atomic(const fs::path& path, std::string_view bytes) {
   }
 }
 
+std::string json_text(const Json& j, const fs::path& path, int indent) {
+  try {
+    return j.dump(indent);
+  } catch (const Json::type_error&) {  // 316: a string that is not UTF-8, most often a file name
+    throw Error(path.string(), "", "cannot be written: it would record text that is not UTF-8 (a file or folder name? "
+                                   "rename it to UTF-8)");
+  }
+}
+
 void write_json_atomic(const fs::path& path, const Json& j, int indent) {
-  write_file_atomic(path, j.dump(indent) + "\n");
+  write_file_atomic(path, json_text(j, path, indent) + "\n");
 }
 
 namespace {

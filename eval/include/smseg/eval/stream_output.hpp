@@ -105,6 +105,9 @@ struct StreamRun {
   int threads = 0, in_flight = 0;
   double seconds = 0;
   bool stopped_by_user = false;
+  /// Frames whose front end tracked no point (black, blank or featureless images): labelled from the
+  /// class prior alone, which the report says.
+  int frames_without_points = 0;
 };
 
 /// label-stream's summary.json ("smseg-label-stream", version 1).

@@ -24,6 +24,9 @@ using Json = nlohmann::json;
 void write_file_atomic(const fs::path& path, std::string_view bytes);
 
 /// write_file_atomic of j.dump(indent) plus a final newline.
+/// j as the text a file `path` will hold (indent as Json::dump's); Error naming `path` when it holds
+/// text that is not UTF-8 (nlohmann's type_error 316), which JSON cannot carry.
+std::string json_text(const Json& j, const fs::path& path, int indent = -1);
 void write_json_atomic(const fs::path& path, const Json& j, int indent = 1);
 
 /// The most bytes a reader takes from one file, by what its format can hold (docs/reliability.md):
