@@ -103,7 +103,8 @@ void add_options(CLI::App& app, Args& a) {
   app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   add_threads_option(app, a.threads, "the forest does not depend on it");
   app.add_option("--export-corpus", a.corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
-  app.add_option("--corpus-tree", a.corpus_tree, "which tree's corpus --export-corpus writes")->capture_default_str();
+  app.add_option("--corpus-tree", a.corpus_tree, "which tree's corpus --export-corpus writes (0..M-1)")->capture_default_str()
+      ->check(options::in_range(0, 99999));
   app.add_flag("-q,--quiet", a.quiet, "no progress on stderr");
   app.add_option("-o,--out", a.out, "forest file to write (JSON; a forest part with --trees)")->required();
 }
@@ -168,12 +169,24 @@ int train_on_slurm(Args& a, const std::string& on_frames, int argc, char** argv)
                 a.out);
 }
 
+/// What a training reads, which -o must not overwrite: the work folders and their manifests, the parts
+/// to merge, the forests --learned-from follows.
+std::vector<smseg::fs::path> training_inputs(const Args& a) {
+  std::vector<smseg::fs::path> inputs;
+  for (const auto& w : a.works) inputs.insert(inputs.end(), {smseg::fs::path(w), smseg::fs::path(w) / "stacks.json"});
+  inputs.insert(inputs.end(), a.merge.begin(), a.merge.end());
+  for (const auto& f : smseg::split_comma_list(a.learned_from)) inputs.push_back(f);
+  return inputs;
+}
+
 int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   using namespace smseg;
   // The forest (whole, a part or merged) is written atomically; what killed runs of this host left
   // between write and rename goes now. Temporaries of live runs (other Slurm tasks writing parts into
   // the same folder) and of other hosts are left alone.
   if (!a.out.empty()) remove_stale_temporaries(fs::absolute(a.out).parent_path());
+  std::optional<OutputLock> one_writer;  // not the Slurm submitter: its gather job writes -o
+  if (!a.on_slurm) one_writer.emplace(a.out, training_inputs(a));
   if (!a.merge.empty()) return merge_parts(a.merge, a.works, a.tree_range, a.on_slurm, a.out);
   const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
   const features::StackSet set = open_training_stacks(a);

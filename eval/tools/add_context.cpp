@@ -5,6 +5,7 @@
 #include <set>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/eval/context.hpp"
 
@@ -68,12 +69,12 @@ int main(int argc, char** argv) {
   app.add_option("--folds", opt.folds,
                  "out-of-fold posteriors for training folders: K >= 2 contiguous folds of the labelled frames "
                  "(0: FOREST labels every frame, for test folders)")
-      ->capture_default_str()->check(CLI::Range(0, 1000000));
+      ->capture_default_str()->check(smseg::options::in_range(0, 1000000));
   app.add_option("--frames", frames, "frames written (and, with --folds, trained on), A:B half-open")
       ->capture_default_str();
   app.add_option("--features", keep, "comma-separated features copied besides the context channels (default: FOREST's)");
   app.add_option("--memory-mb", opt.memory_mb, "memory budget of each fold forest's training in MiB (train-forest's)")
-      ->check(CLI::Range(1.0, 1048576.0 * 1024))
+      ->check(smseg::options::in_range<std::size_t>(1, std::size_t{1} << 30))  // 1 MiB .. 1 PiB
       ->capture_default_str();
   add_threads_option(app, threads, "the output does not depend on it");
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
@@ -83,6 +84,7 @@ int main(int argc, char** argv) {
     opt.frames = features::FrameRange::parse(frames, "--frames");
     opt.keep = smseg::split_comma_list(keep);
     opt.progress = !quiet;
+    const OutputLock one_writer(out, paths_of(works, {forest_file}));
     const forest::Forest forest = forest::load_forest(forest_file);
     FolderReplacement replacement(out);
     const std::vector<fs::path> outs = output_folders(works, replacement.staging());

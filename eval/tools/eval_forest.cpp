@@ -73,6 +73,7 @@ int main(int argc, char** argv) {
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(as_usage([&] { return eval::SweepSpec::parse(s, "--sweep"); }));
     as_usage([&] { opt.validate(); });
+    const OutputLock one_writer(out, paths_of(works, {forest_file, costs}));
     // results.json and the pictures are built in a folder beside OUT and swapped in whole at the end, so
     // that OUT never mixes this run's pictures with another run's scores (killed or failed half-way).
     std::optional<FolderReplacement> replacement;

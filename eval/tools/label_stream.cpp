@@ -48,12 +48,12 @@ void add_options(CLI::App& app, Args& a) {
   app.add_option("--side-by-side", a.side_by_side, "one video (file, URL or camera index) whose frames hold left | right")
       ->excludes(cams);
   app.add_option("--max-frames", a.max_frames, "stop after this many frames of a live source (0: until it ends)")
-      ->capture_default_str();
+      ->capture_default_str()->check(options::in_range(0, 1000000000));
   app.add_option("--in-flight", a.in_flight,
                  "frames in the pipeline at once (1: one at a time, the lowest latency; more: higher throughput "
                  "when disparity and keypoints take longer than the rest)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 16));
+      ->check(options::in_range(1, 16));
   eval::eval_options_table().add_to(app, a.opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
   features::extract_options_table().add_to(app, a.front_end,
                                            {"stereo", "num_disparities", "block_size", "keypoints", "max_keypoints",
@@ -61,7 +61,8 @@ void add_options(CLI::App& app, Args& a) {
   app.add_flag("--no-labels", a.no_labels, "do not write OUT/labels/ (timing the rest alone)");
   app.add_flag("--overlays", a.output.overlays, "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)");
   app.add_option("--overlay-video", a.output.video, "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)");
-  app.add_option("--video-fps", a.output.video_fps, "frame rate written in the overlay video")->capture_default_str();
+  app.add_option("--video-fps", a.output.video_fps, "frame rate written in the overlay video")->capture_default_str()
+      ->check(options::in_range(0.1, 1000.0));
   app.add_flag("--show", a.output.show, "show the overlay in a window as it is made (q or Esc stops)");
   add_threads_option(app, a.threads, "the labels do not depend on it");
   app.add_flag("-q,--quiet", a.quiet, "only the summary line");
@@ -107,6 +108,7 @@ int label_stream(Args& a) {
   // OpenCV's video back ends log every failed attempt; the tool says what failed in one line.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
   const features::FrameRange range = validate(a);
+  const OutputLock one_writer(a.out, {a.seq_dir, a.forest_file});
   const features::Sequence seq = features::load_sequence(a.seq_dir);
   if (!a.live() && seq.kind != features::SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind", "label-stream needs a stereo sequence; this one is mono");
@@ -132,6 +134,7 @@ int label_stream(Args& a) {
         const auto tw = Clock::now();
         if (!writer.write(in, labels)) g_stop = 1;
         log.add(times, ms_since(tw), ms_since(in.arrived));
+        if (labeller.last_frame().observations.empty()) ++run.frames_without_points;
         if (run.first_frame < 0) run.first_frame = in.index;
         run.last_frame = in.index;
       },
@@ -143,6 +146,10 @@ int label_stream(Args& a) {
   write_json_atomic(replacement.staging() / "summary.json", eval::stream_summary(run, a.opt, log));
   replacement.commit();
   for (const std::string& line : eval::stream_report_lines(run, log, a.out, a.quiet)) std::cout << line << "\n";
+  if (run.frames_without_points > 0)
+    std::cerr << "label-stream: warning: " << run.frames_without_points << " of " << log.latency.size()
+              << " frames had no tracked point (black, blank or featureless images?); they are labelled from the class "
+                 "prior alone\n";
   return 0;
 }
 

@@ -172,7 +172,7 @@ namespace {
 
 // The config this folder belongs to (OUT/config.json). Only what decides the results must match; titles,
 // descriptions and figures may change (the snapshot then takes them, for export-notebooks).
-void check_snapshot(const Experiment& ex, const fs::path& out) {
+void check_snapshot(const Experiment& ex, const fs::path& out, bool look_only) {
   const fs::path snapshot = out / "config.json";
   const auto results_part = [](json c) {
     for (const char* k : {"title", "description", "figures"}) c.erase(k);
@@ -187,8 +187,8 @@ void check_snapshot(const Experiment& ex, const fs::path& out) {
     if (results_part(old.value("config", json())) != results_part(ex.config) || old.value("quick", !ex.quick) != ex.quick)
       throw Error(snapshot.string(), "config",
                   "this results folder was made with another config (or with/without --quick); write to another -o");
-    if (old != record) write_json_atomic(snapshot, record);
-  } else {
+    if (old != record && !look_only) write_json_atomic(snapshot, record);
+  } else if (!look_only) {
     write_json_atomic(snapshot, record);
   }
 }
@@ -354,14 +354,16 @@ RunReport run_experiment(const Experiment& ex, const RunOptions& options) {
   const auto t_start = std::chrono::steady_clock::now();
   if (options.out.empty()) throw Error("", "--out", "name the results folder");
   const fs::path cache = options.cache.empty() ? default_cache(options.out) : options.cache;
-  fs::create_directories(options.out);
-  remove_stale_temporaries(options.out);  // a killed run's config.json or cache-marker temporaries
-  check_snapshot(ex, options.out);
+  if (!options.look_only) {
+    fs::create_directories(options.out);
+    remove_stale_temporaries(options.out);  // a killed run's config.json or cache-marker temporaries
+  }
+  check_snapshot(ex, options.out, options.look_only);
 
   const fs::path jsonl = options.out / "experiment.jsonl";
   RunReport report;
   const std::vector<const Point*> todo = plan_points(ex, options, jsonl, report);
-  if (todo.empty()) {
+  if (todo.empty() || options.look_only) {
     report.seconds = seconds_since(t_start);
     return report;
   }

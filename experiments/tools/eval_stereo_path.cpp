@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/experiments/eval_stereo_path.hpp"
 
 int main(int argc, char** argv) {
@@ -25,10 +26,12 @@ int main(int argc, char** argv) {
   app.add_option("-o,--output", out, "result JSON file (default: none, report on stdout only)");
   app.add_option("--plot", plot_path, "top-down PNG of both paths (red: ground truth, black: estimate)");
   return run_tool(app, argc, argv, [&] {
+    for (const auto& [output, option] : {std::pair{out, "-o"}, std::pair{plot_path, "--plot"}})
+      if (!output.empty()) check_output_apart(output, {seq_path, work}, option);
     const experiments::StereoPathEvaluation e = experiments::evaluate_stereo_path(seq_path, work);
     std::fputs(experiments::stereo_path_report(e).c_str(), stdout);
     if (!out.empty()) write_json_atomic(out, experiments::stereo_path_json(e));
-    if (!plot_path.empty()) cv::imwrite(plot_path, experiments::stereo_path_plot(e, 700));
+    if (!plot_path.empty()) features::write_image_atomic(plot_path, experiments::stereo_path_plot(e, 700));
     return 0;
   });
 }

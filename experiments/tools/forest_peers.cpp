@@ -9,6 +9,8 @@
 #include <cstdio>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/experiments/forest_peers.hpp"
 
 int main(int argc, char** argv) {
@@ -27,26 +29,26 @@ int main(int argc, char** argv) {
   std::uint64_t seed = 1;
   app.add_option("TRAIN", s.train_csv, "training corpus CSV (label, then one value per candidate)")->required();
   app.add_option("HELDOUT", s.heldout_csv, "held-out corpus CSV with the same header")->required();
-  app.add_option("-M,--trees", s.trees, "trees")->capture_default_str();
-  app.add_option("--n-min", s.n_min, "nodes with fewer rows become leaves")->capture_default_str();
+  app.add_option("-M,--trees", s.trees, "trees")->capture_default_str()->check(options::in_range(1, 100000));
+  app.add_option("--n-min", s.n_min, "nodes with fewer rows become leaves")->capture_default_str()
+      ->check(options::in_range(1, 100000000));
   app.add_option("--seed", seed, "forest seed (tree t gets tree_seed(seed, t))")->capture_default_str()
-      ->check(smseg::kDecimalDigits);
+      ->check(options::any_seed())->check(CLI::Validator(kDecimalDigits).description(""));
   app.add_option("--seeds", seeds_opt, "comma-separated forest seeds, one run each (overrides --seed)");
-  app.add_option("--repeat", s.repeat, "timed fits per seed; the median is reported")->capture_default_str();
+  app.add_option("--repeat", s.repeat, "timed fits per seed; the median is reported")->capture_default_str()
+      ->check(options::in_range(1, 1000));
   add_threads_option(app, s.threads, "trees are grown in parallel");
   app.add_option("--classes", s.classes, "number of classes (0: 1 + the largest label in either CSV)")
-      ->capture_default_str();
+      ->capture_default_str()->check(options::in_range(0, 65536));
   app.add_option("--score", score_opt, "split score: wehenkel-pavella (the thesis) | information-gain")
       ->capture_default_str();
   app.add_option("-o,--out", out, "result JSON file (default: none)");
 
   return run_tool(app, argc, argv, s.threads, [&] {
-    if (s.trees < 1) throw Error("", "-M", "must be at least 1");
-    if (s.n_min < 1) throw Error("", "--n-min", "must be at least 1");
-    if (s.repeat < 1) throw Error("", "--repeat", "must be at least 1");
-    s.score = score_from_string(score_opt, "--score");
+    s.score = as_usage([&] { return score_from_string(score_opt, "--score"); });
+    if (!out.empty()) check_output_apart(out, {s.train_csv, s.heldout_csv});
     const std::vector<std::uint64_t> seeds =
-        seeds_opt.empty() ? std::vector<std::uint64_t>{seed} : experiments::parse_seeds(seeds_opt);
+        seeds_opt.empty() ? std::vector<std::uint64_t>{seed} : as_usage([&] { return experiments::parse_seeds(seeds_opt); });
     const experiments::CorpusTable train = experiments::read_corpus_table(s.train_csv);
     const experiments::CorpusTable held = experiments::read_corpus_table(s.heldout_csv);
     if (train.header != held.header)

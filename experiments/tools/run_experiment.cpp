@@ -8,6 +8,8 @@
 #include <opencv2/core/utility.hpp>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/options.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/slurm_cli.hpp"
 #include "smseg/experiments/runner.hpp"
 #include "smseg/experiments/shards.hpp"
@@ -85,10 +87,10 @@ void add_options(CLI::App& app, Args& a) {
   app.add_flag("--quick", a.quick, "run the config's quick form (its \"quick\" merge patch: a coarse grid on small data)");
   app.add_option("--cache", a.cache, "folder for generated sequences and extracted work folders (default: OUT/../cache)");
   app.add_option("--max-points", a.opt.max_points, "stop after this many new points (0: all); a rerun continues")
-      ->check(CLI::NonNegativeNumber)
+      ->check(smseg::options::in_range(0, 1000000000))
       ->capture_default_str();
   app.add_option("--memory-mb", a.opt.memory_mb, "memory budget of each training in MiB: trees are built in batches that fit; refused if one tree does not")
-      ->check(CLI::Range(1.0, 1048576.0 * 1024))  // 1 MiB .. 1 PiB: more is a typing error
+      ->check(smseg::options::in_range<std::size_t>(1, std::size_t{1} << 30))  // 1 MiB .. 1 PiB: more is a typing error
       ->capture_default_str();
   smseg::add_threads_option(app, a.threads, "results do not depend on it");
   app.add_flag("--check", a.check, "validate the config and list its points, run nothing");
@@ -131,6 +133,7 @@ int run_on_slurm(const smseg::experiments::Experiment& ex, Args& a, int argc, ch
   using namespace smseg;
   experiments::RunOptions nothing = a.opt;  // checks the results folder, lists the points left
   nothing.points = std::vector<int>{};
+  nothing.look_only = a.slurm.mode.dry_run;
   const std::vector<int> left = experiments::run_experiment(ex, nothing).left;
   if (left.empty()) return summary(ex.name, experiments::run_experiment(ex, nothing), a.out);
   a.slurm.dir = a.slurm_dir.empty() ? fs::path(a.out) / "slurm" : fs::path(a.slurm_dir);
@@ -187,6 +190,8 @@ int main(int argc, char** argv) {
     if (!a.points.empty())
       a.opt.points =
           as_usage([&] { return experiments::points_from_string(a.points, static_cast<int>(ex.points.size())); });
+    std::optional<OutputLock> one_writer;  // not the gather job: its submitter holds it, waiting for it
+    if (!a.gather && !a.slurm.mode.dry_run) one_writer.emplace(a.out, std::vector<fs::path>{a.config});
     if (a.on_slurm || a.gather) return run_on_slurm(ex, a, argc, argv);
     const int total = static_cast<int>(ex.points.size());
     if (!a.quiet)

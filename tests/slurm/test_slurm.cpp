@@ -299,7 +299,7 @@ TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
       {tf + "--trees 4", "--trees: is \"4\", expected a range of tree indices A:B"},
       {tf + "--trees 0:9", "--trees: is 0:9"},
       {tf + "--slurm --tasks 6", "--tasks: is 6, expected 1..5"},
-      {tf + "--slurm --tasks -1", "--tasks: is -1"},
+      {tf + "--slurm --tasks -1", "--tasks: must be in [0, 100000], got -1"},
       {tf + "--tasks 2", "only with --slurm"},
       {tf + "--slurm --trees 0:2", "--trees: not with --slurm"},
       {tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d) + " --trees 0:1 -o x.json", "--merge: not with"},

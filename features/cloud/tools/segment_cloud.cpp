@@ -43,5 +43,6 @@ int main(int argc, char** argv) {
   segment_cloud::add_centroid_options(app, o);
   segment_cloud::add_grabcut_sfm_options(app, o);
   segment_cloud::add_grabcut_sfm_overrides(app, o);
+  segment_cloud::add_grabcut_sfm_ranges(app);
   return smseg::run_tool(app, argc, argv, o.threads, [&] { return segment_cloud::run_method(app, o); });
 }

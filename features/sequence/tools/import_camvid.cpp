@@ -4,6 +4,8 @@
 #include <sstream>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/sequence/camvid.hpp"
 
 int main(int argc, char** argv) {
@@ -20,16 +22,18 @@ int main(int argc, char** argv) {
   app.add_option("-o,--out", out, "output folder for the sequence manifests")->required();
   app.add_option("--split", splits, "comma-separated split names from frames.csv")->capture_default_str();
   app.add_option("--camera-height", opt.camera_height, "camera height above the road in metres (assumed)")
-      ->capture_default_str();
-  app.add_option("--focal", focal, "focal length in pixels, if known (default: unknown, estimated later)");
+      ->capture_default_str()->check(smseg::options::in_range(0.001, 10000.0));
+  app.add_option("--focal", focal, "focal length in pixels, if known (default: unknown, estimated later)")
+      ->check(smseg::options::in_range(1.0, 1e6));
   app.add_option("--max-gap", opt.max_gap, "a gap of more video frames than this starts a new run")
-      ->capture_default_str();
+      ->capture_default_str()->check(smseg::options::in_range(1, 1000000));
   return smseg::run_tool(app, argc, argv, [&] {
     opt.splits.clear();
     std::stringstream ss(splits);
     for (std::string s; std::getline(ss, s, ',');)
       if (!s.empty()) opt.splits.push_back(s);
     if (app.count("--focal")) opt.focal = focal;
+    const smseg::OutputLock one_writer(out, {dir});
     const auto runs = import_camvid(dir, out, opt);
     int total = 0;
     for (const auto& r : runs) {

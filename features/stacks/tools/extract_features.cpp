@@ -4,6 +4,7 @@
 
 #include "smseg/cloud/cloud_io.hpp"
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/option_names.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/stacks/extract.hpp"
@@ -53,6 +54,7 @@ int main(int argc, char** argv) {
       opt.preview.push_back(as_usage([&] { return FrameRange::parse(item, "--preview").begin; }));
     opt.progress = !quiet;
     set_solver_verbose(verbose);
+    const OutputLock one_writer(work, {seq_dir});
     const Sequence seq = load_sequence(seq_dir);
     const ExtractReport r = extract_features(seq, work, opt);
     write_cloud(fs::path(work) / "cloud.pcd", r.cloud, seq);

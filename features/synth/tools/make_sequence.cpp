@@ -5,6 +5,7 @@
 #include <regex>
 
 #include "smseg/common/cli.hpp"
+#include "smseg/common/output.hpp"
 #include "smseg/common/option_names.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/synth/synth.hpp"
@@ -32,8 +33,10 @@ int main(int argc, char** argv) {
       ->required();
   app.add_option("--montage", montage,
                  "also write a montage PNG: rows of frames, columns left image | labels | depth (default: none)");
-  app.add_option("--montage-frames", montage_frames, "number of frames (rows) in the montage (default 4)");
-  app.add_option("--montage-scale", montage_scale, "scale of each montage panel (default 1)");
+  app.add_option("--montage-frames", montage_frames, "number of frames (rows) in the montage (default 4)")
+      ->check(smseg::options::in_range(1, 100000));
+  app.add_option("--montage-scale", montage_scale, "scale of each montage panel (default 1)")
+      ->check(smseg::options::in_range(0.1, 4.0));
   app.add_flag("-q,--quiet", quiet, "no progress on stderr (default: progress shown)");
   return smseg::run_tool(app, argc, argv, [&] {
     std::smatch m;
@@ -42,11 +45,11 @@ int main(int argc, char** argv) {
     o.width = std::stoi(m[1]);
     o.height = std::stoi(m[2]);
     o.progress = !quiet;
-    if (montage_frames < 1) throw smseg::UsageError("", "--montage-frames", "must be at least 1");
     smseg::OptionNames option_of = synth::synth_options_table().option_names();
     option_of["width"] = "--size (width)";
     option_of["height"] = "--size (height)";
     smseg::validate_options(option_of, [&] { o.validate(); });
+    const smseg::OutputLock one_writer(out, {montage});
     const Sequence seq = synth::make_sequence(o, out);
     if (!montage.empty()) {
       std::vector<int> frames;

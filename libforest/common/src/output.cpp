@@ -3,6 +3,8 @@
 #include <signal.h>
 #include <stdio.h>  // renameat2, RENAME_EXCHANGE (glibc >= 2.28)
 #include <fcntl.h>  // AT_FDCWD
+#include <sys/file.h>  // flock
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <atomic>
@@ -13,6 +15,7 @@
 #include <thread>
 #include <vector>
 
+#include "smseg/common/cli.hpp"  // UsageError
 #include "smseg/common/error.hpp"
 
 namespace smseg {
@@ -174,6 +177,86 @@ void FolderReplacement::commit() {
   }
   committed_ = true;
   fs::remove_all(old, ec);
+}
+
+namespace {
+
+/// The lock file of an output: hidden, beside it, so that a folder swapped in whole keeps its lock.
+fs::path lock_file_of(const fs::path& output) {
+  const fs::path target = normal_target(output);
+  return target.parent_path() / ("." + target.filename().string() + ".lock");
+}
+
+/// What the lock file says of its holder ("pid 123 on host"), for the refusal.
+std::string holder_of(int fd) {
+  char text[128] = {};
+  const ssize_t n = ::pread(fd, text, sizeof text - 1, 0);
+  std::string s = n > 0 ? std::string(text, static_cast<std::size_t>(n)) : std::string();
+  while (!s.empty() && (s.back() == '\n' || s.back() == '\0')) s.pop_back();
+  return s.empty() ? "another process" : s;
+}
+
+/// `p` with `.`, `..` and symbolic links resolved as far as it exists.
+fs::path resolved(const fs::path& p) {
+  std::error_code ec;
+  fs::path r = fs::weakly_canonical(fs::absolute(p, ec), ec);
+  return ec ? fs::absolute(p).lexically_normal() : r;
+}
+
+bool lies_in(const fs::path& inner, const fs::path& folder) {
+  auto i = inner.begin();
+  for (auto f = folder.begin(); f != folder.end(); ++f, ++i) {
+    if (f->empty()) continue;  // a trailing separator
+    if (i == inner.end() || *i != *f) return false;
+  }
+  return true;
+}
+
+}  // namespace
+
+OutputLock::OutputLock(const fs::path& output, const std::vector<fs::path>& inputs, const std::string& option) {
+  if (output.empty()) throw UsageError("", option, "is empty: name the output");
+  check_output_apart(output, inputs, option);
+  path_ = lock_file_of(output);
+  std::error_code ec;
+  fs::create_directories(path_.parent_path(), ec);
+  // The holder removes the lock file when it is done; a process that opened the file before that must
+  // not hold a lock on a removed file while a third creates a new one: it retries on the name's file.
+  for (;;) {
+    fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
+    if (fd_ < 0) throw Error(path_.string(), "", std::string("cannot open the output's lock file: ") + std::strerror(errno));
+    if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
+      const std::string holder = holder_of(fd_);
+      ::close(fd_);
+      fd_ = -1;
+      throw Error(output.string(), "", "is being written by " + holder + "; wait for it to finish or write to another " + option);
+    }
+    struct stat held {}, named {};
+    if (::fstat(fd_, &held) == 0 && ::stat(path_.c_str(), &named) == 0 && held.st_ino == named.st_ino &&
+        held.st_dev == named.st_dev)
+      break;
+    ::close(fd_);  // removed by its last holder meanwhile: lock the file that has the name now
+  }
+  const std::string me = "pid " + std::to_string(::getpid()) + " on " + host_name() + "\n";
+  if (::ftruncate(fd_, 0) == 0) (void)!::pwrite(fd_, me.data(), me.size(), 0);
+}
+
+OutputLock::~OutputLock() {
+  if (fd_ < 0) return;
+  ::unlink(path_.c_str());  // while still locked: no one can hold a lock on the name's file meanwhile
+  ::close(fd_);
+}
+
+void check_output_apart(const fs::path& output, const std::vector<fs::path>& inputs, const std::string& option) {
+  const fs::path out = resolved(output);
+  for (const fs::path& input : inputs) {
+    std::error_code ec;
+    if (input.empty() || !fs::exists(input, ec)) continue;
+    const fs::path in = resolved(input);
+    if (in == out) throw UsageError("", option, output.string() + " is an input of this run (" + input.string() + "); write to another path");
+    if (lies_in(in, out))
+      throw UsageError("", option, output.string() + " holds an input of this run (" + input.string() + "); write to another path");
+  }
 }
 
 }  // namespace smseg

@@ -16,6 +16,7 @@
 #include <sstream>
 #include <thread>
 
+#include "smseg/common/cli.hpp"  // UsageError
 #include "smseg/common/error.hpp"
 #include "smseg/common/io.hpp"
 
@@ -199,7 +200,30 @@ fs::path task_log(const fs::path& dir, int task) {
   return fs::absolute(dir) / "logs" / ("task-" + std::to_string(task) + ".log");
 }
 
+/// Every text a job script carries (paths in comments and #SBATCH lines, quoted arguments): a control
+/// character, a newline above all, would end its line and start a command of its own.
+void refuse_control_characters(const std::string& text, const std::string& what) {
+  for (const char ch : text) {
+    const auto c = static_cast<unsigned char>(ch);
+    if (c < 0x20 || c == 0x7f)
+      throw UsageError(text, what, "holds a control character (a newline or tab, say), which a Slurm job script cannot carry; "
+                                   "rename it");
+  }
+}
+
+void refuse_control_characters(const std::string& name, const fs::path& dir, const fs::path& workdir,
+                               const std::vector<std::string>& sbatch_options,
+                               const std::vector<std::vector<std::string>>& commands) {
+  refuse_control_characters(name, "job name");
+  refuse_control_characters(fs::absolute(dir).string(), "job folder");
+  refuse_control_characters(workdir.string(), "working folder");
+  for (const auto& o : sbatch_options) refuse_control_characters(o, "--slurm-arg");
+  for (const auto& command : commands)
+    for (const auto& arg : command) refuse_control_characters(arg, "a task's command line");
+}
+
 std::string job_script(const ArrayJob& job) {
+  refuse_control_characters(job.name, job.dir, job.workdir, job.sbatch_options, job.commands);
   if (job.commands.empty()) throw Error(job.dir.string(), "tasks", "a job array needs at least one task");
   const std::vector<int> tasks = array_tasks(job);
   for (int t : tasks)
@@ -229,6 +253,7 @@ fs::path write_job_script(const ArrayJob& job) {
 }
 
 std::string gather_script(const GatherJob& job) {
+  refuse_control_characters(job.name, job.dir, job.workdir, job.sbatch_options, {job.command});
   const fs::path dir = fs::absolute(job.dir);
   std::string s = "#!/bin/bash\n";
   s += "# Written by " + job.name + ": merges what the array tasks wrote, once all have succeeded\n";
@@ -311,11 +336,12 @@ WaitOptions told_waiting(const std::string& name, const std::string& what, doubl
 }
 
 void print_dry_run(const ArrayJob& array, const GatherJob& gather) {
+  const std::string array_script = job_script(array), gather_sh = gather_script(gather);  // checked before printing
   const fs::path dir = fs::absolute(array.dir), gdir = fs::absolute(gather.dir);
   std::cout << "# sbatch --parsable " << shell_quote((dir / "job.sh").string()) << "\n"
-            << job_script(array) << "\n# sbatch --parsable --dependency=afterok:<array job id> "
+            << array_script << "\n# sbatch --parsable --dependency=afterok:<array job id> "
             << shell_quote((gdir / "gather.sh").string()) << "\n"
-            << gather_script(gather) << "# (dry run: nothing written, nothing submitted)\n";
+            << gather_sh << "# (dry run: nothing written, nothing submitted)\n";
 }
 
 }  // namespace

@@ -53,6 +53,9 @@ struct RunOptions {
   std::optional<std::vector<int>> points;
   std::size_t memory_mb = 2048;  ///< training memory budget (TrainParams::memory_mb)
   bool progress = true;          ///< progress with ETA on stderr
+  /// Only look: check the results folder against the config and count the points left, writing
+  /// nothing, creating nothing (a Slurm dry run). Runs no point.
+  bool look_only = false;
   /// Called after each new record is written.
   std::function<void(const Point&, const nlohmann::json&)> on_point;
 };

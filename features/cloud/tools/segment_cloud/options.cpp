@@ -1,7 +1,10 @@
 // segment-cloud's options, one function per group, and the choice of the method they ask for.
+#include <initializer_list>
 #include <iostream>
+#include <tuple>
 
 #include "runs.hpp"
+#include "smseg/common/options.hpp"
 
 namespace segment_cloud {
 
@@ -16,10 +19,11 @@ void add_io_options(CLI::App& app, SegmentCloudOptions& o) {
   app.add_option("--seeds", o.seeds, "mrf: plane, saliency, or a seed file {\"format\": \"smseg-seeds\", \"version\": 1, \"radius\": r, "
                  "\"seeds\": [{\"label\": 0, \"position\": [x, y, z]}, ...]}")->capture_default_str();
   app.add_option("--make-tabletop", o.make_tabletop, "write a synthetic tabletop cloud of this many points (1..10000000) instead")
-      ->check(CLI::Range(1, 10000000));
-  app.add_option("--objects", o.tab.objects, "--make-tabletop: objects on the table (1..8)")->capture_default_str();
+      ->check(options::in_range(1, 10000000));
+  app.add_option("--objects", o.tab.objects, "--make-tabletop: objects on the table (1..8)")->capture_default_str()
+      ->check(options::in_range(1, 8));
   app.add_option("--seed", o.tab.seed, "seed of --make-tabletop and of grabcut-sfm's random draws")->capture_default_str()
-      ->check(smseg::kDecimalDigits);
+      ->check(options::any_seed())->check(CLI::Validator(kDecimalDigits).description(""));
   add_threads_option(app, o.threads);
 }
 
@@ -28,58 +32,81 @@ void add_mrf_options(CLI::App& app, SegmentCloudOptions& o) {
                  "spectral-residual")
       ->capture_default_str();
   app.add_option("--saliency-threshold", o.sal.saliency.threshold,
-                 "mrf saliency seeds: threshold on the 0..1 saliency map (0: Otsu)")->capture_default_str();
+                 "mrf saliency seeds: threshold on the 0..1 saliency map (0: Otsu)")->capture_default_str()
+      ->check(options::in_range(0.0, 0.999999));
   app.add_option("--background", o.sal.saliency.background,
-                 "mrf saliency seeds: background seeds where saliency < this x the threshold")->capture_default_str();
+                 "mrf saliency seeds: background seeds where saliency < this x the threshold")->capture_default_str()
+      ->check(options::in_range(0.000001, 1.0));
   app.add_option("--min-area", o.sal.saliency.min_area, "mrf saliency seeds: smallest salient region, share of the image")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.000001, 0.999999));
   app.add_option("--saliency-scale", o.sal.saliency.scale,
-                 "mrf saliency seeds: image scale at which the saliency is computed")->capture_default_str();
+                 "mrf saliency seeds: image scale at which the saliency is computed")->capture_default_str()
+      ->check(options::in_range(0.05, 1.0));
   app.add_option("--max-area", o.sal.saliency.max_area,
                  "mrf saliency seeds: a larger salient component (share of the image) is a structure, split at "
-                 "higher thresholds; its rest seeds the background")->capture_default_str();
+                 "higher thresholds; its rest seeds the background")->capture_default_str()
+      ->check(options::in_range(0.000001, 1.0));
   app.add_option("--saliency-step", o.sal.saliency.step, "mrf saliency seeds: threshold step of those splits")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.000001, 0.999999));
   app.add_option("--saliency-blur", o.sal.saliency.blur, "mrf saliency seeds: box-filter radius on the map (pixels)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0, 50));
   app.add_option("--min-seed-points", o.sal.min_seed_points,
                  "mrf saliency seeds: a salient region seeds a label when it holds this many visible points")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(1, 1000000));
   app.add_option("--seed-split", o.sal.split_distance,
                  "mrf saliency seeds: split each region's points into groups linked within this distance (metres) "
-                 "and --seed-split-colour; each group seeds a label (0: one label per region)")->capture_default_str();
+                 "and --seed-split-colour; each group seeds a label (0: one label per region)")->capture_default_str()
+      ->check(options::in_range(0.0, 1000.0));
   app.add_option("--seed-split-colour", o.sal.split_colour, "mrf saliency seeds: RGB distance within one group")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.000001, 1000.0));
   app.add_option("--splat-radius", o.sal.projection.splat_radius,
                  "mrf saliency seeds: radius of a point's disc in the z-buffer and OUT.png (pixels)")
-      ->capture_default_str();
-  app.add_option("--components", o.mrf.components, "mrf: Gaussians per colour model")->capture_default_str();
-  app.add_option("--mrf-lambda", o.mrf_lambda, "mrf: weight of the pairwise term")->capture_default_str();
-  app.add_option("--iterations", o.mrf.max_iterations, "mrf: at most this many GMM re-estimation rounds")->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0, 20));
+  app.add_option("--components", o.mrf.components, "mrf: Gaussians per colour model")->capture_default_str()
+      ->check(options::in_range(1, 20));
+  app.add_option("--mrf-lambda", o.mrf_lambda, "mrf: weight of the pairwise term")->capture_default_str()
+      ->check(options::in_range(0.0, 1e6));
+  app.add_option("--iterations", o.mrf.max_iterations, "mrf: at most this many GMM re-estimation rounds")->capture_default_str()
+      ->check(options::in_range(1, 1000));
   app.add_option("--plane-distance", o.plane.plane_distance,
                  "RANSAC plane inlier distance, metres: mrf plane seeds (default shown); grabcut-sfm, the supporting "
                  "plane's slab (default: --support table: --slab-share x the table's distance; plane: 0.05, 0: no "
-                 "plane removal)")->capture_default_str();
+                 "plane removal)")->capture_default_str()
+      ->check(options::in_range(-1.0, 1000.0));
   app.add_option("--colour-tolerance", o.plane.colour_tolerance, "mrf plane seeds: RGB distance within one cluster")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.000001, 1000.0));
   app.add_option("--min-cluster", o.plane.min_cluster, "mrf plane seeds: smallest cluster that seeds an object")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(1, 10000000));
 }
 
 void add_centroid_options(CLI::App& app, SegmentCloudOptions& o) {
-  app.add_option("--radius", o.mc.radius, "centroid-mincut: R, points within R of the centroid seed the object (required)");
+  app.add_option("--radius", o.mc.radius, "centroid-mincut: R, points within R of the centroid seed the object (required)")
+      ->check(options::in_range(0.000001, 1e6));
   app.add_option("--neighbours", o.mc.neighbours, "centroid-mincut: k of the k-nearest-neighbour graph (mrf uses 000's 4)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(1, 100));
   app.add_option("--sigma", o.mc.sigma, "smoothness scale (0: mean distance of the points to their k nearest neighbours)")
-      ->capture_default_str();
-  app.add_option("--lambda", o.mc.lambda, "centroid-mincut (maxflow): weight of the smoothness term")->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.0, 1e6));
+  app.add_option("--lambda", o.mc.lambda, "centroid-mincut (maxflow): weight of the smoothness term")->capture_default_str()
+      ->check(options::in_range(0.0, 1e6));
   app.add_option("--solver", o.solver, "centroid-mincut: maxflow or pcl")->capture_default_str();
   app.add_option("--source-weight", o.mc.source_weight, "centroid-mincut (pcl): PCL's foreground weight")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0.000001, 1e6));
   app.add_option("--up", o.up, "centroid-mincut (pcl): the cloud's up axis, x, y or z")->capture_default_str();
   app.add_option("--truth-object", o.truth_object,
                  "centroid-mincut: the ground-truth label of the object, for F1 (when the cloud has labels)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(options::in_range(0, 1000000));
 }
 
 void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o) {
@@ -209,7 +236,30 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
                  "distance (median) or median depth along the optical axis (depth); auto: table: depth, plane: centre")->capture_default_str();
 }
 
+void add_grabcut_sfm_ranges(CLI::App& app) {
+  // -1 is "from the scene" where the help says so; an option renamed meanwhile is skipped here and shows
+  // in the option-range sweep as unranged.
+  const auto check = [&app](const char* name, const CLI::Validator& range) {
+    if (CLI::Option* option = app.get_option_no_throw(name)) option->check(range);
+  };
+  for (const auto& [name, lo, hi] : std::initializer_list<std::tuple<const char*, int, int>>{
+           {"--frame", 0, 10000000}, {"--truth-value", 0, 255}, {"--k", 1, 100}, {"--grabcut-iterations", 1, 100},
+           {"--min-cluster-points", 1, 10000000}, {"--window", -1, 100000}, {"--plane-window", -1, 100000},
+           {"--planes", 1, 20}, {"--table-min-points", 3, 10000000}, {"--min-cluster-size", -1, 10000000}})
+    check(name, options::in_range(lo, hi));
+  for (const auto& [name, lo, hi] : std::initializer_list<std::tuple<const char*, double, double>>{
+           {"--outlier-threshold", 0.000001, 1000}, {"--box-margin", 0, 1}, {"--max-distance", 0, 1e6},
+           {"--plane-min-share", 0, 1}, {"--slab-share", 0.000001, 0.999999}, {"--table-min-width", 0, 1000},
+           {"--table-min-share", 0, 1}, {"--table-prominence", 1, 1e6}, {"--table-max-tilt", 0, 90},
+           {"--table-min-depression", 0, 1000}, {"--table-min-standing", 0, 1}, {"--height-band", -1, 1000},
+           {"--max-tilt", 0, 90}, {"--support-radius", -1, 1000}, {"--cluster-tolerance", -1, 1000},
+           {"--tolerance-share", 0.000001, 1000}, {"--min-cluster-share", 0, 1}, {"--edge-margin", 0, 1000},
+           {"--min-rise", 0, 1000}})
+    check(name, options::in_range(lo, hi));
+}
+
 int run_method(const CLI::App& app, SegmentCloudOptions& o) {
+  const OutputLock one_writer(o.out, {o.input, o.sal.sequence, o.sal.work, o.gc.truth_mask});
   if (o.make_tabletop > 0) {
     o.tab.points = o.make_tabletop;
     const features::ColouredCloud c = features::make_tabletop_cloud(o.tab);

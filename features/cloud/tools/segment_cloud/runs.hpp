@@ -99,6 +99,8 @@ void add_mrf_options(CLI::App& app, SegmentCloudOptions& o);       ///< --method
 void add_centroid_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method centroid-mincut
 void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method grabcut-sfm, the truth
 void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o);  ///< grabcut-sfm's tuning options
+/// The ranges of grabcut-sfm's numeric options (after add_grabcut_sfm_options and its overrides).
+void add_grabcut_sfm_ranges(CLI::App& app);
 /// Runs the method the options ask for (or writes a synthetic tabletop cloud); the exit status.
 int run_method(const CLI::App& app, SegmentCloudOptions& o);
 

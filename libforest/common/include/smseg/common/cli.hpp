@@ -2,6 +2,8 @@
 // What every command-line tool shares: CLI11 parsing with our exit codes (2 for bad usage), and
 // errors turned into one line on stderr with exit status 1 (docs/design.md section 7, "Errors").
 
+#include <charconv>
+#include <cstdint>
 #include <exception>
 #include <iostream>
 #include <sstream>
@@ -26,9 +28,13 @@ class UsageError : public Error {
 /// "010" as octal; a seed typed that way is a mistake, not a wish.
 inline const CLI::Validator kDecimalDigits(
     [](std::string& value) -> std::string {
-      const bool digits = !value.empty() && value.size() <= 20 &&
-                          value.find_first_not_of("0123456789") == std::string::npos && !(value.size() > 1 && value[0] == '0');
-      return digits ? std::string() : "expected a non-negative whole number (decimal digits), got '" + value + "'";
+      std::uint64_t x = 0;
+      const char* end = value.data() + value.size();
+      const auto parsed = std::from_chars(value.data(), end, x);  // fails past 2^64 - 1 (CLI11 would wrap)
+      const bool digits = !value.empty() && value.find_first_not_of("0123456789") == std::string::npos &&
+                          !(value.size() > 1 && value[0] == '0') && parsed.ec == std::errc() && parsed.ptr == end;
+      return digits ? std::string()
+                    : "expected a non-negative whole number (decimal digits, at most 18446744073709551615), got '" + value + "'";
     },
     "UINT");
 

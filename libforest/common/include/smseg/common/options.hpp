@@ -18,9 +18,11 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <functional>
+#include <iomanip>
 #include <limits>
 #include <map>
 #include <optional>
@@ -91,7 +93,7 @@ namespace detail {
 template <class T>
 std::string number_text(T v) {
   std::ostringstream s;
-  s << v;
+  s << std::setprecision(15) << v;  // exact for every bound we declare (1073741824, not 1.07374e+09)
   return s.str();
 }
 
@@ -129,13 +131,28 @@ T read_number(const JsonView& v, T lo, T hi) {
   }
 }
 
+/// `text` read whole as T: a whole number within T's own range for integer T (CLI11's own cast lets
+/// 2^64 wrap into a uint64_t), any number for floating-point T.
+template <class T>
+bool parse_number(const std::string& text, T& x) {
+  if constexpr (std::is_integral_v<T>) {
+    const char* end = text.data() + text.size();
+    const auto r = std::from_chars(text.data(), end, x);
+    return r.ec == std::errc() && r.ptr == end;
+  } else {
+    return CLI::detail::lexical_cast(text, x);
+  }
+}
+
 /// The command line's check of a number: CLI11's Range lets NaN through (every comparison is false).
 template <class T>
 CLI::Validator number_check(T lo, T hi) {
   return CLI::Validator(
       [lo, hi](std::string& text) -> std::string {
         T x{};
-        if (!CLI::detail::lexical_cast(text, x)) return "expected a number, got '" + text + "'";
+        if (!parse_number(text, x))
+          return std::string(std::is_integral_v<T> ? "expected a whole number" : "expected a number") + " in [" +
+                 number_text(lo) + ", " + number_text(hi) + "], got '" + text + "'";
         if constexpr (std::is_floating_point_v<T>)
           if (!std::isfinite(x)) return "must be a finite number, got '" + text + "'";
         if (x < lo || x > hi) return range_text(lo, hi) + ", got " + text;
@@ -145,6 +162,20 @@ CLI::Validator number_check(T lo, T hi) {
 }
 
 }  // namespace detail
+
+/// The check of a numeric option declared outside a Table (a tool's own options): a whole number for
+/// integer T, finite, in [lo, hi]; --help shows "[lo - hi]". Use it instead of CLI::Range, which lets
+/// NaN and wrapped integers through.
+template <class T>
+CLI::Validator in_range(T lo, T hi) {
+  return detail::number_check(lo, hi);
+}
+
+/// A seed option's range outside a Table: every uint64_t (pair it with kDecimalDigits, which refuses
+/// "-1" and octal).
+inline CLI::Validator any_seed() {
+  return in_range<std::uint64_t>(0, std::numeric_limits<std::uint64_t>::max());
+}
 
 /// The declarations of one options struct, and the surfaces made from them.
 template <class S>

@@ -9,8 +9,10 @@
 // the folder holds either its complete previous content or the complete new one, never a mix.
 
 #include <filesystem>
+#include <initializer_list>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace smseg {
 
@@ -58,5 +60,37 @@ class FolderReplacement {
   fs::path target_, staging_;
   bool committed_ = false;
 };
+
+/// One writer per output. Holds an exclusive lock (flock) on `.<name>.lock` beside `output` for its
+/// life: a second process claiming the same output refuses at once (Error naming the output and the
+/// process that holds it) instead of writing the same files. The lock file is removed when the object
+/// goes; a killed holder leaves it unlocked (the kernel releases the lock however a process exits), and
+/// the next writer takes it. Before locking, refuses (UsageError) an empty
+/// output path and an output that is one of the run's `inputs` or holds one (check_output_apart).
+class OutputLock {
+ public:
+  /// `option`: how the user named the output ("-o"), for the messages.
+  explicit OutputLock(const fs::path& output, const std::vector<fs::path>& inputs = {}, const std::string& option = "-o");
+  ~OutputLock();
+  OutputLock(const OutputLock&) = delete;
+  OutputLock& operator=(const OutputLock&) = delete;
+
+ private:
+  fs::path path_;
+  int fd_ = -1;
+};
+
+/// `items` (a tool's repeated positional inputs) and `more` as paths, for OutputLock's inputs.
+template <class Strings>
+std::vector<fs::path> paths_of(const Strings& items, std::initializer_list<fs::path> more = {}) {
+  std::vector<fs::path> paths(items.begin(), items.end());
+  paths.insert(paths.end(), more.begin(), more.end());
+  return paths;
+}
+
+/// Refuses (a UsageError naming `option`) an output that is one of `inputs` or holds one (a
+/// folder the input lies in): writing it would destroy what the run reads. Paths are compared after
+/// resolving `.`, `..` and symbolic links; inputs that do not exist are skipped.
+void check_output_apart(const fs::path& output, const std::vector<fs::path>& inputs, const std::string& option = "-o");
 
 }  // namespace smseg

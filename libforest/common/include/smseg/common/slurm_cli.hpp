@@ -6,6 +6,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include "smseg/common/options.hpp"
 #include "smseg/common/slurm.hpp"
 
 namespace smseg::slurm {
@@ -23,7 +24,7 @@ struct OptionHelp {
 inline void add_options(CLI::App& app, const OptionHelp& help, bool& on_slurm, int& tasks, std::string& dir,
                         std::vector<std::string>& sbatch_options, bool& no_wait, RunMode& mode) {
   app.add_flag("--slurm", on_slurm, help.slurm);
-  app.add_option("--tasks", tasks, "with --slurm: " + help.tasks);
+  app.add_option("--tasks", tasks, "with --slurm: " + help.tasks)->check(options::in_range(0, 100000));
   app.add_option("--slurm-dir", dir, "with --slurm: " + help.dir);
   app.add_option("--slurm-arg", sbatch_options,
                  "with --slurm: an sbatch option for the array and the gather job, e.g. --slurm-arg=--partition=short "
@@ -32,7 +33,8 @@ inline void add_options(CLI::App& app, const OptionHelp& help, bool& on_slurm, i
   app.add_flag("--no-wait", no_wait,
                "with --slurm: return once submitted (job ids and logs on stdout); the gather job writes " + help.out);
   app.add_flag("--slurm-dry-run", mode.dry_run, "with --slurm: print the job scripts and sbatch lines, submit nothing");
-  app.add_option("--poll", mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str();
+  app.add_option("--poll", mode.poll_seconds, "with --slurm: seconds between squeue checks")->capture_default_str()
+      ->check(options::in_range(0.01, 3600.0));
 }
 
 }  // namespace smseg::slurm
