@@ -148,7 +148,8 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
                  "grabcut-sfm, --support table: a table is at least this x the camera's height above it wide")
       ->capture_default_str();
   app.add_option("--table-min-share", o.gc.params.table.min_share,
-                 "grabcut-sfm, --support table: a candidate plane holds at least this share of the points below the camera")
+                 "grabcut-sfm, --support table: a candidate plane holds at least this share of the points below the camera "
+                 "beyond the mean count three slabs above and below it (walls)")
       ->capture_default_str();
   app.add_option("--table-min-points", o.gc.params.table.min_points,
                  "grabcut-sfm, --support table: ... and at least this many points")->capture_default_str();

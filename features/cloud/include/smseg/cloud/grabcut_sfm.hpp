@@ -78,7 +78,8 @@ struct TableParams {
                                      ///< its edge and what stands beyond it, a wall, are not objects on it)
   double min_rise = 3;               ///< an object's cluster reaches this many slabs above the table (GrabCutSFM)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
-  double min_prominence = 2;         ///< ... and this x the mean count three slabs above and below it
+  double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
+                                     ///< and below it, and exceeds that mean by min_share (its own points)
   double min_width_share = 0.5;      ///< a table's patch is at least this x the camera's height above it wide
   double min_standing_share = 0.05;  ///< points standing on a table: at least this share of its patch's points
   double min_depression = 0.1;       ///< the camera looks down at a table: its height above it at least this x the
