@@ -320,6 +320,19 @@ std::vector<std::size_t> nearest_step(const Cloud& rest, const Clusters& c, cons
   return chosen_point;
 }
 
+/// Whether the chosen cluster's 2D inliers reach down to the supporting plane: with support Table, its
+/// lowest point within min_rise slabs of the table (a car beside a road's patch, at another level, does
+/// not stand on it, and its feet there would stretch the box far below it); always with support Plane.
+bool stands_on_plane(const Cloud& rest, const std::vector<std::size_t>& chosen_point, const GrabCutSfmParams& p,
+                     const GrabCutSfmReport& rep) {
+  if (p.support != SupportChoice::Table) return true;
+  double lowest = std::numeric_limits<double>::infinity();
+  for (std::size_t i = 0; i < chosen_point.size(); ++i)
+    if (rep.chosen_inlier[i])
+      lowest = std::min(lowest, rep.planes[0].head<3>().dot(rest[chosen_point[i]].cast<double>()) + rep.planes[0][3]);
+  return lowest <= p.table.min_rise * rep.plane_distance;
+}
+
 /// Steps 4 and 5: 2D RANSAC, the inliers' box (with their feet on the supporting plane, box_to_plane),
 /// grown by the margin and clipped to the image leaving a one-pixel frame.
 void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
@@ -335,7 +348,7 @@ void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, c
       grow(rep.chosen_points[i]);
     }
   if (rep.inliers_2d == 0) throw Error("", "cloud", "the 2D RANSAC kept no projection of the nearest cluster");
-  if (p.box_to_plane && rep.support == 0) {
+  if (p.box_to_plane && rep.support == 0 && stands_on_plane(rest, chosen_point, p, rep)) {
     // The object stands on the supporting plane, but its lower part lies in the plane's slab or has no
     // tracked point: the box reaches down to where the kept points' feet on the plane project.
     const Eigen::Vector3d n = rep.planes[0].head<3>();

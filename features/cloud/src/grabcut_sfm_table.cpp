@@ -50,6 +50,17 @@ HeightProfile below_camera(const std::vector<Eigen::Vector3f>& cloud, const Eige
   return hp;
 }
 
+/// The cloud's angular spacing seen from the camera: the median angle (radians) from a point below the
+/// camera to its 4th nearest neighbour in direction (a dense depth's pixel step, a sparse cloud's wider).
+double angular_spacing_of(const std::vector<Eigen::Vector3f>& cloud, const HeightProfile& hp,
+                          const Eigen::Vector3d& camera) {
+  std::vector<Eigen::Vector3f> directions;
+  directions.reserve(hp.index.size());
+  for (std::size_t i = 0; i < hp.index.size(); ++i)
+    directions.push_back(((cloud[hp.index[i]].cast<double>() - camera) / hp.range[i]).cast<float>());
+  return cloud_spacing(directions, 4);
+}
+
 /// Heights at which many points lie within their own slab (a share of their distance from the camera):
 /// local maxima of that count over a scan of heights, strongest first, each at least two slabs from a
 /// stronger one.
@@ -73,11 +84,13 @@ std::vector<std::pair<double, int>> height_peaks(const HeightProfile& hp, double
     if (c < min_count) continue;
     if ((b > 0 && count[std::size_t(b - 1)] > c) || (b + 1 < bins && count[std::size_t(b + 1)] >= c)) continue;
     // A plane stands out of what lies three slabs above and below it (a wall adds the same count at
-    // every height).
+    // every height): its own points, the count less that background, hold min_count, and the count is
+    // min_prominence x the background. Not the ratio alone: a table seen far off, below walls that
+    // fill most of the frame, is half its slab's count.
     const int reach = 6;  // bins: three slabs of the median point
     const auto count_at = [&](int i) { return i < 0 || i >= bins ? 0 : count[std::size_t(i)]; };
     const double around = 0.5 * (count_at(b - reach) + count_at(b + reach));
-    if (c < min_prominence * around) continue;
+    if (c < min_prominence * around || c - around < min_count) continue;
     peaks.emplace_back(lo + b * step, c);
   }
   std::sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a.second > b.second; });
@@ -197,6 +210,7 @@ TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Ve
   plane_basis(up, &best.e1, &best.e2);
   const HeightProfile hp = below_camera(cloud, camera, up);
   const int min_count = std::max(params.min_points, int(params.min_share * double(hp.height.size())));
+  const double angular_spacing = angular_spacing_of(cloud, hp, camera);
   std::vector<std::pair<double, int>> peaks = height_peaks(hp, params.slab_share, min_count, params.min_prominence);
   best.candidates = int(peaks.size());
   // Highest first: a table stands above the floor; an object's top, higher still, has nothing on it.
@@ -216,7 +230,11 @@ TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Ve
     }
     const double range = median_of(inlier_ranges);
     t.thickness = params.slab_share * range;
-    const std::vector<std::size_t> patch = largest_patch(feet, 2 * t.thickness);
+    // A plane seen at a grazing angle is sampled coarsely along the line of sight: one angular step of
+    // the cloud covers range x range / (the camera's height above it) of the plane, more than two slabs
+    // when the camera is low; the patch's cells span two such steps, or a table top falls apart in strips.
+    const double footprint = angular_spacing * range * range / std::max(up.dot(camera) - height, t.thickness);
+    const std::vector<std::size_t> patch = largest_patch(feet, 2 * std::max(t.thickness, footprint));
     std::vector<cv::Point2f> patch_feet;
     for (std::size_t j : patch) patch_feet.push_back(feet[j]);
     t.plane = refit_plane(cloud, hp, inliers, patch, up, params.max_refit_tilt);

@@ -569,8 +569,9 @@ namespace {
 
 /// A room seen from a camera 1.15 m above the floor and 1.5 m from a table: the floor (4 x 4 m, the
 /// largest horizontal plane), a 1.2 x 0.8 m table top 0.75 m up, two boxes on it (one 0.2 m tall, one
-/// 0.1 m) and a wall; points every 2 cm with 3 mm noise.
-std::vector<Eigen::Vector3f> room_with_a_table(std::uint64_t seed) {
+/// 0.1 m) and a wall; points every 2 cm with 3 mm noise. With `walls_around`, the wall's rows are
+/// `wall_rows` cm apart, it is 3 m wide and two more stand at the sides (x = +-2 m, 0.5 m clear of it).
+std::vector<Eigen::Vector3f> room_with_a_table(std::uint64_t seed, bool walls_around = false, double wall_rows = 2) {
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> N(0, 0.003);
   std::vector<Eigen::Vector3f> c;
@@ -588,8 +589,14 @@ std::vector<Eigen::Vector3f> room_with_a_table(std::uint64_t seed) {
       add(-0.3 + a, 0.95, -0.1 + h);
       add(0.2 + a, 0.75 + std::min(h, 0.1), 0.1);  // box 2, 10 cm tall
     }
-  for (double x = -2; x <= 2; x += 0.02)
-    for (double y = 0; y <= 2.5; y += 0.02) add(x, y, 2);  // a wall behind the table
+  const double half_wall = walls_around ? 1.5 : 2;
+  for (double x = -half_wall; x <= half_wall; x += 0.02)
+    for (double y = 0; y <= 2.5; y += 0.01 * wall_rows) add(x, y, 2);  // a wall behind the table
+  for (double z = -2; walls_around && z <= 1.5; z += 0.02)
+    for (double y = 0; y <= 2.5; y += 0.01 * wall_rows) {
+      add(-2, y, z);
+      add(2, y, z);
+    }
   return c;
 }
 
@@ -627,6 +634,48 @@ TEST(FindTable, ScalesWithTheScene) {
   EXPECT_GT(f.inliers, 1000);
 }
 
+TEST(FindTable, ATableBelowAWallFillingTheViewIsFound) {
+  // Three walls with rows 1.2 cm apart: at the table's height they hold more points than the table (a
+  // table seen far off, below walls that fill the frame). The table's count is then under twice the
+  // count three slabs above and below, but its own points, beyond that, are many.
+  const auto cloud = room_with_a_table(3, true, 1.2);
+  const Eigen::Vector3d camera(0, 1.15, -1.5);
+  const TablePlane t = find_table(cloud, camera, Eigen::Vector3d::UnitY());
+  ASSERT_TRUE(t.found);
+  EXPECT_NEAR(-t.plane[3] / t.plane[1], 0.75, 0.01);
+  TableParams ratio_only;
+  ratio_only.min_prominence = 2;
+  const TablePlane r = find_table(cloud, camera, Eigen::Vector3d::UnitY(), ratio_only);
+  EXPECT_FALSE(r.found && std::abs(-r.plane[3] / r.plane[1] - 0.75) < 0.05);
+}
+
+TEST(FindTable, ATableSeenFromALowCameraIsOnePatch) {
+  // A dense depth seen from 0.2 m above the table top: one point every 7 mrad (a level pinhole camera's
+  // pixel grid), ray-cast onto the floor,
+  // the table top (1.2 x 0.8 m, 0.75 m up) and a 0.2 m box on it. Its rows on the table lie 4-12 cm
+  // apart along the line of sight, more than two slabs: the table is still one wide patch.
+  const Eigen::Vector3d camera(0, 0.95, -1.2);
+  std::vector<Eigen::Vector3f> cloud;
+  for (double v = 0.05; v < 0.6; v += 0.007)  // a level pinhole camera's pixel rows and columns
+    for (double u = -0.6; u <= 0.6; u += 0.007) {
+      const Eigen::Vector3d d = Eigen::Vector3d(u, -v, 1).normalized();
+      double best = 1e9;
+      const double to_box = (-0.1 - camera.z()) / d.z();  // the box's front face, z = -0.1
+      const Eigen::Vector3d b = camera + to_box * d;
+      if (std::abs(b.x()) < 0.1 && b.y() > 0.75 && b.y() < 0.95) best = to_box;
+      const double to_top = (0.75 - camera.y()) / d.y();
+      const Eigen::Vector3d q = camera + to_top * d;
+      if (to_top < best && std::abs(q.x()) <= 0.6 && std::abs(q.z()) <= 0.4) best = to_top;
+      const double to_floor = -camera.y() / d.y();
+      if (to_floor < best && to_floor < 6) best = to_floor;
+      if (best < 1e9) cloud.push_back((camera + best * d).cast<float>());
+    }
+  const TablePlane t = find_table(cloud, camera, Eigen::Vector3d::UnitY());
+  ASSERT_TRUE(t.found);
+  EXPECT_NEAR(-t.plane[3] / t.plane[1], 0.75, 0.01);
+  EXPECT_GT(t.width, 0.5);
+}
+
 TEST(CloudSpacing, IsTheDistanceToTheKthNeighbourOfAGrid) {
   std::vector<Eigen::Vector3f> grid;
   for (int i = 0; i < 30; ++i)
@@ -656,6 +705,23 @@ TEST(GrabCutSfm, TheDefaultsNeedNoDistanceInMetres) {
   const cv::Mat mask3 = grabcut_sfm(big.cloud, big.k, big.pose, big.image, p, &rep3);
   EXPECT_NEAR(rep3.cluster_tolerance, 3 * rep.cluster_tolerance, 1e-3 * rep.cluster_tolerance + 1e-6);
   EXPECT_GE(mask_f1(mask3, sc.truth), 0.9);
+}
+
+TEST(GrabCutSfm, WithATableTheBoxTakesTheFeetOnlyOfAnObjectStandingOnIt) {
+  // The defaults: the box standing on the ground reaches down to its points' feet; the same points lifted
+  // 0.3 m (an object at another level than the plane found, as a parked car beside a road's patch) do
+  // not stand on it, and their feet would stretch the box far below them.
+  Scene sc = make_scene();
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  GrabCutSfmReport standing, lifted;
+  grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &standing);
+  EXPECT_GT(standing.feet_in_box, 0);
+  for (std::size_t i = 0; i < sc.cloud.size(); ++i)
+    if (sc.cloud_label[i] == 1) sc.cloud[i].y() += 0.3f;
+  grabcut_sfm(sc.cloud, sc.k, sc.pose, sc.image, p, &lifted);
+  EXPECT_EQ(lifted.feet_in_box, 0);
+  EXPECT_GE(lifted.cluster_sizes[std::size_t(lifted.chosen)], standing.cluster_sizes[std::size_t(standing.chosen)]);  // the box, now whole above the slab
 }
 
 TEST(NearestInstance, IsTheObjectWithTheSmallestMedianDepth) {

@@ -175,7 +175,8 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
                  "grabcut-sfm, --support table: a table is at least this x the camera's height above it wide")
       ->capture_default_str();
   app.add_option("--table-min-share", o.gc.params.table.min_share,
-                 "grabcut-sfm, --support table: a candidate plane holds at least this share of the points below the camera")
+                 "grabcut-sfm, --support table: a candidate plane holds at least this share of the points below the camera "
+                 "beyond the mean count three slabs above and below it (walls)")
       ->capture_default_str();
   app.add_option("--table-min-points", o.gc.params.table.min_points,
                  "grabcut-sfm, --support table: ... and at least this many points")->capture_default_str();
@@ -207,7 +208,8 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
   app.add_flag("--box-to-plane", o.gc.params.box_to_plane,
                "grabcut-sfm: the box reaches down to the projections of the chosen points' feet on the supporting "
                "plane (an object's lower part is in the plane's slab or untracked); default: on with --support table "
-               "(--box-to-plane=false: off), off with --support plane");
+               "for a cluster whose lowest point lies within --min-rise slabs of the table (--box-to-plane=false: "
+               "off), off with --support plane");
   app.add_option("--support-radius", o.gc.params.support_radius,
                  "grabcut-sfm: metres; > 0 keeps only the points standing on the supporting plane (their foot on the "
                  "plane within this of a plane inlier's foot). Default -1: table: their foot inside the table's hull; "

@@ -78,7 +78,8 @@ struct TableParams {
                                      ///< its edge and what stands beyond it, a wall, are not objects on it)
   double min_rise = 3;               ///< an object's cluster reaches this many slabs above the table (GrabCutSFM)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
-  double min_prominence = 2;         ///< ... and this x the mean count three slabs above and below it
+  double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
+                                     ///< and below it, and exceeds that mean by min_share (its own points)
   double min_width_share = 0.5;      ///< a table's patch is at least this x the camera's height above it wide
   double min_standing_share = 0.05;  ///< points standing on a table: at least this share of its patch's points
   double min_depression = 0.1;       ///< the camera looks down at a table: its height above it at least this x the
@@ -105,8 +106,9 @@ struct TablePlane {
 
 /// The supporting plane chosen as a table is: the cloud's points below the camera, candidate planes
 /// normal to `up` at the heights where many points lie within their slab (a share of their distance
-/// from the camera); from the highest down, the first that the camera looks down at, whose largest connected
-/// patch is wide (relative to the camera's height above it) and has points standing on it (above its slab, their foot inside its
+/// from the camera, standing out of the walls' count above and below); from the highest down, the first that
+/// the camera looks down at, whose largest connected patch (cells of two slabs, or of two of the cloud's
+/// angular steps on the plane where a low camera samples it more coarsely) is wide (relative to the camera's height above it) and has points standing on it (above its slab, their foot inside its
 /// hull). A floor lies below the table; an object's top, above it, has nothing standing on it; a wall's
 /// slice is narrow. When no candidate passes, the one with most points (found = false).
 TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Vector3d& camera,
@@ -146,7 +148,8 @@ struct GrabCutSfmParams {
                                  ///< direction; < 0 or 0: no band (001). Table: < 0 = the camera's height above it
   double max_tilt = 30;          ///< degrees, see height_band (support Plane)
   bool box_to_plane = true;      ///< with a supporting plane (table, or plane with a height band): the box also
-                                 ///< holds the projections of the kept points' feet on it (the object's lower part)
+                                 ///< holds the projections of the kept points' feet on it (the object's lower part);
+                                 ///< table: only when the cluster's lowest point lies within min_rise slabs of it
   bool world_up = false;         ///< the supporting plane faces world +Y (a work folder levelled by
                                  ///< extract-features --gravity estimate) instead of the camera's up axis
   double support_radius = -1;    ///< metres: > 0 keeps, of the band, only the points standing on the supporting
