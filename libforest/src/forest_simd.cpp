@@ -183,8 +183,9 @@ void Route(const void* nodes, std::uint32_t root, const double* const* sats, std
   const std::size_t N = hn::Lanes(di);
   if (N > 8) throw std::logic_error("the vector walk takes at most 8 lanes");
   // Pixels in flight: each vector's step waits for its node, then for its table cells (two gathers in a
-  // row); the other vectors' steps fill the wait. (bench_eval, CamVid grid, one thread, Xeon VM:
-  // AVX-512 8, 16, 24, 64 pixels in flight 4.3-4.7, 3.5-3.6, 3.3-3.5, 3.8 ms.)
+  // row); the other vectors' steps fill the wait. (bench_eval, CamVid grid, one thread, Xeon VM, with
+  // a variant of this step that logged the leaves by compressed stores: AVX-512 8, 16, 24, 64 pixels
+  // in flight 4.3-4.7, 3.5-3.6, 3.3-3.5, 3.8 ms.)
   const std::size_t vectors = std::clamp<std::size_t>(24 / N, 1, RouteState::kMax / N);
   std::int64_t offsets[256] = {};
   for (std::size_t a = 0; a < num_sats; ++a)
