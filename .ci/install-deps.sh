@@ -8,6 +8,7 @@ SMSEG_PACKAGES=(
   build-essential cmake pkg-config ccache universal-ctags  # ctags: tests/architecture/function_sizes.py
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
+  libhwy-dev   # Google Highway, headers only: the classifier's SIMD kernels (libforest/src/forest_simd.cpp)
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev libgoogle-glog-dev libsuitesparse-dev
   python3-dev python3-pybind11 python3-pytest python3-sklearn python3-pandas  # pandas: the DataFrame checks of check_estimator

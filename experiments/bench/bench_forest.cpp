@@ -5,11 +5,18 @@
 // The CamVid cases (camvid_setup.hpp) train a CamVid-size forest on the 101 frames of CamVid val
 // (Ks = 400, Kt = 20 000, M = 7; counters: nodes, the process's peak resident memory so far) and
 // classify a 480x360 val frame with it.
+// BM_Simd times the classifier's SIMD targets one by one on this machine (classify.hpp: scalar, avx2,
+// avx512; the same labels on each), per pixel and grid voting (B = 20, V = 6 voters), on the synthetic
+// 320x240 forest and the CamVid-size one; a target the processor lacks is skipped with a message.
+// SMSEG_SIMD does the same for every other case (and for bench_eval).
 // Run: bench_forest --benchmark_out=forest.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <map>
 #include <numeric>
+#include <random>
+#include <string>
 #include <tuple>
 
 #include <sys/resource.h>
@@ -262,6 +269,70 @@ void BM_ClassifyFrameCamVid(benchmark::State& state) {
 BENCHMARK(BM_ClassifyFrameCamVid)->ArgNames({"threads"})->Arg(2)->Arg(1)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 BENCHMARK(BM_BalanceAccuracy)->ArgNames({"balance"})->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// Grid voting's voters (eval's --grid B --votes V): V pixels drawn uniformly in every B x B cell
+// (seeded: the same voters every run).
+std::vector<Pixel> grid_voters(int width, int height, int B, int V) {
+  std::mt19937 rng(1);
+  std::vector<Pixel> voters;
+  for (int y0 = 0; y0 < height; y0 += B)
+    for (int x0 = 0; x0 < width; x0 += B) {
+      std::uniform_int_distribution<int> x(x0, std::min(width, x0 + B) - 1), y(y0, std::min(height, y0 + B) - 1);
+      for (int v = 0; v < V; ++v) voters.push_back({x(rng), y(rng)});
+    }
+  return voters;
+}
+
+// One SIMD target on one frame: per pixel (grid false) or the grid's voters (B = 20, V = 6), on
+// `threads` workers.
+void time_target(benchmark::State& state, const Forest& f, const FrameData& frame, const std::string& target,
+                 bool grid, int threads) {
+  const std::vector<std::string> runs = Classifier::simd_targets();
+  if (std::find(runs.begin(), runs.end(), target) == runs.end()) {
+    state.SkipWithError(("this processor lacks the SIMD target " + target).c_str());
+    return;
+  }
+  Classifier clf(f);
+  clf.set_simd_target(target);
+  const std::vector<Pixel> voters = grid ? grid_voters(frame.width, frame.height, 20, 6) : std::vector<Pixel>{};
+  std::vector<std::uint8_t> labels(grid ? voters.size() : static_cast<std::size_t>(frame.width) * frame.height);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, static_cast<std::size_t>(threads));
+  for (auto _ : state) {
+    if (grid)
+      clf.classify_pixels(frame, voters, labels);
+    else
+      clf.classify_frame(frame, labels);
+    benchmark::DoNotOptimize(labels.data());
+  }
+  state.counters["pixels"] = static_cast<double>(labels.size());
+  state.SetLabel(target);
+  add_forest_counters(state, f);
+}
+
+// The synthetic 320x240 case (K = 400, M = 7) or the CamVid-size one (camvid_setup.hpp, val frame 50).
+void BM_Simd(benchmark::State& state, bool camvid, bool grid, const std::string& target, int threads) {
+  if (!camvid) return time_target(state, forest_k(400, false, 320), test_frame().data.frames[0], target, grid, threads);
+  if (!camvid_available(state)) return;
+  static const Forest f = camvid_bench::val_forest();
+  static const features::StackSet set =
+      features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false, f.features);
+  time_target(state, f, set.dataset.frames.front(), target, grid, threads);
+}
+
+// BM_Simd/<size>/<mode>/simd:<target>/threads:<n>, every target for every size and mode.
+const bool simd_cases = [] {
+  for (const char* size : {"synthetic320", "camvid480"})
+    for (const char* mode : {"per_pixel", "grid"})
+      for (const char* target : {"scalar", "avx2", "avx512"})
+        for (const int threads : {2, 1}) {
+          const std::string name = std::string("BM_Simd/") + size + "/" + mode + "/simd:" + target + "/threads:" + std::to_string(threads);
+          benchmark::RegisterBenchmark(name.c_str(), BM_Simd, std::string(size) == "camvid480", std::string(mode) == "grid",
+                                       std::string(target), threads)
+              ->Unit(benchmark::kMillisecond)
+              ->UseRealTime();
+        }
+  return true;
+}();
 
 }  // namespace
 

@@ -9,6 +9,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
+#include "forest_simd.hpp"
 
 namespace smseg::forest {
 
@@ -29,7 +30,7 @@ Classifier::Classifier(const Forest& forest)
       num_classes_(static_cast<int>(forest.classes.size())),
       num_features_(static_cast<int>(forest.features.size())),
       textons_(forest.textons),
-      padded_classes_((num_classes_ + 3) / 4 * 4) {
+      padded_classes_((num_classes_ + 15) / 16 * 16) {
   if (num_classes_ < 1 || num_classes_ > 255) throw Error("", "classes", "expected 1..255 classes");
   if (width_ < 1 || height_ < 1 || width_ > 32767 || height_ > 32767)
     throw Error("", "image", "expected a width and height of 1..32767 pixels");
@@ -82,7 +83,7 @@ Classifier::Classifier(const Forest& forest)
     }
   }
   build_compact(forest);
-  set_simd(true);
+  simd_ = detail::default_simd_kernels();
 }
 
 void Classifier::check_frame(const FrameData& frame) const {
@@ -153,7 +154,7 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
         s.ys[i] = pixels[b + i].y;
       }
       classify_set(frame, {frame.sats.data(), width_ + 1}, s, m, order_inside_first(s, m), !dists.empty(),
-                   Routing::ByLanes);
+                   nullptr);
       for (std::size_t i = 0; i < m; ++i) {  // back to the caller's order
         const std::size_t to = b + s.index[i];
         labels[to] = s.labels[i];
@@ -200,7 +201,8 @@ void Classifier::classify_tiles(const FrameData& frame, const Tables& tables, st
         s.xs[i] = x0 + static_cast<std::int32_t>(i % tw);
         s.ys[i] = y0 + static_cast<std::int32_t>(i / tw);
       }
-      classify_set(frame, tables, s, m, m, !dists.empty(), Routing::ByNodes);
+      const Tile t{x0, y0, x1 - x0, y1 - y0};
+      classify_set(frame, tables, s, m, m, !dists.empty(), &t);
       for (std::size_t i = 0; i < m; ++i) {  // to the pixel's place in the frame
         const std::size_t to = static_cast<std::size_t>(s.ys[i]) * static_cast<std::size_t>(width_) + static_cast<std::size_t>(s.xs[i]);
         labels[to] = s.labels[i];

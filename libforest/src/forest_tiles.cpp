@@ -14,7 +14,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/forest/classify.hpp"
-#include "forest_split.hpp"
+#include "forest_simd.hpp"
 
 namespace smseg::forest {
 
@@ -27,15 +27,48 @@ constexpr std::size_t kLanes = 16;
 // route_tree asks for the next step's table cells ahead of time when the frame's tables are larger
 // than this (bench_eval: CamVid's 8.3 MB gain, the synthetic 320x240 frame's 3.7 MB lose).
 constexpr std::size_t kPrefetchTableBytes = std::size_t(6) << 20;
+
+// The children's runs of a split: left [left_b, left_e), right [right_b, right_e).
+struct SplitRuns {
+  std::uint32_t left_b, left_e, right_b, right_e;
+};
+
+// partition_tree's and partition_chunks' walk: depth first from `root`, whose run is [0, count) of
+// the caller's entries; at a leaf node at_leaf(node, run), at a split at_split(node, run) gives the
+// children's runs (a split's children are adjacent: left, then right). `runs` is the stack.
+template <class Nodes, class Runs, class AtLeaf, class AtSplit>
+void visit_depth_first(const Nodes* nodes, Runs& runs, std::uint32_t root, std::uint32_t count, std::uint32_t leaf_bit,
+                       AtLeaf at_leaf, AtSplit at_split) {
+  runs.clear();
+  runs.push_back({root, 0, count});
+  while (!runs.empty()) {
+    const auto r = runs.back();
+    runs.pop_back();
+    const auto c = nodes[r.node];
+    if (c.next & leaf_bit) {
+      at_leaf(c, r);
+      continue;
+    }
+    const SplitRuns children = at_split(c, r);
+    const std::uint32_t left_child = c.next >> 9;
+    runs.push_back({left_child + 1, children.right_b, children.right_e});
+    runs.push_back({left_child, children.left_b, children.left_e});
+  }
+}
 }  // namespace
 
-void Classifier::set_simd(bool on) { simd_ = on && detail::split_avx512_available(); }
+std::string Classifier::simd_target() const { return simd_ ? simd_->name : "scalar"; }
+
+void Classifier::set_simd_target(std::string_view name) { simd_ = detail::simd_kernels(name, "SIMD target"); }
+
+std::vector<std::string> Classifier::simd_targets() { return detail::simd_target_names(); }
 
 void Classifier::build_compact(const Forest& forest) {
-  // detail::route_avx512 reads the nodes as two 64-bit words: the rectangle, then threshold and link.
+  // The vector walk (SimdKernels::route) reads the nodes as two 64-bit words: the rectangle, then
+  // threshold and link.
   static_assert(sizeof(CompactNode) == 16 && offsetof(CompactNode, x0) == 0 && offsetof(CompactNode, y1) == 6 &&
                     offsetof(CompactNode, threshold) == 8 && offsetof(CompactNode, next) == 12,
-                "route_avx512's view of a compact node");
+                "SimdKernels::route's view of a compact node");
   compact_.reserve(nodes_.size());
   std::size_t base = 0;  // the tree's first index in nodes_
   for (const Tree& tree : forest.trees) {
@@ -209,30 +242,82 @@ void Classifier::partition_tree(const FrameData& frame, const Tables& tables, Sc
   s.goes_right.resize(n);
   for (std::size_t i = 0; i < n; ++i)
     s.routed[i] = {static_cast<std::int32_t>(s.ys[i] * S + s.xs[i]), static_cast<std::int32_t>(i)};
-  Scratch::Routed* a = s.routed.data();
-  Scratch::Routed* right = s.right.data();
-  s.runs.clear();
-  s.runs.push_back({root, 0, static_cast<std::uint32_t>(n)});
-  while (!s.runs.empty()) {
-    const Scratch::Run r = s.runs.back();
-    s.runs.pop_back();
-    const CompactNode c = compact_[r.node];
-    if (c.next & kLeafBit) {
-      const auto row = static_cast<std::int32_t>(c.next >> 9);
-      for (std::uint32_t i = r.b; i < r.e; ++i) leaf[a[i].at] = row;
-      continue;
-    }
+  const Scratch::Routed* a = s.routed.data();
+  auto at_leaf = [&](const CompactNode& c, const Scratch::Run& r) {
+    const auto row = static_cast<std::int32_t>(c.next >> 9);
+    for (std::uint32_t i = r.b; i < r.e; ++i) leaf[a[i].at] = row;
+  };
+  auto at_split = [&](const CompactNode& c, const Scratch::Run& r) {
     const std::uint32_t attr = c.next & 0xffu;
-    const float threshold = c.threshold;
     const bool texton = textons_ && attr >= F;
     const detail::WindowCorners corners{c.y0 * S + c.x0, c.y0 * S + c.x1, c.y1 * S + c.x0, c.y1 * S + c.x1};
     const double* table = texton ? nullptr : tables.at[attr];  // a texton test reads the grey image
-    const std::uint32_t l = simd_ && !texton ? detail::split_avx512(a, right, r.b, r.e, table, corners, threshold)
-                                             : split_scalar(frame, table, corners, c, texton, s, r.b, r.e);
-    const std::uint32_t left_child = c.next >> 9;
-    s.runs.push_back({left_child + 1, l, r.e});
-    s.runs.push_back({left_child, r.b, l});
+    const std::uint32_t l = split_scalar(frame, table, corners, c, texton, s, r.b, r.e);
+    return SplitRuns{r.b, l, l, r.e};
+  };
+  visit_depth_first(compact_.data(), s.runs, root, static_cast<std::uint32_t>(n), kLeafBit, at_leaf, at_split);
+}
+
+// partition_tree's work in chunk entries, for the SIMD targets: a run holds up to kChunkPixels row
+// neighbours per entry (a bit each), so that a split reads each corner of an entry's pixels with one
+// or two vector loads, whatever pixels of the chunk still reach the node, and partitions entries
+// rather than pixels. A node's pixels are regions of the image: on the CamVid-size forest an entry
+// holds 11 of its 16 pixels on average (2.5 million entries a frame against 3.6 million 8-pixel
+// blocks of single pixels, a fifth of which were not row neighbours and needed gathers).
+void Classifier::partition_chunks(const FrameData& frame, const Tables& tables, const Tile& tile, Scratch& s,
+                                  std::uint32_t root, std::int32_t* leaf) const {
+  constexpr int P = detail::kChunkPixels;
+  const std::ptrdiff_t S = tables.stride;
+  const std::uint32_t F = static_cast<std::uint32_t>(num_features_);
+  const int per_row = (tile.width + P - 1) / P;
+  const std::size_t count = static_cast<std::size_t>(per_row) * static_cast<std::size_t>(tile.height);
+  s.chunks.resize(std::max(s.chunks.size(), 2 * count));
+  s.chunks_spare.resize(count);
+  s.chunk_cell.resize(count);
+  for (int ty = 0, i = 0; ty < tile.height; ++ty)
+    for (int c = 0; c < per_row; ++c, ++i) {
+      const int in_row = std::min(P, tile.width - c * P);  // the row's last chunk may be short
+      s.chunks[i] = {static_cast<std::uint16_t>(i), static_cast<std::uint16_t>((1u << in_row) - 1u)};
+      s.chunk_cell[i] = static_cast<std::int32_t>((tile.y0 + ty) * S + tile.x0 + c * P);
+    }
+  auto at_leaf = [&](const CompactNode& c, const Scratch::Run& r) {
+    simd_->leaf_rows(s.chunks.data(), r.b, r.e, static_cast<std::int32_t>(c.next >> 9), per_row, tile.width, leaf);
+  };
+  auto at_split = [&](const CompactNode& c, const Scratch::Run& r) {
+    // The children's runs take the parent's place and may need up to twice its room (a chunk whose
+    // pixels go both ways is in both). The run split is always the last one in s.chunks: the pending
+    // runs lie below it, the left child goes on top of the right.
+    if (s.chunks.size() < r.b + 2 * (r.e - r.b)) s.chunks.resize(std::max<std::size_t>(r.b + 2 * (r.e - r.b), 2 * s.chunks.size()));
+    const std::uint32_t attr = c.next & 0xffu;
+    std::uint32_t m, end;
+    if (textons_ && attr >= F) {
+      m = split_chunks_texton(frame, tile, c, s, r.b, r.e, &end);
+    } else {
+      const detail::WindowCorners corners{c.y0 * S + c.x0, c.y0 * S + c.x1, c.y1 * S + c.x0, c.y1 * S + c.x1};
+      m = simd_->split_chunks(s.chunks.data(), s.chunks_spare.data(), r.b, r.e, s.chunk_cell.data(), tables.at[attr],
+                              corners, detail::float_bound(c.threshold), &end);
+    }
+    return SplitRuns{m, end, r.b, m};
+  };
+  visit_depth_first(compact_.data(), s.runs, root, static_cast<std::uint32_t>(count), kLeafBit, at_leaf, at_split);
+}
+
+std::uint32_t Classifier::split_chunks_texton(const FrameData& frame, const Tile& tile, const CompactNode& c,
+                                              Scratch& s, std::uint32_t b, std::uint32_t e, std::uint32_t* end) const {
+  constexpr int P = detail::kChunkPixels;
+  const int per_row = (tile.width + P - 1) / P;
+  const int test = static_cast<int>((c.next & 0xffu) - static_cast<std::uint32_t>(num_features_));
+  for (std::uint32_t i = b; i < e; ++i) {
+    const detail::ChunkEntry entry = s.chunks[i];
+    const int y = tile.y0 + entry.chunk / per_row, x0 = tile.x0 + entry.chunk % per_row * P;
+    std::uint32_t to_right = 0;
+    for (std::uint32_t bits = entry.bits; bits; bits &= bits - 1) {
+      const int lane = std::countr_zero(bits);
+      if (!(texton_value(frame.gray, width_, height_, x0 + lane, y, c.x0, c.y0, test) < c.threshold)) to_right |= 1u << lane;
+    }
+    s.chunks_spare[i - b].bits = static_cast<std::uint16_t>(to_right);
   }
+  return detail::split_entries(s.chunks.data(), s.chunks_spare.data(), b, e, end);
 }
 
 std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
@@ -252,20 +337,22 @@ std::size_t Classifier::order_inside_first(Scratch& s, std::size_t n) const {
 }
 
 void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n,
-                              std::size_t inside, bool with_dists, Routing routing) const {
+                              std::size_t inside, bool with_dists, const Tile* tile) const {
   const std::size_t C = static_cast<std::size_t>(num_classes_), Cp = static_cast<std::size_t>(padded_classes_);
   const std::size_t M = compact_roots_.size();
-  s.leaf.resize(n * M);
+  s.leaf.resize(n * M + detail::kChunkPixels);  // (SimdKernels::leaf_rows' room past the last tree)
   s.labels.resize(n);
   s.dists.resize(with_dists ? n * C : 0);
   for (std::size_t t = 0; t < M; ++t) {
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
-    if (routing == Routing::ByNodes) {
-      partition_tree(frame, tables, s, n, root, leaf);  // every pixel inside (inside == n)
-    } else if (vector_walk()) {
-      detail::route_avx512(compact_.data(), root, frame.sats.data(), frame.sats.size(), width_, height_, s.xs.data(),
-                           s.ys.data(), n, leaf);
+    if (tile && simd_) {
+      partition_chunks(frame, tables, *tile, s, root, leaf);  // every pixel inside (inside == n)
+    } else if (tile) {
+      partition_tree(frame, tables, s, n, root, leaf);
+    } else if (simd_ && !textons_) {
+      simd_->route(compact_.data(), root, frame.sats.data(), frame.sats.size(), width_, height_, s.xs.data(),
+                   s.ys.data(), n, leaf);
     } else if (textons_) {
       route_tree<false, true>(frame, tables, s, 0, inside, root, leaf);
       route_tree<true, true>(frame, tables, s, inside, n, root, leaf);
@@ -277,7 +364,7 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
   std::uint8_t* labels = s.labels.data();
   float* dists = with_dists ? s.dists.data() : nullptr;
   if (simd_ && Cp <= 16) {
-    detail::sum_votes_avx512(leaf_probs_.data(), Cp, C, s.leaf.data(), n, M, labels, dists);
+    simd_->sum_votes(leaf_probs_.data(), Cp, C, s.leaf.data(), n, M, labels, dists);
     return;
   }
   // Summed distributions, trees in order (the same float sums as posterior()), then the MAP class.
@@ -318,7 +405,8 @@ void Classifier::PaddedTables::reserve(std::size_t values) {
 
 Classifier::Tables Classifier::PaddedTables::fill(const FrameData& frame, int pad_x, int pad_y) {
   const int W = frame.width, H = frame.height;
-  const std::ptrdiff_t stride = W + 1 + 2 * pad_x, rows = H + 1 + 2 * pad_y, size = rows * stride;
+  // kChunkPixels more columns on the right: partition_chunks' row-end chunks read past the row.
+  const std::ptrdiff_t stride = W + 1 + 2 * pad_x + detail::kChunkPixels, rows = H + 1 + 2 * pad_y, size = rows * stride;
   const std::size_t F = frame.sats.size();
   reserve(F * static_cast<std::size_t>(size));
   at_.resize(F);

@@ -93,11 +93,11 @@ TEST(ClassifierCamVid, FastPathEqualsThePerPixelReferenceOnACamVidSizeForest) {
   Classifier clf(forest);
   const FrameData frame = frames.back().view();
   const std::size_t C = forest.classes.size(), n = static_cast<std::size_t>(frame.width) * frame.height;
-  // Both ways of splitting a whole frame's pixels (AVX-512 where the processor has it, and the
-  // scalar loop), each against the per-pixel reference.
-  for (const bool simd : {true, false}) {
-    clf.set_simd(simd);
-    SCOPED_TRACE(clf.simd() ? "AVX-512 splits" : "scalar splits");
+  // Every SIMD target the processor runs (the scalar loops, AVX2 and AVX-512 on an AVX-512 machine)
+  // splitting a whole frame's pixels, each against the per-pixel reference.
+  for (const std::string& target : Classifier::simd_targets()) {
+    clf.set_simd_target(target);
+    SCOPED_TRACE("whole frame, SIMD target " + target);
     std::vector<std::uint8_t> labels(n);
     std::vector<float> dists(n * C), ref(C);
     clf.classify_frame(frame, labels, dists);
@@ -113,16 +113,16 @@ TEST(ClassifierCamVid, FastPathEqualsThePerPixelReferenceOnACamVidSizeForest) {
     EXPECT_EQ(dist_mismatches, 0u);
   }
 
-  // Pixel lists (grid and superpixel voters: the lanes of route_tree, or of route_avx512 where the
-  // processor has AVX-512), every pixel of the frame in a scattered order, so that each lane meets
-  // pixels near the borders (corners clipped) and inside.
+  // Pixel lists (grid and superpixel voters: the lanes of route_tree, or of each target's vector
+  // walk), every pixel of the frame in a scattered order, so that each lane meets pixels near the
+  // borders (corners clipped) and inside.
   std::vector<Pixel> pixels;
   for (int y = 0; y < frame.height; ++y)
     for (int x = 0; x < frame.width; ++x) pixels.push_back({x, y});
   std::shuffle(pixels.begin(), pixels.end(), std::mt19937(7));
-  for (const bool simd : {true, false}) {
-    clf.set_simd(simd);
-    SCOPED_TRACE(clf.simd() ? "AVX-512 lanes" : "scalar lanes");
+  for (const std::string& target : Classifier::simd_targets()) {
+    clf.set_simd_target(target);
+    SCOPED_TRACE("pixel list, SIMD target " + target);
     std::vector<std::uint8_t> labels(pixels.size());
     std::vector<float> dists(pixels.size() * C), ref(C);
     clf.classify_pixels(frame, pixels, labels, dists);

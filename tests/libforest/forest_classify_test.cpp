@@ -1,13 +1,18 @@
 // The fast classifier against a plain per-pixel reference, and its API.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
+#include <limits>
+#include <string>
 
 #include <oneapi/tbb/global_control.h>
 #include <oneapi/tbb/parallel_for.h>
 #include <oneapi/tbb/task_arena.h>
 
+#include "forest_simd.hpp"
 #include "forest_test_util.hpp"
 #include "smseg/common/error.hpp"
 
@@ -74,10 +79,21 @@ Forest random_forest(const SyntheticData& s, std::uint64_t seed, bool textons, i
   return f;
 }
 
-// simd: whether whole frames may split their pixels with AVX-512 (where the processor has it).
-void expect_matches_reference(const Forest& f, const SyntheticData& s, bool simd = true) {
-  Classifier clf(f);
-  clf.set_simd(simd);
+void expect_frames_match_reference(const Classifier& clf, const Forest& f, const SyntheticData& s);
+void expect_pixel_lists_match_frames(const Classifier& clf, const Forest& f, const SyntheticData& s);
+
+// Whole frames under every SIMD target the processor runs (the scalar loops, and AVX2 and AVX-512 on an
+// AVX-512 machine), each against the reference.
+void expect_matches_reference(const Forest& f, const SyntheticData& s) {
+  for (const std::string& target : Classifier::simd_targets()) {
+    SCOPED_TRACE("SIMD target " + target);
+    Classifier clf(f);
+    clf.set_simd_target(target);
+    expect_frames_match_reference(clf, f, s);
+  }
+}
+
+void expect_frames_match_reference(const Classifier& clf, const Forest& f, const SyntheticData& s) {
   const std::size_t W = static_cast<std::size_t>(s.data.width), H = static_cast<std::size_t>(s.data.height);
   const std::size_t C = f.classes.size();
   std::vector<float> ref_acc;
@@ -129,33 +145,71 @@ TEST(Classifier, WholeFrameEqualsTheReferenceNearEveryBorder) {
     expect_matches_reference(random_forest(s, seed, seed % 2 == 0, seed <= 12 ? 3 : 0), s);
 }
 
-TEST(Classifier, ScalarSplitsEqualTheReferenceToo) {
-  // Where the processor has AVX-512 the tests above check its splits; these check the scalar loop
-  // that runs everywhere else (and on any processor with set_simd(false)).
-  const SyntheticData train = frames(3, 1, true), test = frames(2, 2, false), border = frames(1, 9, false, 150, 91);
-  TrainParams p;
-  p.K = 150;
-  p.M = 4;
-  expect_matches_reference(train_forest(train.data, p), test, false);
-  for (std::uint64_t seed = 11; seed <= 14; ++seed)
-    expect_matches_reference(random_forest(border, seed, seed % 2 == 0, seed <= 12 ? 3 : 0), border, false);
+// The SIMD splits compare double sums with float_bound(t) instead of rounding them to float: the same
+// outcome for every value, at the float boundaries above all.
+TEST(Classifier, FloatBoundDecidesAsRoundingToFloat) {
+  using smseg::forest::detail::float_bound;
+  constexpr float finf = std::numeric_limits<float>::infinity(), fmax = std::numeric_limits<float>::max();
+  std::vector<float> thresholds{0.0f, -0.0f, 1.0f, -1.0f, 0.1f, -fmax, fmax, finf, std::numeric_limits<float>::denorm_min(),
+                                -std::numeric_limits<float>::denorm_min(), std::numeric_limits<float>::min(), 3.0f, 16777216.0f};
+  Rng rng(3);
+  while (thresholds.size() < 20000) {
+    const auto bits = static_cast<std::uint32_t>(rng.below(std::uint64_t(1) << 32));
+    float t;
+    std::memcpy(&t, &bits, sizeof t);
+    if (!std::isnan(t) && t != -finf && std::fabs(t) <= fmax) thresholds.push_back(t);
+  }
+  constexpr double dinf = std::numeric_limits<double>::infinity();
+  const double limit = std::ldexp(1.0, 128) - std::ldexp(1.0, 103);  // still rounds to FLT_MAX below it
+  for (const float t : thresholds) {
+    const double d = float_bound(t);
+    const float below = std::nextafter(t, -finf);
+    std::vector<double> values{d, std::nextafter(d, dinf), std::nextafter(d, -dinf), static_cast<double>(t),
+                               static_cast<double>(below), std::nan("")};
+    for (int k = 0; k < 4; ++k) values.push_back(below + (static_cast<double>(t) - below) * rng.uniform());
+    for (const double v : values) {
+      if (std::fabs(v) >= limit || std::isinf(v)) continue;  // out of float's range: no defined rounding to compare with
+      ASSERT_EQ(static_cast<float>(v) < t, v < d) << "t " << t << " v " << v << " bound " << d;
+    }
+  }
 }
 
-TEST(Classifier, AvxSplitsAreOnlyWhereTheProcessorHasThem) {
+TEST(Classifier, SimdTargetsAreTheProcessorsAndSmsegSimdForcesOne) {
   const SyntheticData s = frames(1, 3, false);
-  Classifier clf(random_forest(s, 1, false));
-  const bool available = clf.simd();  // on by default where available
-  clf.set_simd(false);
-  EXPECT_FALSE(clf.simd());
-  clf.set_simd(true);
-  EXPECT_EQ(clf.simd(), available);
+  const Forest f = random_forest(s, 1, false);
+  const std::vector<std::string> targets = Classifier::simd_targets();
+  ASSERT_FALSE(targets.empty());
+  EXPECT_EQ(targets.front(), "scalar");
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
-  // On by default exactly where the processor runs the AVX-512 splits.
-  EXPECT_EQ(available, __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
-                           __builtin_cpu_supports("avx512dq"));
-#else
-  EXPECT_FALSE(available);
+  const bool avx512 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512vl") &&
+                      __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512bw");
+  EXPECT_EQ(std::count(targets.begin(), targets.end(), "avx512"), avx512 ? 1 : 0);
+  if (avx512) {
+    EXPECT_EQ(targets, (std::vector<std::string>{"scalar", "avx2", "avx512"}));
+  }
 #endif
+  const char* before = std::getenv("SMSEG_SIMD");
+  const std::string saved = before ? before : "";
+  ::unsetenv("SMSEG_SIMD");
+  EXPECT_EQ(Classifier(f).simd_target(), targets.back());  // the widest by default
+  for (const std::string& t : targets) {
+    ::setenv("SMSEG_SIMD", t.c_str(), 1);
+    EXPECT_EQ(Classifier(f).simd_target(), t);
+  }
+  // An unknown name: one line naming the variable and the names it takes.
+  ::setenv("SMSEG_SIMD", "avx9", 1);
+  try {
+    Classifier clf(f);
+    ADD_FAILURE() << "SMSEG_SIMD=avx9 was taken";
+  } catch (const smseg::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("SMSEG_SIMD"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("expected scalar|"), std::string::npos) << e.what();
+  }
+  if (before) ::setenv("SMSEG_SIMD", saved.c_str(), 1); else ::unsetenv("SMSEG_SIMD");
+  Classifier clf(f);
+  EXPECT_THROW(clf.set_simd_target("sse2"), smseg::Error);
+  clf.set_simd_target("scalar");
+  EXPECT_EQ(clf.simd_target(), "scalar");
 }
 
 class PixelLists : public ::testing::TestWithParam<bool> {};  // with texton tests, or windows only
@@ -166,7 +220,20 @@ TEST_P(PixelLists, AndSinglePixelsAgreeWithWholeFrames) {
   p.K = 100;
   p.textons = GetParam();
   const Forest f = train_forest(s.data, p);
-  const Classifier clf(f);
+  for (const std::string& target : Classifier::simd_targets()) {
+    SCOPED_TRACE("SIMD target " + target);
+    Classifier clf(f);
+    clf.set_simd_target(target);
+    expect_pixel_lists_match_frames(clf, f, s);
+  }
+}
+INSTANTIATE_TEST_SUITE_P(Classifier, PixelLists, ::testing::Bool(),
+                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "textons" : "windows"; });
+
+namespace {
+
+// Pixel lists (the walks of scattered pixels) against whole frames and single pixels.
+void expect_pixel_lists_match_frames(const Classifier& clf, const Forest& f, const SyntheticData& s) {
   const std::size_t W = 72, H = 52, C = f.classes.size();
   std::vector<std::uint8_t> labels(W * H);
   std::vector<float> dists(W * H * C);
@@ -190,8 +257,8 @@ TEST_P(PixelLists, AndSinglePixelsAgreeWithWholeFrames) {
   for (std::size_t c = 0; c < C; ++c) sum += dists[c];
   EXPECT_NEAR(sum, static_cast<double>(f.trees.size()), 1e-5);
 }
-INSTANTIATE_TEST_SUITE_P(Classifier, PixelLists, ::testing::Bool(),
-                         [](const ::testing::TestParamInfo<bool>& i) { return i.param ? "textons" : "windows"; });
+
+}  // namespace
 
 TEST(Classifier, SameLabelsWhateverTheThreadCount) {
   const SyntheticData s = frames(2, 5, false);

@@ -6,11 +6,14 @@
 // Whole frames and pixel lists take a fast path (forest_tiles.cpp): the trees laid out breadth first
 // in 16-byte nodes, bands of pixels routed tree by tree and node by node (each split partitions its
 // pixels between its children), the same double window sums: bit for bit posterior()'s labels and
-// distributions.
+// distributions. Its vector kernels are written once with Google Highway and chosen at run time
+// (simd_target(); SMSEG_SIMD=scalar|avx2|avx512 forces one).
 
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
+#include <string_view>
 #include <vector>
 
 #include "smseg/forest/data.hpp"
@@ -23,10 +26,19 @@ struct Pixel {
 };
 
 namespace detail {
-/// A pixel in partition_tree's runs (forest_tiles.cpp; split_avx512 reads it as one 64-bit lane).
+struct SimdKernels;  // forest_simd.hpp
+/// A pixel in partition_tree's runs (forest_tiles.cpp: the scalar path).
 struct RoutedPixel {
   std::int32_t cell;  // y * stride + x: the pixel's cell in the tables
   std::int32_t at;    // its place in the set (Scratch::xs[at], Scratch::ys[at])
+};
+/// Pixels of a tile row per chunk entry (partition_chunks: the vector path).
+inline constexpr int kChunkPixels = 16;
+/// Up to kChunkPixels neighbouring pixels of a tile row that reach the same node: chunk `chunk` of the
+/// tile (its first pixel's cell in Scratch::chunk_cell), bit l of `bits` for its pixel l.
+struct ChunkEntry {
+  std::uint16_t chunk;
+  std::uint16_t bits;
 };
 /// The four corners of a window relative to a pixel's cell, as offsets into its table.
 struct WindowCorners {
@@ -60,11 +72,16 @@ class Classifier {
   /// Error when the frame does not fit the forest (size, number of tables, greyscale for textons).
   void check_frame(const FrameData& frame) const;
 
-  /// Whether AVX-512 is used: whole frames' splits and every set's summed votes (on by default where
-  /// the processor has it; the same labels and distributions either way, bit for bit). For tests and
-  /// benchmarks: asking for it where the processor lacks it leaves it off.
-  bool simd() const { return simd_; }
-  void set_simd(bool on);
+  /// The SIMD target of the fast paths (whole frames' splits, pixel lists' walks, the summed votes):
+  /// "scalar" (the reference loops) or a Highway target ("avx2", "avx512"; "neon" on 64-bit Arm). By
+  /// default the one the environment variable SMSEG_SIMD names (Error naming SMSEG_SIMD when the name
+  /// is unknown or the processor lacks that target), else the best this processor runs. The same labels
+  /// and distributions on every target, bit for bit.
+  std::string simd_target() const;
+  /// Error when `name` is unknown or the processor lacks that target (for tests and benchmarks).
+  void set_simd_target(std::string_view name);
+  /// The targets this processor runs, "scalar" first, then from the narrowest vectors to the widest.
+  static std::vector<std::string> simd_targets();
 
  private:
   struct PackedNode {
@@ -91,6 +108,8 @@ class Classifier {
     using Routed = detail::RoutedPixel;
     std::vector<Routed> routed, right;  // partition_tree's runs, and the right-hand side of a split
     std::vector<std::uint8_t> goes_right;  // partition_tree: each pixel's test outcome at the node
+    std::vector<detail::ChunkEntry> chunks, chunks_spare;  // partition_chunks' runs, and a split's left side
+    std::vector<std::int32_t> chunk_cell;                   // each chunk's first cell in the tables
     struct Run {
       std::uint32_t node;
       std::uint32_t b, e;
@@ -107,6 +126,10 @@ class Classifier {
   // kTileHeightMax rows (bench_eval on the CamVid-size forest: 45-row bands ~10 % faster than 24-row
   // ones; an even count keeps two threads equally busy: 8 bands on a 360-row frame, 6 on 240 rows).
   static constexpr int kTileWidth = 512, kTileHeightMax = 45;
+  /// A tile of the frame: columns [x0, x0 + width), rows [y0, y0 + height); its pixels in raster order.
+  struct Tile {
+    int x0, y0, width, height;
+  };
   /// The tables an "inside" pixel reads without clipping: one pointer per attribute to the cell of
   /// pixel (0, 0), and the row stride (the frame's own tables, or PaddedTables).
   struct Tables {
@@ -135,28 +158,34 @@ class Classifier {
     std::vector<const double*> at_;
   };
   /// classify_frame's work: the frame cut into tiles (TBB over tiles), each a set whose pixels all
-  /// read `tables` without clipping.
+  /// read `tables` without clipping (and whose rows' last chunks may read kChunkPixels cells beyond).
   void classify_tiles(const FrameData& frame, const Tables& tables, std::span<std::uint8_t> labels,
                       std::span<float> dists) const;
-  /// How a set's pixels go through a tree: node by node (partition_tree: whole frames, where each
-  /// node gets many neighbouring pixels; every pixel must be inside) or several pixels in flight, each
-  /// to its leaf (classify_pixels' few scattered pixels: route_tree, or with AVX-512 and without
-  /// texton tests detail::route_avx512, eight pixels a vector).
-  enum class Routing { ByNodes, ByLanes };
   /// Evaluation of a set of pixels (s.xs, s.ys, n of them, the first `inside` of which keep every
-  /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through
-  /// its compact nodes (`routing`), the inside ones without clipping. The leaf distributions are then
-  /// summed tree by tree (the same float sums as posterior()) and give the labels. Out: s.labels[i],
-  /// s.dists[i * C + c] (if with_dists).
+  /// window of the forest inside `tables`; see forest_tiles.cpp): each tree routes the set through its
+  /// compact nodes, the inside ones without clipping: a tile (whole frames, where each node gets many
+  /// neighbouring pixels; `tile` gives its place, every pixel inside) node by node (partition_tree,
+  /// or partition_chunks with a SIMD target), a list of pixels (classify_pixels' few scattered pixels:
+  /// tile null) with several pixels in flight, each to its leaf (route_tree, or the target's route
+  /// for forests without texton tests). The leaf distributions are then summed tree by tree (the same
+  /// float sums as posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if
+  /// with_dists).
   void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
-                    bool with_dists, Routing routing) const;
-  /// Whether pixel lists take detail::route_avx512 (AVX-512 on, no texton test, at most 16 tables)
-  /// rather than route_tree.
-  bool vector_walk() const { return simd_ && !textons_ && num_features_ <= 16; }
+                    bool with_dists, const Tile* tile) const;
   /// Routes pixels [b, e) of the set through the tree at `root`, kLanes at a time: leaf[i] for each.
   template <bool kClamp, bool kTextons>
   void route_tree(const FrameData& frame, const Tables& tables, const Scratch& s, std::size_t b, std::size_t e,
                   std::uint32_t root, std::int32_t* leaf) const;
+  /// Routes the tile's pixels through the tree at `root`, node by node, in chunk entries (up to
+  /// kChunkPixels row neighbours each, split by the target's split_chunks): leaf[i] for each. Every
+  /// window of every pixel must lie inside `tables`, and kChunkPixels cells beyond each row's end too.
+  void partition_chunks(const FrameData& frame, const Tables& tables, const Tile& tile, Scratch& s, std::uint32_t root,
+                        std::int32_t* leaf) const;
+  /// partition_chunks' split at a texton test, pixel by pixel: run [b, e) of s.chunks, as
+  /// SimdKernels::split_chunks splits it (the right-hand run first). Returns where the left-hand run
+  /// begins; *end: where it ends.
+  std::uint32_t split_chunks_texton(const FrameData& frame, const Tile& tile, const CompactNode& c, Scratch& s,
+                                    std::uint32_t b, std::uint32_t e, std::uint32_t* end) const;
   /// Routes the set's n pixels through the tree at `root`, node by node: leaf[i] for each. Every
   /// window of every pixel must lie inside `tables` (no clipping).
   void partition_tree(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::uint32_t root,
@@ -171,14 +200,14 @@ class Classifier {
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
-  bool simd_ = false;  // split_avx512 and sum_votes_avx512 (forest_split.hpp)
+  const detail::SimdKernels* simd_ = nullptr;  // the target's kernels (forest_simd.hpp); null: scalar
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;  // the trees as in the file (posterior(): the reference path)
   int inner_x0_ = 0, inner_x1_ = -1;  // columns where every window of the forest stays inside the image
   int inner_y0_ = 0, inner_y1_ = -1;  // rows likewise
   std::vector<std::uint32_t> compact_roots_;
   std::vector<CompactNode> compact_;  // the trees breadth first, one after the other
-  int padded_classes_ = 0;         // num_classes_ rounded up to a multiple of 4 (zeros after)
+  int padded_classes_ = 0;         // num_classes_ rounded up to a multiple of 16 (zeros after)
   std::vector<float> leaf_probs_;  // leaf row r: leaf_probs_[r * padded_classes_ + c]
 };
 
