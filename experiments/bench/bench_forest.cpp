@@ -24,7 +24,6 @@
 #include "smseg/forest/train.hpp"
 
 using namespace smseg::forest;
-namespace features = smseg::features;
 
 namespace {
 
@@ -225,7 +224,7 @@ double peak_rss_mb() {
 // Training a CamVid-size forest on CamVid val (101 frames). Args: threads, memory budget in MB.
 void BM_TrainCamVid(benchmark::State& state) {
   if (!camvid_available(state)) return;
-  const features::StackSet set = features::open_stacks({camvid_bench::val_work()}, features::FrameRange{}, true, true, {});
+  const smseg::stacks::StackSet set = smseg::stacks::open_stacks({camvid_bench::val_work()}, smseg::stacks::FrameRange{}, true, true, {});
   TrainParams p;
   p.K = 400;
   p.Kt = 20000;
@@ -246,8 +245,8 @@ BENCHMARK(BM_TrainCamVid)
 void BM_ClassifyFrameCamVid(benchmark::State& state) {
   if (!camvid_available(state)) return;
   static const Forest f = camvid_bench::val_forest();
-  static const features::StackSet set =
-      features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false, f.features);
+  static const smseg::stacks::StackSet set =
+      smseg::stacks::open_stacks({camvid_bench::val_work()}, smseg::stacks::FrameRange{50, 51}, false, false, f.features);
   const Classifier clf(f);
   const FrameData& frame = set.dataset.frames.front();
   std::vector<std::uint8_t> labels(static_cast<std::size_t>(frame.width) * frame.height);

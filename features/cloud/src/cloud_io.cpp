@@ -13,7 +13,7 @@
 #include "smseg/common/output.hpp"
 #include "pcl_write.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace pcl_write {
 
@@ -70,4 +70,4 @@ void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, con
   pcl_write::save_atomic(path, pc);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -20,7 +20,7 @@
 #include "knn_graph.hpp"
 #include "pcl_write.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -202,4 +202,4 @@ std::vector<int> centroid_mincut(const ColouredCloud& cloud, const CentroidMinCu
   return labels;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -18,7 +18,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -560,4 +560,4 @@ cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const Gra
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -9,7 +9,7 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 Eigen::Vector3d scene_up(const FrontEndResult& fe, bool* planar_path) {
   GravityOptions g;
@@ -71,4 +71,4 @@ cv::Mat largest_region(const cv::Mat& mask) {
   return comp == best;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

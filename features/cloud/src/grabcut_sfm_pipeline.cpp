@@ -13,7 +13,7 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -451,4 +451,4 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
   return mask;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -20,7 +20,7 @@
 #include "smseg/graphcut/graphcut.hpp"
 #include "knn_graph.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -347,4 +347,4 @@ std::vector<int> seed_truth(const ColouredCloud& cloud, const MrfSeeds& seeds) {
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -11,7 +11,7 @@
 #include "smseg/common/names.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 namespace {
 
 // A path is "planar" when its second principal extent is at least kPlanarShare of its first and its
@@ -146,4 +146,4 @@ void level_world(std::vector<Pose>& poses, const Eigen::Vector3d& up) {
   for (Pose& p : poses) p = make_pose(Q * pose_rotation(p), Q * (pose_centre(p) - pivot) + pivot);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

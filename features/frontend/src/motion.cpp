@@ -14,7 +14,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -658,4 +658,4 @@ std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, 
   return pair_motions(tracks, first_frame, frame_count, o, &camera, &refine);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

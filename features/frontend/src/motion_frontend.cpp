@@ -14,7 +14,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/common/progress.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -292,4 +292,4 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   return res;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -11,7 +11,7 @@
 
 #include "smseg/frontend/motion.hpp"
 
-namespace smseg::features::detail {
+namespace smseg::frontend::detail {
 
 /// One pair's correspondences, in track order: 3D points in frames t (P) and t+1 (Q) and, for the
 /// refinement, their (u, v, d) measurements (ma, mb).
@@ -55,4 +55,4 @@ class PathChain {
   RigidMotion last_good_;  // identity until a good pair is seen
 };
 
-}  // namespace smseg::features::detail
+}  // namespace smseg::frontend::detail

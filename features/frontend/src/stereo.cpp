@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -175,4 +175,4 @@ cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) 
   }
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

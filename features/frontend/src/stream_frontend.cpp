@@ -9,7 +9,7 @@
 
 #include "pair_motion.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -145,4 +145,4 @@ StreamFrame StereoFrontEndStream::advance(Prepared&& in) {
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -12,7 +12,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/video/tracking.hpp>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 constexpr std::array<EnumName<KeypointMethod>, 4> kKeypointMethodNames{{{KeypointMethod::Sift, "sift"},
@@ -339,4 +339,4 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
   return kept;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -5,7 +5,7 @@
 
 #include <Eigen/Dense>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -458,4 +458,4 @@ void check_made_from(const TracksFile& tracks, const fs::path& path, const Seque
                     std::to_string(seq.frame_count()) + " frames (" + seq.manifest.string() + ")");
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

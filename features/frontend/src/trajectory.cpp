@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -188,4 +188,4 @@ DepthError tracked_depth_error(const std::vector<Track>& tracks, const std::func
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

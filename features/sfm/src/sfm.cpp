@@ -25,7 +25,7 @@
 #include "sfm_map.hpp"
 #include "sfm_matching.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 namespace sfm_front_end {
 
@@ -541,4 +541,4 @@ FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options
   return res;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

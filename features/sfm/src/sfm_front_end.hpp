@@ -15,7 +15,7 @@
 #include "sfm_map.hpp"
 #include "sfm_matching.hpp"
 
-namespace smseg::features::sfm_front_end {
+namespace smseg::sfm::sfm_front_end {
 
 using sfm_map::MapCandidate;
 using sfm_map::TrackTable;
@@ -228,4 +228,4 @@ class MonoFrontEnd {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
 };
 
-}  // namespace smseg::features::sfm_front_end
+}  // namespace smseg::sfm::sfm_front_end

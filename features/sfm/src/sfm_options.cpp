@@ -4,7 +4,7 @@
 #include "smseg/common/names.hpp"
 #include "sfm_matching.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 namespace {
 constexpr std::array<EnumName<FocalSource>, 4> kFocalSourceNames{{{FocalSource::Option, "option"},
@@ -144,4 +144,4 @@ void SfmOptions::validate() const {
   if (ground_min_inliers < 3) throw Error("", "sfm.ground_min_inliers", "must be >= 3 (a plane needs three points)");
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -11,7 +11,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -158,4 +158,4 @@ void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, 
   out.push_back(to_path);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

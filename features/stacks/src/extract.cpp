@@ -19,7 +19,7 @@
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -469,4 +469,4 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   return report;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -5,7 +5,7 @@
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -170,4 +170,4 @@ void ExtractOptions::validate() const {
   features.validate();
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -8,7 +8,7 @@
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/extract.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -104,4 +104,4 @@ const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options
   throw Error(seq.manifest.string(), "kind", "no front end runs on this kind of sequence");
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

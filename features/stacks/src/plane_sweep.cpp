@@ -12,7 +12,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -259,4 +259,4 @@ std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const 
   return {first, second};
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

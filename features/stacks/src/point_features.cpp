@@ -13,7 +13,7 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -306,4 +306,4 @@ double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1) {
   return sat.at<double>(y1, x1) - sat.at<double>(y0, x1) - sat.at<double>(y1, x0) + sat.at<double>(y0, x0);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -14,7 +14,7 @@
 
 #include "smseg/common/digest.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -419,4 +419,4 @@ Json training_data_record(const StackSet& set) {
   return {{"works", works}, {"features", set.dataset.features}};
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -1,6 +1,6 @@
 #include "smseg/stacks/stream_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 FeatureStream::FeatureStream(cv::Size size, const FeatureOptions& options, int min_track_frames)
     : size_(size), min_track_frames_(min_track_frames) {
@@ -42,4 +42,4 @@ const std::vector<cv::Mat>& FeatureStream::push(const StreamFrame& frame) {
   return sats_;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -6,7 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 std::vector<CloudPoint> track_cloud(const FrontEndResult& fe, const PointCloudVideo& video,
                                     const PointAttributes& attrs) {
@@ -94,4 +94,4 @@ cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* gt
   return img;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -11,7 +11,7 @@
 
 #include "synth_detail.hpp"
 
-namespace smseg::features::synth::build {
+namespace smseg::synth::build {
 
 using detail::lin;
 using detail::Rng;
@@ -609,4 +609,4 @@ void build_tabletop(Scene& sc, const SynthOptions& o, Rng& r);
 /// Moves everything by -shift in XZ so that the world origin is under the first camera position.
 void shift_scene(Scene& sc, const Vector2d& shift);
 
-}  // namespace smseg::features::synth::build
+}  // namespace smseg::synth::build

@@ -8,7 +8,7 @@
 
 #include "smseg/synth/synth.hpp"
 
-namespace smseg::features::synth::detail {
+namespace smseg::synth::detail {
 
 /// SplitMix64 finaliser: a good 64-bit mixer.
 inline std::uint64_t mix64(std::uint64_t x) {
@@ -114,4 +114,4 @@ inline Eigen::Vector3d ray_direction(const Pose& pose, double fx, double cx, dou
 /// pixel footprint of fp metres on the surface. Defined in synth_texture.cpp.
 Rgb albedo(const Material& m, float s, float t, float fp);
 
-}  // namespace smseg::features::synth::detail
+}  // namespace smseg::synth::detail

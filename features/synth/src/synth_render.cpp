@@ -12,7 +12,7 @@
 #include "smseg/common/progress.hpp"
 #include "synth_detail.hpp"
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 using detail::Rgb;
 using Eigen::Matrix3d;
@@ -451,4 +451,4 @@ cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double
   return out;
 }
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth

@@ -5,7 +5,7 @@
 
 #include "smseg/common/options.hpp"
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 using namespace build;
 
@@ -192,4 +192,4 @@ Vector3d pixel_ray(const SynthOptions& opts, const Pose& pose, double x, double 
   return detail::ray_direction(pose, opts.fx(), opts.cx(), opts.cy(), x, y);
 }
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth

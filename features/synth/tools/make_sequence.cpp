@@ -10,7 +10,7 @@
 #include "smseg/synth/synth.hpp"
 
 int main(int argc, char** argv) {
-  using namespace smseg::features;
+  using namespace smseg::sequence;
   synth::SynthOptions o;
   CLI::App app{"Render a synthetic stereo video as a small indoor robot would record it: a rectified stereo\n"
                "rig (12 cm baseline, ~1 m above the floor) driving through a corridor with turns or around a\n"

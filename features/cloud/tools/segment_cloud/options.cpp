@@ -212,9 +212,9 @@ void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o) {
 int run_method(const CLI::App& app, SegmentCloudOptions& o) {
   if (o.make_tabletop > 0) {
     o.tab.points = o.make_tabletop;
-    const features::ColouredCloud c = features::make_tabletop_cloud(o.tab);
+    const cloud::ColouredCloud c = cloud::make_tabletop_cloud(o.tab);
     begin_output_set(o.out);  // one file, no summary; this cleans up after killed runs
-    features::write_labelled_cloud(o.out, c, c.labels);
+    cloud::write_labelled_cloud(o.out, c, c.labels);
     std::cout << "tabletop cloud: " << c.size() << " points, " << o.tab.objects << " objects -> " << o.out << "\n";
     return 0;
   }

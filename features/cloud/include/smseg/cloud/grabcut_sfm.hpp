@@ -50,7 +50,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 struct PinholeIntrinsics {
   double fx = 0, fy = 0, cx = 0, cy = 0;
@@ -291,4 +291,4 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
 /// outliers as crosses), the inlier box thin and the GrabCut box thick in red (001 Fig. 5 and 6).
 cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const GrabCutSfmReport& report);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

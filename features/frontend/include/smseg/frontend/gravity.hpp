@@ -35,7 +35,7 @@
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// A plane fitted by fit_ground_plane.
 struct PlaneFit {
@@ -90,4 +90,4 @@ GravityEstimate estimate_gravity(const std::vector<Pose>& poses, int first_frame
 /// camera's optical axis, projected on the ground, stays along +Z. Camera-frame points do not change.
 void level_world(std::vector<Pose>& poses, const Eigen::Vector3d& up);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

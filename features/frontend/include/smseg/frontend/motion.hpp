@@ -55,7 +55,7 @@
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// X' = R X + t.
 struct RigidMotion {
@@ -250,4 +250,4 @@ void summarise_tracks_and_motion(FrontEndResult& res, int n,
 /// or no keypoints are not errors: they give no observations and bridged motion (see the summary).
 FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& options);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -21,7 +21,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 inline constexpr float kInvalidDisparity = -1.0f;
 
@@ -102,4 +102,4 @@ struct DisparityScore {
 DisparityScore score_disparity(const cv::Mat& estimate, const cv::Mat& ground_truth, const cv::Mat& nonocc_mask,
                                double bad_threshold = 2.0);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

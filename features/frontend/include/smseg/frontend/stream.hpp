@@ -23,7 +23,7 @@
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// One keypoint of the streamed frame with a valid disparity.
 struct StreamObservation {
@@ -97,4 +97,4 @@ class StereoFrontEndStream {
   std::shared_ptr<Path> path_;
 };
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

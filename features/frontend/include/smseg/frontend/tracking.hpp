@@ -29,7 +29,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// Gftt: Shi-Tomasi corners (OpenCV's GFTTDetector), positions only, no descriptors: for KLT tracking.
 enum class KeypointMethod { Sift, Orb, Akaze, Gftt };
@@ -163,4 +163,4 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
                                 const std::vector<std::vector<cv::DMatch>>& matches, const TrackFilterOptions& options,
                                 FilterCounts& counts, std::vector<Track>* after_disparity_filter = nullptr);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

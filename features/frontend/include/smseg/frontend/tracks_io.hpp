@@ -22,7 +22,7 @@
 
 #include "smseg/frontend/motion.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 inline constexpr const char* kTracksFormat = "smseg-tracks";
 inline constexpr int kTracksVersion = 1;
@@ -46,4 +46,4 @@ TracksFile read_tracks(const fs::path& path);
 /// and no posed frame past the sequence's end (a work folder given with another sequence).
 void check_made_from(const TracksFile& tracks, const fs::path& path, const Sequence& seq);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -25,7 +25,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 enum class PathAlignment { Rigid, Similarity };
 
@@ -92,4 +92,4 @@ struct DepthError {
 /// Observations outside the image or in frames whose depth is empty are skipped.
 DepthError tracked_depth_error(const std::vector<Track>& tracks, const std::function<cv::Mat(int)>& gt_depth);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -72,7 +72,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 /// SIFT with up to 1500 keypoints per frame and a lower contrast threshold (0.01) than the stereo
 /// default: monocular SfM needs more and longer tracks.
@@ -235,4 +235,4 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
 void set_solver_verbose(bool verbose);
 bool solver_verbose();
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -33,7 +33,7 @@
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 /// {"fZV", "fZI", "fZH", "fZU", "fZE", "fZC"}, in raster order.
 const std::vector<std::string>& dense_feature_names();
@@ -63,4 +63,4 @@ double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path);
 void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
                           std::vector<cv::Mat>& out, double height_shift = 0, const CameraPath& path = {});
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -19,7 +19,7 @@
 #include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/stack.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct ExtractOptions {
   /// The front end tracks and camera motion come from, by name (front_ends.hpp: "stereo", "sfm"), or
@@ -79,4 +79,4 @@ std::string report_text(const ExtractReport& report, const std::string& work);
 /// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.
 cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -16,7 +16,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/point_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct ExtractOptions;
 
@@ -57,4 +57,4 @@ void check_motion_name(const std::string& name, const std::string& field);
 /// kind).
 const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

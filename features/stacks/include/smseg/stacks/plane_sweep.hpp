@@ -27,7 +27,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct PlaneSweepOptions {
   double max_step_px = 1.5;     ///< largest image motion between consecutive planes (sets their number)
@@ -74,4 +74,4 @@ struct SweepNeighbourOptions {
 std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<Pose>& poses,
                                   const SweepNeighbourOptions& options = {});
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

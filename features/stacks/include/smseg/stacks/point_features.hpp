@@ -31,7 +31,7 @@ template <class S>
 class Table;  // smseg/common/options.hpp
 }
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 /// One tracked point seen in one frame.
 struct Observation {
@@ -142,4 +142,4 @@ void summed_area_table(const cv::Mat& raster, cv::Mat& sat);  ///< into sat, reu
 /// Sum of the raster over the rectangle [x0, x1) x [y0, y1), clipped to the image, from its SAT.
 double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

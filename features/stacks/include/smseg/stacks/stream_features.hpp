@@ -10,7 +10,7 @@
 #include "smseg/frontend/stream.hpp"
 #include "smseg/stacks/point_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 class FeatureStream {
  public:
@@ -30,4 +30,4 @@ class FeatureStream {
   std::vector<cv::Mat> rasters_, sats_;
 };
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

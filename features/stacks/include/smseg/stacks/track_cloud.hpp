@@ -15,7 +15,7 @@
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct CloudPoint {
   Eigen::Vector3f position{0, 0, 0};  ///< world, metres
@@ -33,4 +33,4 @@ std::vector<CloudPoint> track_cloud(const FrontEndResult& front_end, const Point
 cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* ground_truth,
                       const std::vector<CloudPoint>& cloud, const Sequence& seq, int size = 800);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

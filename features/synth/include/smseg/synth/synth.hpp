@@ -66,7 +66,7 @@ template <class S>
 class Table;  // smseg/common/options.hpp
 }
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 /// The classes, in this order (their positions in Sequence::classes). The tabletop scene has the first
 /// five, with furniture named "table" (kTable) and obstacle named "object" (kObject), and no person.
@@ -230,4 +230,4 @@ Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir);
 cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double max_depth = 10.0,
                      double scale = 1.0);
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth
