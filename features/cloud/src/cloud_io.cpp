@@ -48,7 +48,7 @@ void save_atomic(const fs::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>&
 
 }  // namespace pcl_write
 
-void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, const Sequence& seq) {
+void write_cloud(const fs::path& path, const std::vector<stacks::CloudPoint>& cloud, const sequence::Sequence& seq) {
   pcl_write::check_extension(path);
   pcl::PointCloud<pcl::PointXYZRGBL> pc;
   pc.reserve(cloud.size());

@@ -44,12 +44,12 @@ PairMotion choose_pair_motion(std::vector<Candidate>& candidates, const PairData
 class PathChain {
  public:
   explicit PathChain(double camera_height);
-  const Pose& first() const { return first_; }
+  const sequence::Pose& first() const { return first_; }
   /// The pose of the pair's second frame; marks the pair bridged (and replaces its motion) when bad.
-  Pose step(PairMotion& pm);
+  sequence::Pose step(PairMotion& pm);
 
  private:
-  Pose first_;
+  sequence::Pose first_;
   Eigen::Matrix3d Rw_;
   Eigen::Vector3d c_;
   RigidMotion last_good_;  // identity until a good pair is seen

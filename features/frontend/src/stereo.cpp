@@ -157,8 +157,8 @@ void apply_disparity_offset(cv::Mat& disparity, double offset) {
   });
 }
 
-cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) {
-  if (seq.kind != SequenceKind::Stereo)
+cv::Mat frame_disparity(const sequence::Sequence& seq, int frame, const StereoOptions& o) {
+  if (seq.kind != sequence::SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind", "the stereo front end needs a stereo sequence");
   if (o.method == StereoMethod::Given) {
     cv::Mat d = seq.load_disparity(frame);

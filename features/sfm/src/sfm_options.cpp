@@ -21,7 +21,7 @@ SfmTracker parse_sfm_tracker(const std::string& name, const std::string& field) 
   return value_named(kSfmTrackerNames, name, field);
 }
 
-SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq) {
+SfmOptions resolve_tracker(const SfmOptions& options, const sequence::Sequence& seq) {
   SfmOptions o = options;
   if (o.tracker != SfmTracker::Auto) return o;
   std::vector<double> dt;
@@ -42,7 +42,7 @@ Json sfm_options_to_json(const SfmOptions& o) {
          {"klt_max_backward_px", o.klt.max_backward_px},
          {"klt_min_distance_px", o.klt.min_distance_px},
          {"tracking",
-          {{"detector", keypoint_method_name(o.tracking.detector)},
+          {{"detector", frontend::keypoint_method_name(o.tracking.detector)},
            {"max_keypoints", o.tracking.max_keypoints},
            {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
            {"akaze_threshold", o.tracking.akaze_threshold},
@@ -80,8 +80,8 @@ Json sfm_options_to_json(const SfmOptions& o) {
   return j;
 }
 
-SfmSummary sfm_summary(const SfmReport& r) {
-  SfmSummary s;
+frontend::SfmSummary sfm_summary(const SfmReport& r) {
+  frontend::SfmSummary s;
   s.tracker = sfm_tracker_name(r.tracker);
   s.focal = r.focal;
   s.focal_source = focal_source_name(r.focal_source);

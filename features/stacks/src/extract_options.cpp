@@ -21,11 +21,11 @@ std::string motion_name(const std::string& name, const std::string& field) {
   return name;
 }
 std::string tracker_name(const std::string& name, const std::string& field) {
-  if (name != "auto") parse_stereo_tracker(name, field);  // klt | descriptors, as the SfM's
+  if (name != "auto") frontend::parse_stereo_tracker(name, field);  // klt | descriptors, as the SfM's
   return name;
 }
 std::string keypoints_name(const std::string& name, const std::string& field) {
-  if (name != "auto") parse_keypoint_method(name, field);
+  if (name != "auto") frontend::parse_keypoint_method(name, field);
   return name;
 }
 
@@ -37,9 +37,9 @@ void declare_choices(options::Table<E>& t) {
           +[](E& o) -> std::string& { return o.motion; }, front_end_choices(), &motion_name, &options::as_written)
       .only(kCommandLine | kPython);
   t.named("stereo", "--stereo", "disparity (bm: block matching, sgbm: semi-global, given: from the sequence)",
-          +[](E& o) -> StereoMethod& { return o.front_end.stereo.method; }, "bm | sgbm | given",
-          +[](const std::string& s, const std::string& f) { return parse_stereo_method(s, f); },
-          +[](const StereoMethod& m) { return std::string(stereo_method_name(m)); })
+          +[](E& o) -> frontend::StereoMethod& { return o.front_end.stereo.method; }, "bm | sgbm | given",
+          +[](const std::string& s, const std::string& f) { return frontend::parse_stereo_method(s, f); },
+          +[](const frontend::StereoMethod& m) { return std::string(frontend::stereo_method_name(m)); })
       .only(kCommandLine | kPython);
   t.number("num_disparities", "--num-disparities", "disparity search range, multiple of 16",
            +[](E& o) -> int& { return o.front_end.stereo.num_disparities; }, 16, 1024)
@@ -54,8 +54,8 @@ void declare_choices(options::Table<E>& t) {
           &options::as_written)
       .checked_as("tracking.detector");
   t.optional_number("max_keypoints", "--max-keypoints",
-                    "strongest keypoints kept per frame (default: " + std::to_string(TrackingOptions{}.max_keypoints) +
-                        " stereo, " + std::to_string(SfmOptions{}.tracking.max_keypoints) + " sfm)",
+                    "strongest keypoints kept per frame (default: " + std::to_string(frontend::TrackingOptions{}.max_keypoints) +
+                        " stereo, " + std::to_string(sfm::SfmOptions{}.tracking.max_keypoints) + " sfm)",
                     +[](E& o) -> std::optional<int>& { return o.max_keypoints; }, 1, 100000)
       .checked_as("tracking.max_keypoints");
   t.number("gftt_quality", "--gftt-quality", "gftt: corners weaker than this share of the strongest are dropped",
@@ -86,9 +86,9 @@ void declare_tracks_and_motion(options::Table<E>& t) {
   t.named("gravity", "--gravity",
           "stereo: world Y up along the first camera's up axis (level: the thesis assumes it level) | along\n"
           "gravity estimated from the camera path and a RANSAC ground plane (estimate; docs/stereo.md)",
-          +[](E& o) -> GravityMethod& { return o.front_end.gravity.method; }, "level | estimate",
-          +[](const std::string& s, const std::string& f) { return parse_gravity_method(s, f); },
-          +[](const GravityMethod& m) { return std::string(gravity_method_name(m)); });
+          +[](E& o) -> frontend::GravityMethod& { return o.front_end.gravity.method; }, "level | estimate",
+          +[](const std::string& s, const std::string& f) { return frontend::parse_gravity_method(s, f); },
+          +[](const frontend::GravityMethod& m) { return std::string(frontend::gravity_method_name(m)); });
   t.optional_number("camera_height", "--camera-height",
                     "camera height above the ground in metres (default: the sequence's)",
                     +[](E& o) -> std::optional<double>& { return o.front_end.camera_height; }, 1e-3, 1e4)
@@ -154,11 +154,11 @@ const options::Table<ExtractOptions>& extract_options_table() {
 }
 
 void ExtractOptions::resolve() {
-  front_end.tracker = parse_stereo_tracker(tracker, "tracker");
-  front_end.tracking.detector = parse_keypoint_method(keypoints, front_end.tracker, "keypoints");
+  front_end.tracker = frontend::parse_stereo_tracker(tracker, "tracker");
+  front_end.tracking.detector = frontend::parse_keypoint_method(keypoints, front_end.tracker, "keypoints");
   front_end.refine.enabled = !no_refine;
-  sfm.tracker = parse_sfm_tracker(tracker, "tracker");
-  sfm.tracking.detector = keypoints == "auto" ? KeypointMethod::Sift : parse_keypoint_method(keypoints, "keypoints");
+  sfm.tracker = sfm::parse_sfm_tracker(tracker, "tracker");
+  sfm.tracking.detector = keypoints == "auto" ? frontend::KeypointMethod::Sift : frontend::parse_keypoint_method(keypoints, "keypoints");
   sfm.tracking.gftt_quality = front_end.tracking.gftt_quality;
   if (max_keypoints) front_end.tracking.max_keypoints = sfm.tracking.max_keypoints = *max_keypoints;
   sfm.filters = front_end.filters;

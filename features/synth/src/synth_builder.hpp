@@ -349,7 +349,7 @@ inline void choose_phase(Person& p, const Scene& sc, const SynthOptions& o, Rng&
   double best = -1, best_phase = 0;
   std::vector<Vector2d> cam(o.frames);
   for (int f = 0; f < o.frames; ++f) {
-    const Pose pose = camera_pose(sc, o, f);
+    const sequence::Pose pose = camera_pose(sc, o, f);
     cam[f] = Vector2d(pose.t[0], pose.t[2]);
   }
   for (int j = 0; j < 48; ++j) {

@@ -13,6 +13,6 @@ namespace smseg::cloud {
 
 /// Writes the cloud with PCL (pcl::PointXYZRGBL: the class colour and the class position as label,
 /// 255 = none), binary PCD for ".pcd", binary PLY for ".ply"; atomic. Error naming the file otherwise.
-void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, const Sequence& seq);
+void write_cloud(const fs::path& path, const std::vector<stacks::CloudPoint>& cloud, const sequence::Sequence& seq);
 
 }  // namespace smseg::cloud

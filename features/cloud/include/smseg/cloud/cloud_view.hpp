@@ -23,7 +23,7 @@ namespace smseg::cloud {
 struct ViewCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   cv::Size size;
-  Pose pose;  ///< camera-to-world
+  sequence::Pose pose;  ///< camera-to-world
 };
 
 struct ProjectionParams {

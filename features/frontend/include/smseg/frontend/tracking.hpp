@@ -134,9 +134,9 @@ Eigen::Vector3d backproject(double x, double y, double d, double fx, double fy, 
 
 /// Fills disparities/points (and labels when `labels` is not empty) for keypoints of one frame.
 FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& keypoints, const cv::Mat& disparity,
-                                    const cv::Mat& labels, const Calibration& calib);
+                                    const cv::Mat& labels, const sequence::Calibration& calib);
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
-                                 const Calibration& calib);
+                                 const sequence::Calibration& calib);
 
 /// What each filter removed, in observations ("points") and tracks.
 struct FilterCounts {

@@ -19,7 +19,7 @@ class FeatureStream {
 
   /// The frame's six summed-area tables (structure_feature_names() order; CV_64FC1, (H+1) x (W+1)),
   /// valid until the next push.
-  const std::vector<cv::Mat>& push(const StreamFrame& frame);
+  const std::vector<cv::Mat>& push(const frontend::StreamFrame& frame);
 
  private:
   cv::Size size_;
