@@ -2,6 +2,7 @@
 // extract_features, run-experiment's extraction keys; and the one place that turns what the user chose
 // (a tracker, keypoints, "auto") into the two front ends' options.
 #include "smseg/common/options.hpp"
+#include "smseg/sfm/sfm_options.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 
@@ -95,44 +96,6 @@ void declare_tracks_and_motion(options::Table<E>& t) {
       .checked_as("sfm.camera_height");
 }
 
-void declare_sfm(options::Table<E>& t) {
-  t.optional_number("focal", "--focal",
-                    "sfm: focal length in pixels (default: the manifest's fx, else estimated by self-calibration, "
-                    "else the image width)",
-                    +[](E& o) -> std::optional<double>& { return o.sfm.focal; }, 1.0, 1e6)
-      .checked_as("sfm.focal");
-  t.number("match_radius", "--match-radius",
-           "sfm, descriptors: match candidates within this many pixels; 0 = the whole image (wide baselines)",
-           +[](E& o) -> double& { return o.sfm.match_radius_px; }, 0.0, 1e5)
-      .checked_as("sfm.match_radius_px");
-  t.number("lowe_ratio", "--lowe-ratio", "sfm, descriptors: Lowe's ratio test, e.g. 0.8 for wide baselines; 0 = off",
-           +[](E& o) -> double& { return o.sfm.lowe_ratio; }, 0.0, 0.999999)
-      .checked_as("sfm.lowe_ratio");
-  t.number("epipolar_ratio", "--epipolar-ratio",
-           "sfm, descriptors: match each verified pair again along its epipolar lines, with this ratio test;\n"
-           "0 = off",
-           +[](E& o) -> double& { return o.sfm.epipolar_ratio; }, 0.0, 0.999999)
-      .checked_as("sfm.epipolar_ratio");
-  t.number("map_window", "--map-window",
-           "sfm, descriptors: also match each frame's keypoints to the 3D points of this many frames before\n"
-           "it (joins tracks broken by a missed match); 0 = off",
-           +[](E& o) -> int& { return o.sfm.map_window; }, 0, 30)
-      .checked_as("sfm.map_window");
-  t.number("reprojection_threshold", "--reprojection-threshold",
-           "sfm: inlier threshold of PnP, triangulation and the final filter, pixels",
-           +[](E& o) -> double& { return o.sfm.reprojection_threshold_px; }, 1e-3, 1e3)
-      .checked_as("sfm.reprojection_threshold_px");
-  t.number("keyframe_motion", "--keyframe-motion",
-           "sfm: median track motion since the last key frame that makes a key frame, pixels",
-           +[](E& o) -> double& { return o.sfm.keyframe_motion_px; }, 1e-3, 1e4)
-      .checked_as("sfm.keyframe_motion_px");
-  t.number("ba_window", "--ba-window", "sfm: key frames in the local bundle adjustment",
-           +[](E& o) -> int& { return o.sfm.ba_window; }, 3, 1000)
-      .checked_as("sfm.ba_window");
-  t.number("sfm_seed", "--seed", "sfm: RANSAC seed", +[](E& o) -> std::uint64_t& { return o.sfm.seed; },
-           std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max());
-}
-
 }  // namespace
 
 const options::Table<ExtractOptions>& extract_options_table() {
@@ -142,7 +105,7 @@ const options::Table<ExtractOptions>& extract_options_table() {
     options::Table<E> t("extract_features", kCommandLine | kConfig | kPython);
     declare_choices(t);
     declare_tracks_and_motion(t);
-    declare_sfm(t);
+    t.include(sfm::sfm_options_table(), +[](E& o) -> sfm::SfmOptions& { return o.sfm; });
     t.include(feature_options_table(), +[](E& o) -> FeatureOptions& { return o.features; });
     // What a run does, not how its stacks are made: neither recorded nor in configs.
     t.flag("force", "--force", "rewrite frames already done (and a work folder made with other options)",
