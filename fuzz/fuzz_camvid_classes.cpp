@@ -6,5 +6,5 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace smseg;
   const auto file = fuzz::write_temp("classes.csv", fuzz::as_bytes(data, size));
-  return fuzz::run_reader([&] { features::read_camvid_classes(file); });
+  return fuzz::run_reader([&] { sequence::read_camvid_classes(file); });
 }

@@ -32,7 +32,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace smseg;
   const fs::path dir = camvid_dir();
   fuzz::write_temp("camvid/frames.csv", fuzz::as_bytes(data, size));
-  features::CamvidImportOptions options;
+  sequence::CamvidImportOptions options;
   options.splits = {"train"};
-  return fuzz::run_reader([&] { features::import_camvid(dir, fuzz::temp_dir() / "imported", options); });
+  return fuzz::run_reader([&] { sequence::import_camvid(dir, fuzz::temp_dir() / "imported", options); });
 }

@@ -8,5 +8,5 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace smseg;
   if (size < 1) return 0;
   const auto file = fuzz::write_temp(data[0] % 2 == 0 ? "cloud.pcd" : "cloud.ply", fuzz::as_bytes(data + 1, size - 1));
-  return fuzz::run_reader([&] { features::read_coloured_cloud(file); });
+  return fuzz::run_reader([&] { cloud::read_coloured_cloud(file); });
 }

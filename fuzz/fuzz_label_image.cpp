@@ -7,8 +7,8 @@
 
 namespace {
 
-smseg::features::Sequence camvid_like_sequence(bool rgb, int width, int height) {
-  using namespace smseg::features;
+smseg::sequence::Sequence camvid_like_sequence(bool rgb, int width, int height) {
+  using namespace smseg::sequence;
   Sequence seq;
   seq.root = smseg::fuzz::temp_dir();
   seq.manifest = seq.root / kManifestName;
@@ -35,7 +35,7 @@ smseg::features::Sequence camvid_like_sequence(bool rgb, int width, int height) 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace smseg;
   if (size < 3) return 0;
-  const features::Sequence seq = camvid_like_sequence(data[0] % 2 == 1, 1 + data[1] % 64, 1 + data[2] % 64);
+  const sequence::Sequence seq = camvid_like_sequence(data[0] % 2 == 1, 1 + data[1] % 64, 1 + data[2] % 64);
   fuzz::write_temp("label.png", fuzz::as_bytes(data + 3, size - 3));
   return fuzz::run_reader([&] { seq.load_labels(0); });
 }

@@ -8,9 +8,10 @@
 namespace {
 
 /// A work folder of one 4x3 frame with two features, whose grey image file is valid.
-const smseg::features::StackManifest& work_folder() {
-  static const smseg::features::StackManifest manifest = [] {
-    using namespace smseg::features;
+const smseg::stacks::StackManifest& work_folder() {
+  static const smseg::stacks::StackManifest manifest = [] {
+    using namespace smseg::sequence;
+    using namespace smseg::stacks;
     StackManifest m;
     m.work = smseg::fuzz::temp_dir() / "work";
     m.size = cv::Size(4, 3);
@@ -30,8 +31,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   using namespace smseg;
   const auto bytes = fuzz::as_bytes(data, size);
   const auto depth = fuzz::write_temp("depth.npy", bytes);
-  fuzz::run_reader([&] { features::read_npy_f32(depth); });
-  const features::StackManifest& m = work_folder();
-  fuzz::write_temp(features::sat_path(m.work, 0).lexically_relative(fuzz::temp_dir()).string(), bytes);
-  return fuzz::run_reader([&] { features::FrameStack::open(m, 0, false); });
+  fuzz::run_reader([&] { sequence::read_npy_f32(depth); });
+  const stacks::StackManifest& m = work_folder();
+  fuzz::write_temp(stacks::sat_path(m.work, 0).lexically_relative(fuzz::temp_dir()).string(), bytes);
+  return fuzz::run_reader([&] { stacks::FrameStack::open(m, 0, false); });
 }

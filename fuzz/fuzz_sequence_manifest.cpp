@@ -6,5 +6,5 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace smseg;
   const auto manifest = fuzz::write_temp("sequence/sequence.json", fuzz::as_bytes(data, size));
-  return fuzz::run_reader([&] { features::load_sequence(manifest.parent_path()); });
+  return fuzz::run_reader([&] { sequence::load_sequence(manifest.parent_path()); });
 }

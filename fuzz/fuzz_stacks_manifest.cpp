@@ -6,5 +6,5 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace smseg;
   const auto manifest = fuzz::write_temp("work/stacks.json", fuzz::as_bytes(data, size));
-  return fuzz::run_reader([&] { features::load_stack_manifest(manifest.parent_path()); });
+  return fuzz::run_reader([&] { stacks::load_stack_manifest(manifest.parent_path()); });
 }

@@ -6,5 +6,5 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   using namespace smseg;
   const auto file = fuzz::write_temp("tracks.json", fuzz::as_bytes(data, size));
-  return fuzz::run_reader([&] { features::read_tracks(file); });
+  return fuzz::run_reader([&] { frontend::read_tracks(file); });
 }

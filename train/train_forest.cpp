@@ -59,10 +59,10 @@ std::vector<std::string> task_args(int argc, char** argv) {
 /// Frames without a tracked point teach the trees nothing but the class prior: with none in any
 /// training frame (a camera that does not move, blank frames) the forest would be single leaves, so
 /// training stops; with some, a warning names them.
-void check_points(const smseg::features::StackSet& set, bool quiet) {
-  const auto empty = smseg::features::frames_without_points(set);
+void check_points(const smseg::stacks::StackSet& set, bool quiet) {
+  const auto empty = smseg::stacks::frames_without_points(set);
   if (empty.empty()) return;
-  const std::string which = smseg::features::frames_without_points_message(set, empty);
+  const std::string which = smseg::stacks::frames_without_points_message(set, empty);
   if (empty.size() == set.dataset.frames.size())
     throw smseg::Error("", "", which + ": no training frame holds a tracked point (a camera that does not move? blank "
                                        "frames?), so there is nothing to learn; no forest written");
@@ -142,10 +142,10 @@ std::optional<smseg::forest::TreeRange> check_training_options(Args& a, const sm
 }
 
 /// The training frames of the work folders, checked for tracked points.
-smseg::features::StackSet open_training_stacks(const Args& a) {
+smseg::stacks::StackSet open_training_stacks(const Args& a) {
   using namespace smseg;
-  const auto range = features::FrameRange::parse(a.frames, "--train-frames");
-  features::StackSet set = features::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
+  const auto range = stacks::FrameRange::parse(a.frames, "--train-frames");
+  stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
                                                  true, smseg::split_comma_list(a.features_opt));
   check_points(set, a.quiet);
   if (!a.quiet)
@@ -189,13 +189,13 @@ int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   if (!a.on_slurm) one_writer.emplace(a.out, training_inputs(a));
   if (!a.merge.empty()) return merge_parts(a.merge, a.works, a.tree_range, a.on_slurm, a.out);
   const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
-  const features::StackSet set = open_training_stacks(a);
+  const stacks::StackSet set = open_training_stacks(a);
   const std::string on_frames = "on " + std::to_string(set.dataset.frames.size()) + " frames";
   if (a.on_slurm) return train_on_slurm(a, on_frames, argc, argv);
   if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
   if (trees) {
     const forest::Forest part = forest::train_forest_trees(set.dataset, a.p, *trees);
-    forest::save_forest_part(part, *trees, a.out, features::training_data_record(set));
+    forest::save_forest_part(part, *trees, a.out, stacks::training_data_record(set));
     return report(part, "trees " + trees->to_string() + " of " + std::to_string(a.p.M) + " " + on_frames, a.out);
   }
   return save_and_report(forest::train_forest(set.dataset, a.p), a.out, on_frames);

@@ -58,7 +58,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 /// Where each name is among the manifest's features; Error naming the stacks.json otherwise.
-std::vector<int> feature_indices(const features::StackManifest& m, const std::vector<std::string>& names,
+std::vector<int> feature_indices(const stacks::StackManifest& m, const std::vector<std::string>& names,
                                  const std::string& who) {
   std::vector<int> idx;
   for (const auto& n : names) {
@@ -80,7 +80,7 @@ struct OutOfFold {
 
 OutOfFold train_fold_forests(const forest::Forest& forest, const std::vector<fs::path>& works,
                              const ContextOptions& options) {
-  const features::StackSet set = features::open_stacks(works, options.frames, true, true, forest.features);
+  const stacks::StackSet set = stacks::open_stacks(works, options.frames, true, true, forest.features);
   const std::vector<int> fold = contiguous_folds(set.dataset.frames.size(), options.folds);
   OutOfFold oof;
   oof.frames_per_fold.assign(options.folds, 0);
@@ -105,12 +105,12 @@ OutOfFold train_fold_forests(const forest::Forest& forest, const std::vector<fs:
 }
 
 /// One frame of the output: the kept features' tables as they are, then the context channels' tables.
-std::vector<cv::Mat> output_tables(const features::FrameStack& stack, const std::vector<int>& keep,
+std::vector<cv::Mat> output_tables(const stacks::FrameStack& stack, const std::vector<int>& keep,
                                    const forest::Classifier& classifier, const forest::FrameData& input, int trees) {
   std::vector<cv::Mat> sats;
   for (int f : keep)  // borrowed: write_frame_stack only reads them
     sats.emplace_back(input.height + 1, input.width + 1, CV_64FC1, const_cast<double*>(stack.sat(f)));
-  for (const cv::Mat& r : posterior_rasters(classifier, input, trees)) sats.push_back(features::summed_area_table(r));
+  for (const cv::Mat& r : posterior_rasters(classifier, input, trees)) sats.push_back(stacks::summed_area_table(r));
   return sats;
 }
 
@@ -128,17 +128,17 @@ Json context_record(const fs::path& forest_file, const fs::path& source, const C
 /// A work folder to write: its manifest and where the forest's and the kept features are in its tables.
 struct Source {
   fs::path work;
-  features::StackManifest manifest;
+  stacks::StackManifest manifest;
   std::vector<int> reads, kept;
 };
 
 /// Every check before any work: the forest fits each folder, each has the features read and kept, and a
 /// frame inside the range.
 std::vector<Source> open_sources(const forest::Forest& forest, const std::vector<fs::path>& works,
-                                 const std::vector<std::string>& keep, const features::FrameRange& frames) {
+                                 const std::vector<std::string>& keep, const stacks::FrameRange& frames) {
   std::vector<Source> sources;
   for (const auto& w : works) {
-    Source s{w, features::load_stack_manifest(w), {}, {}};
+    Source s{w, stacks::load_stack_manifest(w), {}, {}};
     check_forest_fits(forest, s.manifest);
     s.reads = feature_indices(s.manifest, forest.features, "the forest reads it");
     s.kept = feature_indices(s.manifest, keep, "--features keeps it");
@@ -176,8 +176,8 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
   const int trees = static_cast<int>(forest.trees.size());
   for (std::size_t w = 0; w < sources.size(); ++w) {
     const Source& src = sources[w];
-    const features::StackManifest& m = src.manifest;
-    features::StackManifest out = m;
+    const stacks::StackManifest& m = src.manifest;
+    stacks::StackManifest out = m;
     out.work = outs[w];
     out.features = keep;
     out.features.insert(out.features.end(), context.begin(), context.end());
@@ -190,7 +190,7 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
       progress.tick();
       if (!options.frames.contains(f)) continue;
       const bool labelled = m.is_labelled(f);
-      const features::FrameStack stack = features::FrameStack::open(m, f, labelled);
+      const stacks::FrameStack stack = stacks::FrameStack::open(m, f, labelled);
       forest::FrameData input = stack.view();
       input.sats.clear();
       for (int i : src.reads) input.sats.push_back(stack.sat(i));
@@ -199,13 +199,13 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
       const forest::Classifier& classifier = out_of_fold ? by_fold[fold->second] : whole;
       const cv::Mat gray(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.gray()));
       const cv::Mat labels = labelled ? cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.labels())) : cv::Mat();
-      features::write_frame_stack(out.work, f, output_tables(stack, src.kept, classifier, input, trees), gray, labels);
+      stacks::write_frame_stack(out.work, f, output_tables(stack, src.kept, classifier, input, trees), gray, labels);
       out.frames.push_back(f);
       if (labelled) out.labelled_frames.push_back(f);
       ++report.frames_written;
       report.out_of_fold_frames += out_of_fold;
     }
-    features::save_stack_manifest(out);
+    stacks::save_stack_manifest(out);
   }
   report.label_seconds = seconds_since(t1);
   return report;

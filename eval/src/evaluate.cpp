@@ -262,7 +262,7 @@ cv::Mat label_frame(const forest::Classifier& classifier, const forest::FrameDat
   return labels;
 }
 
-void check_forest_fits(const forest::Forest& forest, const features::StackManifest& m) {
+void check_forest_fits(const forest::Forest& forest, const stacks::StackManifest& m) {
   forest::check_compatible(forest, m.classes, forest.features, m.manifest_path());
   if (forest.width != m.size.width || forest.height != m.size.height)
     throw Error(m.manifest_path().string(), "image_size",
@@ -270,7 +270,7 @@ void check_forest_fits(const forest::Forest& forest, const features::StackManife
                     ", the forest was trained on " + std::to_string(forest.width) + "x" + std::to_string(forest.height));
 }
 
-void check_forest_fits(const forest::Forest& forest, const features::StackSet& set) {
+void check_forest_fits(const forest::Forest& forest, const stacks::StackSet& set) {
   check_forest_fits(forest, set.manifests.front());
 }
 
@@ -279,10 +279,10 @@ namespace {
 /// Frames without a tracked point are labelled from the forest's class prior alone: scores on them say
 /// nothing of the features. None with a point stops the run (a camera that does not move, blank frames);
 /// some without: returned as a warning for the user (empty when every frame has points).
-std::string check_points(const features::StackSet& set) {
-  const auto empty = features::frames_without_points(set);
+std::string check_points(const stacks::StackSet& set) {
+  const auto empty = stacks::frames_without_points(set);
   if (empty.empty()) return {};
-  const std::string which = features::frames_without_points_message(set, empty);
+  const std::string which = stacks::frames_without_points_message(set, empty);
   if (empty.size() == set.dataset.frames.size())
     throw Error("", "", which + ": no test frame holds a tracked point (a camera that does not move? blank frames?), "
                                 "so the scores would say nothing of the forest");
@@ -300,7 +300,7 @@ std::size_t frames_in_flight(const EvalOptions& opt) {
 
 /// Labels frames [first, first + count) of the set (fewer at the end), in parallel: labels[k] and
 /// times[k] for frame first + k. Each frame's labels are what label_frame gives it alone.
-void label_batch(const forest::Classifier& classifier, const features::StackSet& set, const EvalOptions& opt,
+void label_batch(const forest::Classifier& classifier, const stacks::StackSet& set, const EvalOptions& opt,
                  std::size_t first, std::size_t count, std::vector<cv::Mat>& labels, std::vector<LabelTimes>& times) {
   const std::size_t n = std::min(count, set.stacks.size() - first);
   labels.assign(n, cv::Mat());
@@ -315,11 +315,11 @@ void label_batch(const forest::Classifier& classifier, const features::StackSet&
 
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
   opt.validate();
-  const features::StackSet set = features::open_stacks(works, opt.frames, true, true, forest.features);
+  const stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
   return evaluate(forest, set, works, opt);
 }
 
-EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set, const std::vector<fs::path>& works,
+EvalResult evaluate(const forest::Forest& forest, const stacks::StackSet& set, const std::vector<fs::path>& works,
                     const EvalOptions& opt) {
   opt.validate();
   check_forest_fits(forest, set);
@@ -330,9 +330,9 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
   const int C = static_cast<int>(forest.classes.size());
 
   // Pictures need the sequences (input images, class colours).
-  std::vector<std::optional<features::Sequence>> sequences(set.manifests.size());
+  std::vector<std::optional<sequence::Sequence>> sequences(set.manifests.size());
   if (!opt.pictures.empty())
-    for (std::size_t k = 0; k < set.manifests.size(); ++k) sequences[k] = features::load_sequence(set.manifests[k].sequence);
+    for (std::size_t k = 0; k < set.manifests.size(); ++k) sequences[k] = sequence::load_sequence(set.manifests[k].sequence);
 
   EvalResult result;
   result.frames_without_points = without_points;
@@ -369,15 +369,15 @@ EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set,
     result.frames.push_back(std::move(fr));
 
     if (!opt.pictures.empty()) {
-      const features::Sequence& seq = *sequences[work_index];
+      const sequence::Sequence& seq = *sequences[work_index];
       const cv::Mat input = seq.load_left(frame);
-      const cv::Mat coloured = features::colour_labels(predicted, seq);
-      const cv::Mat truth_coloured = features::colour_labels(truth, seq);
+      const cv::Mat coloured = sequence::colour_labels(predicted, seq);
+      const cv::Mat truth_coloured = sequence::colour_labels(truth, seq);
       const std::string base = (set.manifests.size() > 1 ? seq.name + "_" : std::string()) + stem(frame);
-      features::write_image_atomic(opt.pictures / (base + "_labels.png"), coloured);
-      features::write_image_atomic(opt.pictures / (base + "_overlay.png"), overlay(input, coloured));
-      features::write_image_atomic(opt.pictures / (base + "_error.png"), error_map(input, truth, predicted));
-      features::write_image_atomic(opt.pictures / (base + "_montage.png"),
+      sequence::write_image_atomic(opt.pictures / (base + "_labels.png"), coloured);
+      sequence::write_image_atomic(opt.pictures / (base + "_overlay.png"), overlay(input, coloured));
+      sequence::write_image_atomic(opt.pictures / (base + "_error.png"), error_map(input, truth, predicted));
+      sequence::write_image_atomic(opt.pictures / (base + "_montage.png"),
                                    side_by_side({input, truth_coloured, coloured}));
     }
     progress.tick();

@@ -200,8 +200,8 @@ class Pool {
 
 // One energy and its solver: the whole frame's (no label window) or one band's.
 struct SmoothCache {
-  features::PottsEnergy e;
-  features::ExpansionSolver solver;
+  graphcut::PottsEnergy e;
+  graphcut::ExpansionSolver solver;
   std::vector<int> labelling;
   // Label window only: per pixel of the band, its energy node (-1: held); per node, its pixel and the
   // weight of its edges to other nodes.
@@ -220,7 +220,7 @@ struct WindowCache {
 
 /// The whole frame's energy: a node per pixel, an edge per neighbour pair.
 void fill_pixel_energy(std::span<const float> dists, std::size_t C, const cv::Mat& image, const SmoothOptions& opt,
-                       double beta, features::PottsEnergy& e) {
+                       double beta, graphcut::PottsEnergy& e) {
   const std::size_t n = image.total();
   const double cap = -std::log(opt.p_min);
   e.nodes = static_cast<int>(n);
@@ -372,7 +372,7 @@ void fill_band_energy(const WindowFrame& f, Band band, const std::uint8_t* start
     const std::size_t r = std::size_t(i) - first;
     return r < count ? k.node_of[r] : -1;
   };
-  features::PottsEnergy& e = k.e;
+  graphcut::PottsEnergy& e = k.e;
   const std::size_t nodes = k.pixel_of.size();
   e.nodes = static_cast<int>(nodes);
   e.labels = static_cast<int>(C);
@@ -420,10 +420,10 @@ void fill_band_energy(const WindowFrame& f, Band band, const std::uint8_t* start
 
 /// Alpha-expansion over one band from `start` (every pixel's label in it is within its window); the
 /// band's nodes' labels go to `out`, which holds `start` elsewhere.
-features::ExpansionReport solve_band(const WindowFrame& f, Band band, const std::uint8_t* start, std::uint8_t* out,
+graphcut::ExpansionReport solve_band(const WindowFrame& f, Band band, const std::uint8_t* start, std::uint8_t* out,
                                      SmoothCache& k) {
   fill_band_energy(f, band, start, k);
-  const features::ExpansionReport r = k.solver.solve(k.e, k.labelling, {.max_cycles = f.opt.cycles});
+  const graphcut::ExpansionReport r = k.solver.solve(k.e, k.labelling, {.max_cycles = f.opt.cycles});
   for (std::size_t v = 0; v < k.pixel_of.size(); ++v) out[k.pixel_of[v]] = static_cast<std::uint8_t>(k.labelling[v]);
   return r;
 }
@@ -504,7 +504,7 @@ std::vector<Band> seams_of(const std::vector<Band>& bands, int reach) {
 void solve_bands(const WindowFrame& f, const std::vector<Band>& bands, const std::uint8_t* start, std::uint8_t* out,
                  SmoothReport& rep) {
   static Pool<SmoothCache> pool;
-  std::vector<features::ExpansionReport> reports(bands.size());
+  std::vector<graphcut::ExpansionReport> reports(bands.size());
   tbb::parallel_for(std::size_t(0), bands.size(), [&](std::size_t b) {
     const auto k = pool.borrow();
     reports[b] = solve_band(f, bands[b], start, out, *k);
@@ -569,7 +569,7 @@ cv::Mat smooth_labels(std::span<const float> dists, int classes, const cv::Mat& 
     fill_pixel_energy(dists, C, image, opt, rep.beta, k->e);
     rep.allowed_labels = std::int64_t(n * C);
     k->labelling.clear();  // the solver starts from the MAP labels
-    const features::ExpansionReport r = k->solver.solve(k->e, k->labelling, {.max_cycles = opt.cycles});
+    const graphcut::ExpansionReport r = k->solver.solve(k->e, k->labelling, {.max_cycles = opt.cycles});
     out.create(image.rows, image.cols, CV_8UC1);
     for (std::size_t i = 0; i < n; ++i) out.data[i] = static_cast<std::uint8_t>(k->labelling[i]);
     rep.energy_before = r.initial_energy;

@@ -14,15 +14,15 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-features::FeatureOptions causal_features() {
-  features::FeatureOptions f;
+stacks::FeatureOptions causal_features() {
+  stacks::FeatureOptions f;
   f.causal = true;
   return f;
 }
 
 // Where each of the forest's features is in the stream's stack (structure_feature_names order).
 std::vector<int> feature_tables(const forest::Forest& forest, const std::string& forest_file) {
-  const auto& names = features::structure_feature_names();
+  const auto& names = stacks::structure_feature_names();
   std::vector<int> tables;
   for (const std::string& f : forest.features) {
     const auto it = std::find(names.begin(), names.end(), f);
@@ -49,7 +49,7 @@ std::vector<int> checked_feature_tables(const forest::Forest& forest, const std:
 }  // namespace
 
 StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& forest_file,
-                               const features::Calibration& calibration, std::optional<double> camera_height,
+                               const sequence::Calibration& calibration, std::optional<double> camera_height,
                                cv::Size size, const StreamOptions& options, const std::string& source)
     : table_of_feature_(checked_feature_tables(forest, forest_file, size, options, source)),
       classifier_(options.eval.trees > 0 ? first_trees(forest, options.eval.trees) : forest),
@@ -60,11 +60,11 @@ StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& 
   eval_.validate();
 }
 
-features::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& left, const cv::Mat& right) const {
+frontend::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& left, const cv::Mat& right) const {
   return front_end_.prepare(left, right);
 }
 
-cv::Mat StreamLabeller::label(features::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
+cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
   const cv::Mat left = pair.left;
   if (left.size() != size_)
     throw Error("", "frame " + std::to_string(frame_index),
@@ -94,7 +94,7 @@ int run_stream(StreamLabeller& labeller, const StreamSource& source, const Strea
   struct Item {
     StreamInput input;
     double read_ms = 0;
-    features::StereoFrontEndStream::Prepared prepared;
+    frontend::StereoFrontEndStream::Prepared prepared;
   };
   using ItemPtr = std::shared_ptr<Item>;
   int frames = 0;

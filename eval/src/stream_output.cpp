@@ -47,7 +47,7 @@ std::string stem(int frame) {
 
 }  // namespace
 
-SequenceFrames::SequenceFrames(const features::Sequence& seq, const features::FrameRange& range) : seq_(seq) {
+SequenceFrames::SequenceFrames(const sequence::Sequence& seq, const stacks::FrameRange& range) : seq_(seq) {
   next_ = std::max(0, range.begin);
   end_ = std::min(seq.frame_count(), range.end);
   if (next_ >= end_)
@@ -129,7 +129,7 @@ double StageLog::latency_quantile(double q) const {
   return v[std::min(v.size() - 1, static_cast<std::size_t>(q * static_cast<double>(v.size())))];
 }
 
-StreamWriter::StreamWriter(const fs::path& staging, const fs::path& out, const features::Sequence& seq,
+StreamWriter::StreamWriter(const fs::path& staging, const fs::path& out, const sequence::Sequence& seq,
                            const StreamOutputOptions& options)
     : staging_(staging), seq_(seq), options_(options) {
   if (options.labels) fs::create_directories(staging / "labels");
@@ -143,11 +143,11 @@ StreamWriter::StreamWriter(const fs::path& staging, const fs::path& out, const f
 bool StreamWriter::write(const StreamInput& pair, const cv::Mat& labels) {
   const std::string base = stem(pair.index);
   cv::Mat coloured;
-  if (options_.labels || colour_) coloured = features::colour_labels(labels, seq_);
-  if (options_.labels) features::write_image_atomic(staging_ / "labels" / (base + "_labels.png"), coloured);
+  if (options_.labels || colour_) coloured = sequence::colour_labels(labels, seq_);
+  if (options_.labels) sequence::write_image_atomic(staging_ / "labels" / (base + "_labels.png"), coloured);
   if (!colour_) return true;
   const cv::Mat over = overlay(pair.left_bgr, coloured);
-  if (options_.overlays) features::write_image_atomic(staging_ / "overlays" / (base + "_overlay.png"), over);
+  if (options_.overlays) sequence::write_image_atomic(staging_ / "overlays" / (base + "_overlay.png"), over);
   if (video_.isOpened()) video_.write(over);
   if (!options_.show) return true;
   cv::imshow("label-stream", over);
@@ -171,7 +171,7 @@ Json stream_summary(const StreamRun& run, const StreamOptions& options, const St
           {"votes", options.eval.votes},
           {"threads", run.threads},
           {"in_flight", run.in_flight},
-          {"front_end", features::front_end_options_to_json(options.front_end)},
+          {"front_end", frontend::front_end_options_to_json(options.front_end)},
           {"seconds", run.seconds},
           {"frames_per_second", n / run.seconds},
           {"latency_ms_median", log.latency_quantile(0.5)},

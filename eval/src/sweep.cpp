@@ -160,7 +160,7 @@ SweepReport run_sweep(const forest::Forest& forest, const std::string& forest_fi
     done.push_back(rec["value"].get<int>());
   }
 
-  const features::StackSet set = features::open_stacks(works, opt.frames, true, true, forest.features);
+  const stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
   check_forest_fits(forest, set);
   SweepReport report;
   for (int v : spec.values()) {

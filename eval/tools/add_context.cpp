@@ -81,7 +81,7 @@ int main(int argc, char** argv) {
   app.add_option("-o,--out", out, "output folder: OUT/<name of each WORK>/ and OUT/context.json")->required();
   return run_tool(app, argc, argv, threads, [&] {
     if (opt.folds == 1) throw UsageError("", "--folds", "is 1: out of fold needs at least 2 folds (0: no folds)");
-    opt.frames = features::FrameRange::parse(frames, "--frames");
+    opt.frames = stacks::FrameRange::parse(frames, "--frames");
     opt.keep = smseg::split_comma_list(keep);
     opt.progress = !quiet;
     const OutputLock one_writer(out, paths_of(works, {forest_file}));

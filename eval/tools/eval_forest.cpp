@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   app.add_option("-o,--out", out, "output folder")->required();
   return run_tool(app, argc, argv, threads, [&] {
     if (threads > 0) cv::setNumThreads(threads);  // SLIC runs on OpenCV's own thread pool
-    opt.frames = as_usage([&] { return features::FrameRange::parse(frames, "--test-frames"); });
+    opt.frames = as_usage([&] { return stacks::FrameRange::parse(frames, "--test-frames"); });
     opt.progress = !quiet;
     std::vector<eval::SweepSpec> specs;
     for (const auto& s : sweeps) specs.push_back(as_usage([&] { return eval::SweepSpec::parse(s, "--sweep"); }));

@@ -26,7 +26,7 @@ extern "C" void on_stop_signal(int) { g_stop = 1; }
 struct Args {
   std::string seq_dir, forest_file, out, frames = "0:", cameras, side_by_side;
   eval::StreamOptions opt;
-  features::ExtractOptions front_end;  // the stereo front end's part, resolved as extract-features does
+  stacks::ExtractOptions front_end;  // the stereo front end's part, resolved as extract-features does
   eval::StreamOutputOptions output;
   int threads = 0, max_frames = 0, in_flight = 3;
   bool no_labels = false, quiet = false;
@@ -55,7 +55,7 @@ void add_options(CLI::App& app, Args& a) {
       ->capture_default_str()
       ->check(options::in_range(1, 16));
   eval::eval_options_table().add_to(app, a.opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
-  features::extract_options_table().add_to(app, a.front_end,
+  stacks::extract_options_table().add_to(app, a.front_end,
                                            {"stereo", "num_disparities", "block_size", "keypoints", "max_keypoints",
                                             "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height"});
   app.add_flag("--no-labels", a.no_labels, "do not write OUT/labels/ (timing the rest alone)");
@@ -69,10 +69,10 @@ void add_options(CLI::App& app, Args& a) {
 }
 
 // Resolves and checks what the command line gave (UsageError); the frame range for a sequence folder.
-features::FrameRange validate(Args& a) {
-  if (a.front_end.front_end.stereo.method == features::StereoMethod::Given)
+stacks::FrameRange validate(Args& a) {
+  if (a.front_end.front_end.stereo.method == frontend::StereoMethod::Given)
     throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm or sgbm");
-  validate_options(features::extract_options_table().option_names(), [&] {
+  validate_options(stacks::extract_options_table().option_names(), [&] {
     a.front_end.resolve();
     a.front_end.front_end.validate();
   });
@@ -85,7 +85,7 @@ features::FrameRange validate(Args& a) {
   if (!video.empty() && fs::path(video).filename() != fs::path(video))
     throw UsageError("", "--overlay-video", "is a file name inside OUT, not a path: '" + video + "'");
   as_usage([&] { a.opt.eval.validate(); });
-  const features::FrameRange range = as_usage([&] { return features::FrameRange::parse(a.frames, "--frames"); });
+  const stacks::FrameRange range = as_usage([&] { return stacks::FrameRange::parse(a.frames, "--frames"); });
   if (!a.cameras.empty()) {
     const auto comma = a.cameras.find(',');
     if (comma == std::string::npos || comma == 0 || comma + 1 == a.cameras.size())
@@ -96,8 +96,8 @@ features::FrameRange validate(Args& a) {
   return range;
 }
 
-std::unique_ptr<eval::FrameSource> open_source(const Args& a, const features::Sequence& seq,
-                                               const features::FrameRange& range) {
+std::unique_ptr<eval::FrameSource> open_source(const Args& a, const sequence::Sequence& seq,
+                                               const stacks::FrameRange& range) {
   if (a.live())
     return std::make_unique<eval::VideoFrames>(a.side_by_side.empty() ? a.left_cam : a.side_by_side, a.right_cam,
                                                seq.size, a.max_frames);
@@ -107,10 +107,10 @@ std::unique_ptr<eval::FrameSource> open_source(const Args& a, const features::Se
 int label_stream(Args& a) {
   // OpenCV's video back ends log every failed attempt; the tool says what failed in one line.
   cv::utils::logging::setLogLevel(cv::utils::logging::LOG_LEVEL_SILENT);
-  const features::FrameRange range = validate(a);
+  const stacks::FrameRange range = validate(a);
   const OutputLock one_writer(a.out, {a.seq_dir, a.forest_file});
-  const features::Sequence seq = features::load_sequence(a.seq_dir);
-  if (!a.live() && seq.kind != features::SequenceKind::Stereo)
+  const sequence::Sequence seq = sequence::load_sequence(a.seq_dir);
+  if (!a.live() && seq.kind != sequence::SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind", "label-stream needs a stereo sequence; this one is mono");
   const forest::Forest forest = forest::load_forest(a.forest_file);
   eval::StreamLabeller labeller(forest, a.forest_file, seq.calibration, seq.camera_height, seq.size, a.opt,

@@ -32,7 +32,7 @@ namespace {
 struct Setup {
   forest::Forest forest;
   forest::SyntheticData synthetic;                 // synthetic mode: owns the frame
-  std::optional<features::StackSet> stacks;        // env mode: owns the mappings
+  std::optional<stacks::StackSet> stacks;        // env mode: owns the mappings
   forest::FrameData frame;
   int frame_index = 0;
   std::string source;
@@ -58,7 +58,7 @@ const Setup& setup() {
       x->forest = forest::load_forest(forest_file);
       const char* frame = std::getenv("SMSEG_BENCH_FRAME");
       x->frame_index = frame ? std::atoi(frame) : 0;
-      x->stacks = features::open_stacks({work}, features::FrameRange{x->frame_index, x->frame_index + 1}, false,
+      x->stacks = stacks::open_stacks({work}, stacks::FrameRange{x->frame_index, x->frame_index + 1}, false,
                                         false, x->forest.features);
       eval::check_forest_fits(x->forest, *x->stacks);
       x->frame = x->stacks->dataset.frames.front();
@@ -83,7 +83,7 @@ const Setup* setup_camvid() {
     auto* x = new Setup;
     x->forest = camvid_bench::val_forest();
     x->frame_index = 50;
-    x->stacks = features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false,
+    x->stacks = stacks::open_stacks({camvid_bench::val_work()}, stacks::FrameRange{50, 51}, false, false,
                                       x->forest.features);
     x->frame = x->stacks->dataset.frames.front();
     x->source = "CamVid val, forest Kt = 20000";

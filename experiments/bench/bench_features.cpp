@@ -16,7 +16,10 @@
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"
 
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::sfm;
+using namespace smseg::stacks;
 
 namespace {
 

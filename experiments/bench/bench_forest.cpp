@@ -31,7 +31,6 @@
 #include "smseg/forest/train.hpp"
 
 using namespace smseg::forest;
-namespace features = smseg::features;
 
 namespace {
 
@@ -232,7 +231,7 @@ double peak_rss_mb() {
 // Training a CamVid-size forest on CamVid val (101 frames). Args: threads, memory budget in MB.
 void BM_TrainCamVid(benchmark::State& state) {
   if (!camvid_available(state)) return;
-  const features::StackSet set = features::open_stacks({camvid_bench::val_work()}, features::FrameRange{}, true, true, {});
+  const smseg::stacks::StackSet set = smseg::stacks::open_stacks({camvid_bench::val_work()}, smseg::stacks::FrameRange{}, true, true, {});
   TrainParams p;
   p.K = 400;
   p.Kt = 20000;
@@ -253,8 +252,8 @@ BENCHMARK(BM_TrainCamVid)
 void BM_ClassifyFrameCamVid(benchmark::State& state) {
   if (!camvid_available(state)) return;
   static const Forest f = camvid_bench::val_forest();
-  static const features::StackSet set =
-      features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false, f.features);
+  static const smseg::stacks::StackSet set =
+      smseg::stacks::open_stacks({camvid_bench::val_work()}, smseg::stacks::FrameRange{50, 51}, false, false, f.features);
   const Classifier clf(f);
   const FrameData& frame = set.dataset.frames.front();
   std::vector<std::uint8_t> labels(static_cast<std::size_t>(frame.width) * frame.height);
@@ -314,8 +313,8 @@ void BM_Simd(benchmark::State& state, bool camvid, bool grid, const std::string&
   if (!camvid) return time_target(state, forest_k(400, false, 320), test_frame().data.frames[0], target, grid, threads);
   if (!camvid_available(state)) return;
   static const Forest f = camvid_bench::val_forest();
-  static const features::StackSet set =
-      features::open_stacks({camvid_bench::val_work()}, features::FrameRange{50, 51}, false, false, f.features);
+  static const stacks::StackSet set =
+      stacks::open_stacks({camvid_bench::val_work()}, stacks::FrameRange{50, 51}, false, false, f.features);
   time_target(state, f, set.dataset.frames.front(), target, grid, threads);
 }
 

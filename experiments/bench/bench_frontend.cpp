@@ -15,7 +15,8 @@
 #include "smseg/frontend/motion.hpp"
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
 
 namespace {
 

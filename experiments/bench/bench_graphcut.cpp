@@ -30,7 +30,7 @@ namespace {
 struct Setup {
   forest::Forest forest;
   forest::SyntheticData synthetic;
-  std::optional<features::StackSet> stacks;
+  std::optional<stacks::StackSet> stacks;
   forest::FrameData frame;
   std::vector<float> dists;
   cv::Mat gray;
@@ -51,7 +51,7 @@ void classify(Setup& x) {
 Setup* stack_setup(forest::Forest forest, const std::string& work, int f) {
   auto* x = new Setup;
   x->forest = std::move(forest);
-  x->stacks = features::open_stacks({work}, features::FrameRange{f, f + 1}, false, true, x->forest.features);
+  x->stacks = stacks::open_stacks({work}, stacks::FrameRange{f, f + 1}, false, true, x->forest.features);
   eval::check_forest_fits(x->forest, *x->stacks);
   x->frame = x->stacks->dataset.frames.front();
   x->source = work;
@@ -150,7 +150,7 @@ BENCHMARK(BM_SmoothFrameCamVid)->ArgName("window")->Arg(0)->Arg(2)->Arg(5)->Arg(
 // expansion move).
 void BM_GridMaxFlow(benchmark::State& state) {
   const int W = 320, H = 240;
-  features::FlowGraph g;
+  graphcut::FlowGraph g;
   std::uint64_t k = 1;
   auto next = [&k] {
     k = k * 6364136223846793005ull + 1442695040888963407ull;
@@ -165,7 +165,7 @@ void BM_GridMaxFlow(benchmark::State& state) {
       if (x + 1 < W) g.edges.push_back({y * W + x, y * W + x + 1, 1.0, 1.0});
       if (y + 1 < H) g.edges.push_back({y * W + x, (y + 1) * W + x, 1.0, 1.0});
     }
-  for (auto _ : state) benchmark::DoNotOptimize(features::max_flow(g));
+  for (auto _ : state) benchmark::DoNotOptimize(graphcut::max_flow(g));
 }
 BENCHMARK(BM_GridMaxFlow)->Unit(benchmark::kMillisecond)->UseRealTime();
 

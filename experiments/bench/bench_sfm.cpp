@@ -17,7 +17,9 @@
 
 namespace fs = std::filesystem;
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::sfm;
 
 namespace {
 

@@ -31,7 +31,7 @@ namespace {
 constexpr int kFrames = 60;
 
 struct Corridor {
-  features::Sequence seq;
+  sequence::Sequence seq;
   std::vector<cv::Mat> left, right;  // decoded once: the benchmark times the labelling, not PNG decoding
 };
 
@@ -42,14 +42,14 @@ const Corridor& corridor(int width, int height) {
   if (it != made.end()) return it->second;
   const fs::path dir = fs::path(SMSEG_BENCH_CACHE) / ("stream-corridor-" + std::to_string(width));
   if (!fs::exists(dir / "seq" / "sequence.json")) {
-    features::synth::SynthOptions so;
+    synth::SynthOptions so;
     so.frames = kFrames;
     so.width = width;
     so.height = height;
     so.label_every = 5;
-    features::synth::make_sequence(so, dir / "seq");
+    synth::make_sequence(so, dir / "seq");
   }
-  Corridor c{features::load_sequence(dir / "seq"), {}, {}};
+  Corridor c{sequence::load_sequence(dir / "seq"), {}, {}};
   for (int f = 0; f < c.seq.frame_count(); ++f) {
     c.left.push_back(c.seq.load_left_gray(f));
     c.right.push_back(c.seq.load_right_gray(f));
@@ -62,15 +62,15 @@ forest::Forest corridor_forest() {
   const fs::path dir = fs::path(SMSEG_BENCH_CACHE) / "stream-corridor-320";
   const Corridor& c = corridor(320, 240);
   if (fs::exists(dir / "forest.json")) return forest::load_forest(dir / "forest.json");
-  features::ExtractOptions eo;
+  stacks::ExtractOptions eo;
   eo.features.causal = true;
   eo.progress = false;
-  features::extract_features(c.seq, dir / "work", eo);
+  stacks::extract_features(c.seq, dir / "work", eo);
   forest::TrainParams p;
   p.K = 400;
   p.M = 7;
   const forest::Forest f =
-      forest::train_forest(features::open_stacks({dir / "work"}, {}, true, true, {}).dataset, p);
+      forest::train_forest(stacks::open_stacks({dir / "work"}, {}, true, true, {}).dataset, p);
   forest::save_forest(f, dir / "forest.json");
   return f;
 }
@@ -81,8 +81,8 @@ void stream_case(benchmark::State& state, const forest::Forest& forest, const Co
   eval::StreamOptions opt;
   opt.front_end.progress = false;
   if (state.range(0) == 1) {
-    opt.front_end.tracker = features::FrameTracker::Klt;
-    opt.front_end.tracking.detector = features::KeypointMethod::Gftt;
+    opt.front_end.tracker = frontend::FrameTracker::Klt;
+    opt.front_end.tracking.detector = frontend::KeypointMethod::Gftt;
   }
   opt.eval.grid = static_cast<int>(state.range(1));
   opt.eval.votes = 6;

@@ -29,12 +29,12 @@ inline constexpr const char* kValRun = "0016E5_07959-08159";
 inline fs::path val_work() {
   const fs::path work = kCache / "work";
   if (fs::exists(work / "stacks.json")) return work;
-  features::CamvidImportOptions opt;
+  sequence::CamvidImportOptions opt;
   opt.splits = {"val"};
-  features::import_camvid(kCamVid, kCache / "sequences", opt);
-  features::ExtractOptions ex;
+  sequence::import_camvid(kCamVid, kCache / "sequences", opt);
+  stacks::ExtractOptions ex;
   ex.progress = false;
-  features::extract_features(features::load_sequence(kCache / "sequences" / kValRun), work, ex);
+  stacks::extract_features(sequence::load_sequence(kCache / "sequences" / kValRun), work, ex);
   return work;
 }
 
@@ -42,7 +42,7 @@ inline fs::path val_work() {
 inline forest::Forest val_forest() {
   const fs::path file = kCache / "forest.json";
   if (fs::exists(file)) return forest::load_forest(file);
-  const features::StackSet set = features::open_stacks({val_work()}, features::FrameRange{}, true, true, {});
+  const stacks::StackSet set = stacks::open_stacks({val_work()}, stacks::FrameRange{}, true, true, {});
   forest::TrainParams p;
   p.K = 400;
   p.Kt = 20000;

@@ -35,7 +35,7 @@ const std::vector<std::string>& known_params() {
                                "stereo", "train_stereo", "test_stereo", "motion", "train_motion", "test_motion",
                                "tracker", "train_tracker", "test_tracker",
                                "causal", "train_causal", "test_causal"};
-    for (const auto& k : config_keys(features::extract_options_table()))
+    for (const auto& k : config_keys(stacks::extract_options_table()))
       for (const char* side : {"", "train_", "test_"}) n.push_back(side + k);
     for (const auto& k : config_keys(forest::train_params_table())) n.push_back(k);
     for (const auto& k : config_keys(eval::eval_options_table())) {
@@ -181,8 +181,8 @@ SequenceSource parse_source(const JsonView& v, const fs::path& base) {
     const JsonView o = v.at("synthetic");
     if (!o.json().is_object()) o.fail("expected an object of make-sequence options");
     auto& so = s.synth;
-    features::synth::synth_options_table().check_known(o, options::kConfig);
-    features::synth::synth_options_table().read(so, o, options::kConfig);
+    synth::synth_options_table().check_known(o, options::kConfig);
+    synth::synth_options_table().read(so, o, options::kConfig);
     try {
       so.validate();
     } catch (const Error& e) {
@@ -233,14 +233,14 @@ void read_sides(const Raw& raw, const Experiment& ex, Point& p) {
 // The frame ranges and the features the forest may use.
 void read_frames_and_features(const Raw& raw, const Experiment& ex, Point& p) {
   try {
-    p.train_frames = features::FrameRange::parse(raw.str("train_frames", "0:101"), "train_frames");
-    p.test_frames = features::FrameRange::parse(raw.str("test_frames", "110:"), "test_frames");
+    p.train_frames = stacks::FrameRange::parse(raw.str("train_frames", "0:101"), "train_frames");
+    p.test_frames = stacks::FrameRange::parse(raw.str("test_frames", "110:"), "test_frames");
   } catch (const Error& e) {
     rethrow_as_param(e, raw);
   }
   p.features = raw.names("features");
   for (const auto& f : p.features) {
-    const auto& known = features::structure_feature_names();
+    const auto& known = stacks::structure_feature_names();
     bool all_extracted = true;
     for (const auto& n : p.train) all_extracted &= ex.sequences.at(n).kind != SequenceSource::Kind::Work;
     if (all_extracted && std::find(known.begin(), known.end(), f) == known.end())
@@ -252,7 +252,7 @@ void read_frames_and_features(const Raw& raw, const Experiment& ex, Point& p) {
 FrontEnd side_front_end(const Raw& raw, const std::string& side) {
   const std::vector<std::string> stereo_methods{"bm", "sgbm"}, trackers{"klt", "descriptors"};
   std::vector<std::string> motions;  // the front ends' names (front_ends.hpp)
-  for (const features::FrontEnd* f : features::front_ends()) motions.emplace_back(f->name());
+  for (const stacks::FrontEnd* f : stacks::front_ends()) motions.emplace_back(f->name());
   FrontEnd fe;
   const std::string s = raw.has(side + "_stereo") ? side + "_stereo" : "stereo";
   const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
@@ -262,11 +262,11 @@ FrontEnd side_front_end(const Raw& raw, const std::string& side) {
   fe.motion = raw.choice(m, "stereo", motions);
   fe.tracker = raw.choice(t, "klt", trackers);
   fe.causal = raw.boolean(c, false);
-  features::ExtractOptions check;  // each value read once here, so that its error names where it was set
-  for (const auto& k : config_keys(features::extract_options_table())) {
+  stacks::ExtractOptions check;  // each value read once here, so that its error names where it was set
+  for (const auto& k : config_keys(stacks::extract_options_table())) {
     const std::string key = raw.has(side + "_" + k) ? side + "_" + k : k;
     if (!raw.get(key)) continue;
-    features::extract_options_table().find_on(k, options::kConfig)->read(check, raw.view(key));
+    stacks::extract_options_table().find_on(k, options::kConfig)->read(check, raw.view(key));
     fe.options[k] = *raw.get(key);
   }
   return fe;
@@ -351,7 +351,7 @@ json point_json(const Point& p, const Experiment& ex, const json& superpixels) {
   j.update(eval::eval_options_table().to_json(eo, options::kConfig));
   j["trees"] = eo.trees > 0 ? eo.trees : tp.M;  // the trees used
   // Extraction keys only where a side sets them: points of older configs keep their identity.
-  for (const auto& k : config_keys(features::extract_options_table())) {
+  for (const auto& k : config_keys(stacks::extract_options_table())) {
     if (!p.train_front_end.options.contains(k) && !p.test_front_end.options.contains(k)) continue;
     const auto side_value = [&](const std::vector<std::string>& names, const FrontEnd& fe) -> json {
       return any_extracted(ex, names) ? fe.options.value(k, json(nullptr)) : json(nullptr);
@@ -386,7 +386,7 @@ json Point::training_key() const {
   for (const char* key : {"train", "train_frames", "features", "train_stereo", "train_motion", "train_causal",
                           "train_tracker"})
     k[key] = json.at(key);
-  for (const auto& key : config_keys(features::extract_options_table()))
+  for (const auto& key : config_keys(stacks::extract_options_table()))
     if (json.contains("train_" + key)) k["train_" + key] = json.at("train_" + key);
   for (const auto& key : config_keys(forest::train_params_table())) k[key] = json.at(key);
   return k;

@@ -13,15 +13,15 @@
 
 namespace smseg::experiments {
 
-using features::StereoMethod;
-using features::StereoOptions;
+using frontend::StereoMethod;
+using frontend::StereoOptions;
 
 namespace {
 
 cv::Mat read_gray(const fs::path& p) {
   std::error_code ec;
   if (!fs::is_regular_file(p, ec)) throw Error(p.string(), "", "no such image");
-  return features::read_image_file(p, cv::IMREAD_GRAYSCALE);
+  return sequence::read_image_file(p, cv::IMREAD_GRAYSCALE);
 }
 
 std::string pct(double v) {
@@ -46,20 +46,20 @@ std::vector<std::string> scene_folders(const fs::path& images) {
 /// Every matcher on one scene, appended to e.rows.
 void evaluate_scene(StereoEvaluation& e, const std::string& scene, Progress& progress) {
   const fs::path images = fs::path(e.data) / "images", gt_dir = fs::path(e.data) / "groundtruth";
-  const features::MiddleburyCalib calib = features::read_middlebury_calib(images / scene / "calib.txt");
+  const frontend::MiddleburyCalib calib = frontend::read_middlebury_calib(images / scene / "calib.txt");
   const cv::Mat left = read_gray(images / scene / "im0.png");
   const cv::Mat right = read_gray(images / scene / "im1.png");
-  const cv::Mat gt = features::read_pfm(gt_dir / scene / "disp0GT.pfm");
+  const cv::Mat gt = frontend::read_pfm(gt_dir / scene / "disp0GT.pfm");
   const cv::Mat mask = read_gray(gt_dir / scene / "mask0nocc.png");
   if (gt.size() != left.size() || mask.size() != left.size() || right.size() != left.size())
     throw Error((gt_dir / scene).string(), "", "images, ground truth and mask differ in size");
   for (StereoOptions o : e.matchers) {
     o.num_disparities = (calib.ndisp + 15) / 16 * 16;
     const auto t0 = std::chrono::steady_clock::now();
-    const cv::Mat d = features::compute_disparity(left, right, o);
+    const cv::Mat d = frontend::compute_disparity(left, right, o);
     const double secs = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    e.rows.push_back({scene, features::stereo_method_name(o.method),
-                      features::score_disparity(d, gt, mask, e.threshold), secs});
+    e.rows.push_back({scene, frontend::stereo_method_name(o.method),
+                      frontend::score_disparity(d, gt, mask, e.threshold), secs});
     progress.tick();
   }
 }
@@ -113,7 +113,7 @@ std::vector<StereoOptions> stereo_matchers(const std::vector<std::string>& metho
   sgbm.speckle_window = bm.speckle_window;
   std::vector<StereoOptions> opts;
   for (const auto& m : methods) {
-    const StereoMethod sm = features::parse_stereo_method(m, "--methods");
+    const StereoMethod sm = frontend::parse_stereo_method(m, "--methods");
     if (sm == StereoMethod::Given) throw Error("", "--methods", "'given' has nothing to evaluate here");
     opts.push_back(sm == StereoMethod::BM ? bm : sgbm);
     opts.back().validate();
@@ -138,7 +138,7 @@ std::string stereo_eval_markdown(const StereoEvaluation& e) {
   std::ostringstream md;
   md << "| scene |";
   for (const auto& o : e.matchers)
-    md << " " << features::stereo_method_name(o.method) << " valid % | " << features::stereo_method_name(o.method)
+    md << " " << frontend::stereo_method_name(o.method) << " valid % | " << frontend::stereo_method_name(o.method)
        << " bad-" << e.threshold << " % |";
   md << "\n|---|";
   for (std::size_t i = 0; i < e.matchers.size(); ++i) md << "---:|---:|";
@@ -164,7 +164,7 @@ Json stereo_eval_json(const StereoEvaluation& e) {
   Json methods_j = Json::array();
   for (std::size_t m = 0; m < e.matchers.size(); ++m) {
     const auto& o = e.matchers[m];
-    methods_j.push_back({{"method", features::stereo_method_name(o.method)},
+    methods_j.push_back({{"method", frontend::stereo_method_name(o.method)},
                          {"block_size", o.block_size},
                          {"texture_threshold", o.texture_threshold},
                          {"uniqueness_ratio", o.uniqueness_ratio},

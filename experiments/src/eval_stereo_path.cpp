@@ -12,7 +12,8 @@
 
 namespace smseg::experiments {
 
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
 
 namespace {
 

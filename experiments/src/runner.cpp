@@ -57,18 +57,18 @@ class FileLock {
   int fd_ = -1;
 };
 
-json synth_json(const features::synth::SynthOptions& o) {
-  return features::synth::synth_options_table().to_json(o, options::kFile);
+json synth_json(const synth::SynthOptions& o) {
+  return synth::synth_options_table().to_json(o, options::kFile);
 }
 
-features::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
-  features::ExtractOptions o;
-  features::extract_options_table().read(o, JsonView(fe.options, "experiment config"), options::kConfig);
+stacks::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
+  stacks::ExtractOptions o;
+  stacks::extract_options_table().read(o, JsonView(fe.options, "experiment config"), options::kConfig);
   o.resolve();
-  o.front_end.stereo.method = features::parse_stereo_method(fe.stereo, "stereo");
+  o.front_end.stereo.method = frontend::parse_stereo_method(fe.stereo, "stereo");
   // A config's tracker is the stereo front end's (the SfM keeps its own "auto"), with its keypoints.
-  o.front_end.tracker = features::parse_frame_tracker(fe.tracker, "tracker");
-  if (o.keypoints == "auto") o.front_end.tracking.detector = features::default_keypoints(o.front_end.tracker);
+  o.front_end.tracker = frontend::parse_frame_tracker(fe.tracker, "tracker");
+  if (o.keypoints == "auto") o.front_end.tracking.detector = frontend::default_keypoints(o.front_end.tracker);
   o.motion = fe.motion;
   o.features.causal = fe.causal;
   o.progress = progress;
@@ -103,32 +103,32 @@ fs::path prepare_sequence(const std::string& name, const SequenceSource& source,
   }
   const json key = synth_json(source.synth);
   const fs::path dir = cache / "sequences" / (safe_name(source.synth.scene) + "-" + json_hash(key));
-  if (fs::exists(dir / features::kManifestName)) return dir;
+  if (fs::exists(dir / sequence::kManifestName)) return dir;
   // No manifest: none yet, or a run was killed while making it (the manifest is written last). Its
   // images and temporaries go; the sequence is made again, the same bytes for the same options.
   fs::remove_all(dir);
   if (progress) std::cerr << "run-experiment: generating sequence \"" << name << "\" (" << key.dump() << ") in " << dir.string() << "\n";
-  features::synth::SynthOptions o = source.synth;
+  synth::SynthOptions o = source.synth;
   o.progress = progress;
-  features::synth::make_sequence(o, dir);  // writes sequence.json last
+  synth::make_sequence(o, dir);  // writes sequence.json last
   return dir;
 }
 
 fs::path prepare_work(const std::string& name, const SequenceSource& source, const FrontEnd& fe, const fs::path& cache,
                       bool progress) {
   if (source.kind == SequenceSource::Kind::Work) {
-    features::load_stack_manifest(source.path);  // validates it
+    stacks::load_stack_manifest(source.path);  // validates it
     return source.path;
   }
   FileLock lock(cache / "lock");
   const fs::path seq_dir = prepare_sequence(name, source, cache, progress);
-  const features::Sequence seq = features::load_sequence(seq_dir);
-  const features::ExtractOptions eo = extract_options(fe, progress);
+  const sequence::Sequence seq = sequence::load_sequence(seq_dir);
+  const stacks::ExtractOptions eo = extract_options(fe, progress);
   const json key = {{"sequence", fs::weakly_canonical(seq_dir).string()},
-                    {"front_end", features::front_end_options_to_json(eo.front_end)},
+                    {"front_end", frontend::front_end_options_to_json(eo.front_end)},
                     {"motion", fe.motion},
-                    {"sfm", fe.motion == "sfm" ? features::sfm_options_to_json(eo.sfm) : json(nullptr)},
-                    {"features", features::feature_options_json(eo.features)}};
+                    {"sfm", fe.motion == "sfm" ? sfm::sfm_options_to_json(eo.sfm) : json(nullptr)},
+                    {"features", stacks::feature_options_json(eo.features)}};
   const fs::path work = cache / "work" / (safe_name(seq.name) + "-" + json_hash(key));
   const fs::path done = work / "complete.json";
   if (fs::exists(done)) {
@@ -138,7 +138,7 @@ fs::path prepare_work(const std::string& name, const SequenceSource& source, con
   if (progress)
     std::cerr << "run-experiment: extracting \"" << name << "\" (stereo " << fe.stereo << ", motion " << fe.motion
               << (fe.causal ? ", causal" : "") << ") into " << work.string() << "\n";
-  const features::ExtractReport r = features::extract_features(seq, work, eo);
+  const stacks::ExtractReport r = stacks::extract_features(seq, work, eo);
   write_json_atomic(done, {{"format", "smseg-experiment-cache"},
                            {"version", 1},
                            {"key", key},
@@ -259,7 +259,7 @@ void train_for_point(const Point& p, const std::vector<fs::path>& train_works, c
   tkey["works"] = path_strings(train_works);
   if (tkey.dump() == trained.key) return;
   trained.key.clear();
-  const features::StackSet set = features::open_stacks(train_works, p.train_frames, true, true, p.features);
+  const stacks::StackSet set = stacks::open_stacks(train_works, p.train_frames, true, true, p.features);
   forest::TrainParams tp = p.train_params;
   tp.memory_mb = options.memory_mb;
   tp.progress = false;

@@ -25,7 +25,7 @@ const CLI::Validator kOdd(
 
 int main(int argc, char** argv) {
   using namespace smseg;
-  using namespace smseg::features;
+  using namespace smseg::frontend;
   CLI::App app{"Evaluate the stereo matchers on Middlebury 2014 (quarter resolution) pairs: per scene and\n"
                "method, the share of pixels with a valid disparity and the bad-2 rate over non-occluded\n"
                "pixels that have a valid estimate. Writes JSON (-o) and optionally a Markdown table.",

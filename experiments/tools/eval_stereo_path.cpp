@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
     const experiments::StereoPathEvaluation e = experiments::evaluate_stereo_path(seq_path, work);
     std::fputs(experiments::stereo_path_report(e).c_str(), stdout);
     if (!out.empty()) write_json_atomic(out, experiments::stereo_path_json(e));
-    if (!plot_path.empty()) features::write_image_atomic(plot_path, experiments::stereo_path_plot(e, 700));
+    if (!plot_path.empty()) sequence::write_image_atomic(plot_path, experiments::stereo_path_plot(e, 700));
     return 0;
   });
 }

@@ -7,12 +7,16 @@ headers (include/smseg/...) of itself and of the modules below it (the closure o
 nothing else: no header of a module above it or beside it, no file of another module's src/.
 
 Also the size rules: no folder holds more than 4,000 lines of source files directly inside it (tests
-aside), no source file more than 900 lines.
+aside), no source file more than 900 lines. And namespaces follow modules: a source file under
+features/<module>/ opens only smseg::<module> and namespaces inside it (detail, anonymous, ...); a tool
+(features/<module>/tools/) may also have namespaces of its own outside smseg; another smseg namespace
+may be opened only to forward-declare a class of it.
 
 Usage: check_layering.py BUILD/smseg_modules.json   exit 0 when every rule holds, 1 with one line per
                                                    breach otherwise
-       check_layering.py --self-test               shows that a forbidden include and an oversized
-                                                   file are caught (exit 0 when they are)
+       check_layering.py --self-test               shows that a forbidden include, an oversized file
+                                                   and a foreign namespace are caught (exit 0 when
+                                                   they are)
 """
 import json
 import os
@@ -121,11 +125,59 @@ def size_breaches(source_root):
     return breaches
 
 
+NAMESPACE_OR_BRACE = re.compile(r"\bnamespace\s+([\w:]*)\s*\{|[{}]")
+COMMENT_OR_STRING = re.compile(r'//[^\n]*|/\*.*?\*/|"(?:\\.|[^"\\\n])*"|\'(?:\\.|[^\'\\\n])*\'', re.S)
+FORWARD_DECLARATIONS = re.compile(r"(\s*(template\s*<[^>]*>\s*)?(class|struct)\s+\w+\s*;)*\s*")
+
+
+def namespaces_opened(code):
+    """(full name, line, whether the block only forward-declares classes) of every named namespace that
+    code opens; anonymous ones add nothing to the names inside them."""
+    opened, stack = [], []  # stack: the enclosing namespace's name ('' if anonymous) or None for other braces
+    for match in NAMESPACE_OR_BRACE.finditer(code):
+        if match.group(0) == "}":
+            entry = stack.pop() if stack else None
+            if entry is not None and entry[1] is not None:
+                opened[entry[1]][2] = bool(FORWARD_DECLARATIONS.fullmatch(code[entry[2]:match.start()]))
+        elif match.group(0) == "{":
+            stack.append(None)
+        else:
+            outer = [e[0] for e in stack if e is not None and e[0]]
+            name = match.group(1)
+            index = None
+            if name and all(e is not None for e in stack):
+                index = len(opened)
+                opened.append(["::".join(outer + [name]), code.count("\n", 0, match.start()) + 1, False])
+            stack.append((name, index, match.end()))
+    return [tuple(o) for o in opened]
+
+
+def namespace_breaches(features_root, source_root):
+    """Namespaces follow modules under features/: see the module docstring."""
+    breaches = []
+    for module_dir in sorted(p for p in Path(features_root).iterdir() if p.is_dir()):
+        module = module_dir.name
+        own = f"smseg::{module}"
+        for path in sorted(p for p in module_dir.rglob("*") if p.suffix in SOURCE_SUFFIXES and p.is_file()):
+            is_tool = "tools" in path.relative_to(module_dir).parts
+            code = COMMENT_OR_STRING.sub(lambda m: "\n" * m.group(0).count("\n"), path.read_text(errors="replace"))
+            for name, line, forward_only in namespaces_opened(code):
+                if name == own or name.startswith(own + "::") or forward_only:
+                    continue
+                if is_tool and not (name == "smseg" or name.startswith("smseg::")):
+                    continue  # a program's own namespace
+                breaches.append(f"{os.path.relpath(path, source_root)}:{line}: namespace {name} in module "
+                                f"{module} (its sources declare {own} and namespaces inside it)")
+    return breaches
+
+
 def check(modules_json, source_root):
     layers = load_layers(modules_json)
     breaches = [f"module {n} links itself through its dependencies" for n in cycles(layers)]
     breaches += include_breaches(layers, source_root)
     breaches += size_breaches(source_root)
+    if (Path(source_root) / "features").is_dir():
+        breaches += namespace_breaches(Path(source_root) / "features", source_root)
     return breaches
 
 
@@ -153,9 +205,31 @@ def self_test():
         (root / "low" / "src" / "low.cpp").write_text("int x;\n" * 901)
         if not any("901 lines" in b for b in check(modules, root)):
             failures.append("a 901-line file was not reported")
+        failures += namespace_self_test(root / "features")
     for f in failures:
         print(f"self-test: {f}")
     return 1 if failures else 0
+
+
+def namespace_self_test(features):
+    """features/low/: its own namespace, one nested, an anonymous one, a forward declaration of another
+    smseg namespace and a tool's own namespace pass; smseg::features, or smseg::high with a definition in
+    it, are reported."""
+    (features / "low" / "src").mkdir(parents=True)
+    (features / "low" / "tools").mkdir()
+    source = features / "low" / "src" / "low.cpp"
+    (features / "low" / "tools" / "tool.cpp").write_text("namespace tool {\nint x;\n}  // namespace tool\n")
+    source.write_text("namespace smseg::options {\ntemplate <class S>\nclass Table;  // a { b\n}\n"
+                      "namespace smseg::low {\nnamespace detail {\nstruct A { int f() { return 0; } };\n}\n"
+                      "namespace {\nint y;\n}\n}  // namespace smseg::low\n")
+    failures = []
+    if namespace_breaches(features, features):
+        failures.append(f"clean namespaces were reported: {namespace_breaches(features, features)}")
+    for foreign in ("smseg::features", "smseg::high"):
+        source.write_text(f"namespace smseg::low {{\n}}\nnamespace {foreign} {{\nint z;\n}}\n")
+        if not any(f"low.cpp:3: namespace {foreign} in module low" in b for b in namespace_breaches(features, features)):
+            failures.append(f"namespace {foreign} in module low was not reported")
+    return failures
 
 
 def main(argv):

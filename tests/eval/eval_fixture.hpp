@@ -22,7 +22,7 @@ inline fs::path make_work(const std::string& name, int frames, std::vector<std::
   using namespace smseg;
   const fs::path work = fs::temp_directory_path() / ("smseg_eval_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(work);
-  features::StackManifest m;
+  stacks::StackManifest m;
   m.work = work;
   m.sequence = work / "no-sequence";
   m.size = size;
@@ -44,18 +44,18 @@ inline fs::path make_work(const std::string& name, int frames, std::vector<std::
           fh.at<double>(y, x) = floor ? 0.0 : 1.5;
         }
       }
-    features::write_frame_stack(work, f, {features::summed_area_table(fh), features::summed_area_table(fd)}, gray,
+    stacks::write_frame_stack(work, f, {stacks::summed_area_table(fh), stacks::summed_area_table(fd)}, gray,
                                 labels);
     m.frames.push_back(f);
     m.labelled_frames.push_back(f);
   }
-  features::save_stack_manifest(m);
+  stacks::save_stack_manifest(m);
   return work;
 }
 
 inline smseg::forest::Forest train(const fs::path& work, int frames_end, int M = 5) {
   using namespace smseg;
-  const auto set = features::open_stacks({work}, features::FrameRange{0, frames_end}, true, true, {});
+  const auto set = stacks::open_stacks({work}, stacks::FrameRange{0, frames_end}, true, true, {});
   forest::TrainParams p;
   p.K = 200;
   p.M = M;

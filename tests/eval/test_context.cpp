@@ -31,15 +31,15 @@ TEST(Context, ChannelNames) {
 }
 
 /// Every byte of one frame's table file in an output work folder.
-std::string sat_bytes(const fs::path& work, int frame) { return read_file(features::sat_path(work, frame)); }
+std::string sat_bytes(const fs::path& work, int frame) { return read_file(stacks::sat_path(work, frame)); }
 
 /// Rewrites frame `f` of `work` with every label swapped (floor <-> wall), the rest unchanged.
 void swap_labels(const fs::path& work, int f) {
-  const features::StackManifest m = features::load_stack_manifest(work);
+  const stacks::StackManifest m = stacks::load_stack_manifest(work);
   std::vector<cv::Mat> sats;
   cv::Mat gray, labels;
   {
-    const auto s = features::FrameStack::open(m, f, true);
+    const auto s = stacks::FrameStack::open(m, f, true);
     for (std::size_t k = 0; k < m.features.size(); ++k)
       sats.push_back(cv::Mat(m.size.height + 1, m.size.width + 1, CV_64FC1, const_cast<double*>(s.sat(k))).clone());
     gray = cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(s.gray())).clone();
@@ -47,7 +47,7 @@ void swap_labels(const fs::path& work, int f) {
   }
   for (auto it = labels.begin<std::uint8_t>(); it != labels.end<std::uint8_t>(); ++it)
     if (*it != forest::kVoidLabel) *it = static_cast<std::uint8_t>(1 - *it);
-  features::write_frame_stack(work, f, sats, gray, labels);
+  stacks::write_frame_stack(work, f, sats, gray, labels);
 }
 
 class AddContext : public ::testing::Test {
@@ -76,12 +76,12 @@ TEST_F(AddContext, ChannelsAreTheForestsPosteriors) {
   const auto r = run(forest, dir / "test", 0);
   EXPECT_EQ(r.frames_written, 6);
   EXPECT_EQ(r.out_of_fold_frames, 0);
-  const features::StackManifest m = features::load_stack_manifest(dir / "test");
+  const stacks::StackManifest m = stacks::load_stack_manifest(dir / "test");
   EXPECT_EQ(m.features, (std::vector<std::string>{"fH", "fD", "fCtx:floor", "fCtx:wall"}));
   EXPECT_EQ(m.labelled_frames, (std::vector<int>{0, 1, 2, 3, 4, 5}));
   EXPECT_EQ(m.options["context"]["folds"], 0);
-  const auto in = features::open_stacks({work}, {}, true, true, {});
-  const auto out = features::open_stacks({dir / "test"}, {}, true, true, {});
+  const auto in = stacks::open_stacks({work}, {}, true, true, {});
+  const auto out = stacks::open_stacks({dir / "test"}, {}, true, true, {});
   const forest::Classifier classifier(forest);
   const int W = m.size.width, H = m.size.height;
   for (std::size_t i = 0; i < in.dataset.frames.size(); ++i) {
@@ -156,7 +156,7 @@ TEST_F(AddContext, ToolWritesFoldersASecondForestTrainsOn) {
   const Json report = read_json(out / "context.json");
   EXPECT_EQ(report["frames_per_fold"], Json({3, 3}));
   const fs::path ctx = out / work.filename();
-  const auto set = features::open_stacks({ctx}, {}, true, true, {});
+  const auto set = stacks::open_stacks({ctx}, {}, true, true, {});
   forest::TrainParams p;
   p.K = 200;
   p.M = 2;

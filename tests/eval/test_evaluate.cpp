@@ -15,7 +15,7 @@ TEST(Evaluate, LearnsASeparableSceneAndScoresIt) {
   const fs::path work = make_work("learn", 12);
   const forest::Forest f = train(work, 8);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{8, 12};
+  opt.frames = stacks::FrameRange{8, 12};
   const eval::EvalResult r = eval::evaluate(f, {work}, opt);
   ASSERT_EQ(r.frames.size(), 4u);
   EXPECT_GT(r.confusion.global_accuracy(), 0.9);
@@ -31,7 +31,7 @@ TEST(Evaluate, LearnsASeparableSceneAndScoresIt) {
 TEST(Evaluate, GridVotingWithEveryPixelEqualsSummedPerPixelDistributions) {
   const fs::path work = make_work("grid", 6);
   const forest::Forest f = train(work, 6);
-  const auto set = features::open_stacks({work}, features::FrameRange{5, 6}, true, true, {});
+  const auto set = stacks::open_stacks({work}, stacks::FrameRange{5, 6}, true, true, {});
   const forest::Classifier c(f);
   const forest::FrameData& frame = set.dataset.frames[0];
   eval::EvalOptions opt;
@@ -77,7 +77,7 @@ TEST(Evaluate, MismatchedForestIsRefused) {
   forest::Forest wrong_features = f;
   wrong_features.features = {"fH", "fC"};
   EXPECT_THROW(eval::evaluate(wrong_features, {work}, opt), smseg::Error);
-  opt.frames = features::FrameRange{50, 60};
+  opt.frames = stacks::FrameRange{50, 60};
   EXPECT_THROW(eval::evaluate(f, {work}, opt), smseg::Error);  // no such frames
   fs::remove_all(work);
   fs::remove_all(other);
@@ -87,7 +87,7 @@ TEST(Evaluate, BadInputsGiveOneClearErrorEach) {
   const fs::path work = make_work("bad", 4);
   const forest::Forest f = train(work, 3);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{3, 4};
+  opt.frames = stacks::FrameRange{3, 4};
   const auto expect_error = [](const auto& run, const std::string& part) {
     try {
       run();
@@ -109,13 +109,13 @@ TEST(Evaluate, BadInputsGiveOneClearErrorEach) {
   expect_error([&] { eval::evaluate(other_classes, {work}, opt); }, "classes");
   // Missing frames: none in the range, or a stack file gone.
   eval::EvalOptions none = opt;
-  none.frames = features::FrameRange{40, 50};
+  none.frames = stacks::FrameRange{40, 50};
   expect_error([&] { eval::evaluate(f, {work}, none); }, "frames");
-  fs::remove(features::sat_path(work, 3));
+  fs::remove(stacks::sat_path(work, 3));
   expect_error([&] { eval::evaluate(f, {work}, opt); }, "000003");
   // A cost matrix made for other classes.
   eval::EvalOptions costs = opt;
-  costs.frames = features::FrameRange{0, 3};
+  costs.frames = stacks::FrameRange{0, 3};
   costs.costs = eval::CostMatrix{{"road", "sky"}, {0, 1, 1, 0}};
   costs.costs_file = "costs.json";
   expect_error([&] { eval::evaluate(f, {work}, costs); }, "costs.json");
@@ -127,7 +127,7 @@ TEST(Evaluate, ResultsCarryTheNewScoresAndParameters) {
   const fs::path work = make_work("results", 6);
   const forest::Forest f = train(work, 5);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{5, 6};
+  opt.frames = stacks::FrameRange{5, 6};
   opt.superpixels = 10;
   opt.votes = 5;
   opt.vote = eval::VoteRule::Majority;

@@ -24,8 +24,8 @@ namespace fs = std::filesystem;
 
 struct StreamCase {
   std::string name;
-  features::FrameTracker tracker;
-  features::KeypointMethod detector;
+  frontend::FrameTracker tracker;
+  frontend::KeypointMethod detector;
   int grid = 0;
   bool textons = false;
   friend void PrintTo(const StreamCase& c, std::ostream* os) { *os << c.name; }
@@ -34,33 +34,33 @@ struct StreamCase {
 class LabelStream : public ::testing::TestWithParam<StreamCase> {
  protected:
   static fs::path dir;
-  static std::optional<features::Sequence> seq;
+  static std::optional<sequence::Sequence> seq;
   static void SetUpTestSuite() {
     dir = test::temp_dir("label_stream");
-    features::synth::SynthOptions so;
+    synth::SynthOptions so;
     so.frames = 36;
     so.label_every = 3;
-    seq = features::synth::make_sequence(so, dir / "seq");
+    seq = synth::make_sequence(so, dir / "seq");
   }
   static void TearDownTestSuite() { fs::remove_all(dir); }
 
   // extract-features --causal into `work` with the case's front end, and a small forest trained on it.
   static forest::Forest causal_forest(const StreamCase& c, const fs::path& work) {
-    features::ExtractOptions eo;
+    stacks::ExtractOptions eo;
     eo.front_end = front_end(c);
     eo.features.causal = true;
     eo.progress = false;
-    features::extract_features(*seq, work, eo);
+    stacks::extract_features(*seq, work, eo);
     forest::TrainParams tp;
     tp.K = 100;
     tp.Kt = 1500;
     tp.M = 3;
     tp.textons = c.textons;
-    return forest::train_forest(features::open_stacks({work}, {}, true, true, {}).dataset, tp);
+    return forest::train_forest(stacks::open_stacks({work}, {}, true, true, {}).dataset, tp);
   }
 
-  static features::FrontEndOptions front_end(const StreamCase& c) {
-    features::FrontEndOptions fe;
+  static frontend::FrontEndOptions front_end(const StreamCase& c) {
+    frontend::FrontEndOptions fe;
     fe.tracker = c.tracker;
     fe.tracking.detector = c.detector;
     fe.progress = false;
@@ -68,7 +68,7 @@ class LabelStream : public ::testing::TestWithParam<StreamCase> {
   }
 };
 fs::path LabelStream::dir;
-std::optional<features::Sequence> LabelStream::seq;
+std::optional<sequence::Sequence> LabelStream::seq;
 
 TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
   const StreamCase& c = GetParam();
@@ -79,7 +79,7 @@ TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
   ev.grid = c.grid;
   ev.votes = 6;
   const forest::Classifier classifier(forest);
-  const auto all = features::open_stacks({work}, features::FrameRange{}, false, false, forest.features);
+  const auto all = stacks::open_stacks({work}, stacks::FrameRange{}, false, false, forest.features);
   ASSERT_EQ(static_cast<int>(all.stacks.size()), seq->frame_count());
 
   eval::StreamOptions so;
@@ -98,24 +98,24 @@ TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
 
 INSTANTIATE_TEST_SUITE_P(
     Trackers, LabelStream,
-    ::testing::Values(StreamCase{"descriptors_pixel_textons", features::FrameTracker::Descriptors,
-                                 features::KeypointMethod::Sift, 0, true},
-                      StreamCase{"descriptors_grid", features::FrameTracker::Descriptors, features::KeypointMethod::Sift,
+    ::testing::Values(StreamCase{"descriptors_pixel_textons", frontend::FrameTracker::Descriptors,
+                                 frontend::KeypointMethod::Sift, 0, true},
+                      StreamCase{"descriptors_grid", frontend::FrameTracker::Descriptors, frontend::KeypointMethod::Sift,
                                  20, false},
-                      StreamCase{"klt_gftt_pixel", features::FrameTracker::Klt, features::KeypointMethod::Gftt, 0, false}),
+                      StreamCase{"klt_gftt_pixel", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 0, false}),
     [](const ::testing::TestParamInfo<StreamCase>& i) { return i.param.name; });
 
 TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
-  for (const auto tracker : {features::FrameTracker::Descriptors, features::FrameTracker::Klt}) {
+  for (const auto tracker : {frontend::FrameTracker::Descriptors, frontend::FrameTracker::Klt}) {
     StreamCase c{"", tracker,
-                 tracker == features::FrameTracker::Klt ? features::KeypointMethod::Gftt : features::KeypointMethod::Sift};
-    const features::FrontEndOptions fe = front_end(c);
-    const features::FrontEndResult whole = features::run_stereo_front_end(*seq, fe);
-    features::StereoFrontEndStream stream(seq->calibration, seq->camera_height, fe, "seq");
+                 tracker == frontend::FrameTracker::Klt ? frontend::KeypointMethod::Gftt : frontend::KeypointMethod::Sift};
+    const frontend::FrontEndOptions fe = front_end(c);
+    const frontend::FrontEndResult whole = frontend::run_stereo_front_end(*seq, fe);
+    frontend::StereoFrontEndStream stream(seq->calibration, seq->camera_height, fe, "seq");
     for (int f = 0; f < seq->frame_count(); ++f) {
-      const features::StreamFrame fr = stream.push(seq->load_left_gray(f), seq->load_right_gray(f));
-      EXPECT_EQ(fr.pose.R, whole.poses[f].R) << features::frame_tracker_name(tracker) << ", frame " << f;
-      EXPECT_EQ(fr.pose.t, whole.poses[f].t) << features::frame_tracker_name(tracker) << ", frame " << f;
+      const frontend::StreamFrame fr = stream.push(seq->load_left_gray(f), seq->load_right_gray(f));
+      EXPECT_EQ(fr.pose.R, whole.poses[f].R) << frontend::frame_tracker_name(tracker) << ", frame " << f;
+      EXPECT_EQ(fr.pose.t, whole.poses[f].t) << frontend::frame_tracker_name(tracker) << ", frame " << f;
       if (f > 0) {
         EXPECT_EQ(fr.motion->inliers, whole.pair_motions[f - 1].inliers);
         EXPECT_EQ(fr.motion->bridged, whole.pair_motions[f - 1].bridged);
@@ -128,7 +128,7 @@ TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
 // sequences, which OpenCV opens as videos, of the same grey frames) it writes the labels eval-forest
 // writes for the causal work folder, and a summary with its speed.
 TEST_F(LabelStream, ToolLabelsFoldersSideBySideVideoAndTwoCamerasAlike) {
-  const StreamCase c{"tool", features::FrameTracker::Klt, features::KeypointMethod::Gftt};  // the tools' defaults
+  const StreamCase c{"tool", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt};  // the tools' defaults
   const fs::path work = dir / "work-tool", forest_file = dir / "forest-tool.json";
   forest::save_forest(causal_forest(c, work), forest_file);
 

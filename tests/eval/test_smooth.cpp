@@ -334,7 +334,7 @@ TEST(Smooth, EvaluateReportsSmoothingApart) {
   const fs::path work = eval_test::make_work("smooth", 7);
   const forest::Forest forest = eval_test::train(work, 5, 2);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{5, 7};
+  opt.frames = stacks::FrameRange{5, 7};
   const eval::EvalResult plain = eval::evaluate(forest, {work}, opt);
   opt.smooth.method = eval::SmoothMethod::GraphCut;
   opt.smooth.lambda = 1;
@@ -358,7 +358,7 @@ TEST(Smooth, FramesSmoothedTogetherGetTheLabelsTheyGetOneByOne) {
   const fs::path work = eval_test::make_work("smooth-batch", 8);
   const forest::Forest forest = eval_test::train(work, 5, 2);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{5, 8};
+  opt.frames = stacks::FrameRange{5, 8};
   opt.smooth.method = eval::SmoothMethod::GraphCut;
   opt.smooth.lambda = 1;
   auto run = [&](std::size_t threads) {

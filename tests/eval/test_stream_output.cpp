@@ -14,23 +14,23 @@ namespace fs = std::filesystem;
 class StreamOutput : public ::testing::Test {
  protected:
   static fs::path dir;
-  static std::optional<features::Sequence> seq;
+  static std::optional<sequence::Sequence> seq;
   static void SetUpTestSuite() {
     dir = test::temp_dir("stream_output");
-    features::synth::SynthOptions so;
+    synth::SynthOptions so;
     so.frames = 4;
     so.width = 64;
     so.height = 48;
     so.label_every = 2;
-    seq = features::synth::make_sequence(so, dir / "seq");
+    seq = synth::make_sequence(so, dir / "seq");
   }
   static void TearDownTestSuite() { fs::remove_all(dir); }
 };
 fs::path StreamOutput::dir;
-std::optional<features::Sequence> StreamOutput::seq;
+std::optional<sequence::Sequence> StreamOutput::seq;
 
 TEST_F(StreamOutput, SequenceFramesGiveTheRangeInOrder) {
-  eval::SequenceFrames frames(*seq, features::FrameRange{1, 10});
+  eval::SequenceFrames frames(*seq, stacks::FrameRange{1, 10});
   eval::StreamInput in;
   std::vector<int> seen;
   while (frames.next(in, true)) {
@@ -39,7 +39,7 @@ TEST_F(StreamOutput, SequenceFramesGiveTheRangeInOrder) {
     EXPECT_EQ(in.left_bgr.type(), CV_8UC3);
   }
   EXPECT_EQ(seen, (std::vector<int>{1, 2, 3}));
-  EXPECT_THROW(eval::SequenceFrames(*seq, features::FrameRange{4, 6}), Error);
+  EXPECT_THROW(eval::SequenceFrames(*seq, stacks::FrameRange{4, 6}), Error);
 }
 
 TEST_F(StreamOutput, WriterWritesLabelsAndOverlays) {
@@ -48,7 +48,7 @@ TEST_F(StreamOutput, WriterWritesLabelsAndOverlays) {
   options.overlays = true;
   eval::StreamWriter writer(out, out, *seq, options);
   EXPECT_TRUE(writer.needs_colour());
-  eval::SequenceFrames frames(*seq, features::FrameRange{0, 1});
+  eval::SequenceFrames frames(*seq, stacks::FrameRange{0, 1});
   eval::StreamInput in;
   ASSERT_TRUE(frames.next(in, writer.needs_colour()));
   EXPECT_TRUE(writer.write(in, cv::Mat(seq->size, CV_8UC1, cv::Scalar(0))));

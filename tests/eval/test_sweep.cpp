@@ -33,7 +33,7 @@ TEST(Sweep, ResumesAfterAKillWithNothingLostOrRepeated) {
   const forest::Forest f = eval_test::train(work, 6, 4);
   const fs::path out = work / "out";
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{6, 8};
+  opt.frames = stacks::FrameRange{6, 8};
   const auto spec = eval::SweepSpec::parse("M=1:4", "--sweep");
 
   // A full run.
@@ -89,7 +89,7 @@ TEST(Sweep, GridAndVotesSweepsShareAFileAndResume) {
   const forest::Forest f = eval_test::train(work, 6, 3);
   const fs::path jsonl = work / "out" / "sweep.jsonl";
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{6, 7};
+  opt.frames = stacks::FrameRange{6, 7};
   opt.grid = 8;
   opt.votes = 4;
   EXPECT_EQ(eval::run_sweep(f, "forest.json", {work}, opt, eval::SweepSpec::parse("B=4:16:4", "--sweep"), jsonl).run, 4);

@@ -16,7 +16,7 @@ namespace {
 struct Fixture {
   fs::path work;
   forest::Forest forest;
-  features::StackSet set;
+  stacks::StackSet set;
 };
 
 // One forest and one frame shared by the tests of this file (trained once).
@@ -25,7 +25,7 @@ const Fixture& fixture() {
     auto* x = new Fixture;
     x->work = eval_test::make_work("voting", 6);
     x->forest = eval_test::train(x->work, 5);
-    x->set = features::open_stacks({x->work}, features::FrameRange{5, 6}, true, true, {});
+    x->set = stacks::open_stacks({x->work}, stacks::FrameRange{5, 6}, true, true, {});
     return x;
   }();
   return *f;
@@ -162,7 +162,7 @@ TEST(Voting, FirstTreesArePrefixesOfTheForest) {
   EXPECT_THROW(eval::first_trees(fx.forest, 0), Error);
   EXPECT_THROW(eval::first_trees(fx.forest, 6), Error);
   eval::EvalOptions opt;
-  opt.frames = features::FrameRange{5, 6};
+  opt.frames = stacks::FrameRange{5, 6};
   opt.trees = 6;
   EXPECT_THROW(eval::evaluate(fx.forest, {fx.work}, opt), Error);
 }

@@ -99,14 +99,14 @@ TEST(ForestPeersWork, FitsAndScoresASeparableTableAndReportsIt) {
 }
 
 TEST(EvalStereoWork, MatchersShareTheValidityOptionsAndGivenIsRefused) {
-  smseg::features::StereoOptions bm, sgbm;
-  sgbm.method = smseg::features::StereoMethod::SGBM;
+  smseg::frontend::StereoOptions bm, sgbm;
+  sgbm.method = smseg::frontend::StereoMethod::SGBM;
   bm.uniqueness_ratio = 7;
   const auto m = ex::stereo_matchers({"sgbm", "bm"}, bm, sgbm);
   ASSERT_EQ(m.size(), 2u);
-  EXPECT_EQ(m[0].method, smseg::features::StereoMethod::SGBM);
+  EXPECT_EQ(m[0].method, smseg::frontend::StereoMethod::SGBM);
   EXPECT_EQ(m[0].uniqueness_ratio, 7);
-  EXPECT_EQ(m[1].method, smseg::features::StereoMethod::BM);
+  EXPECT_EQ(m[1].method, smseg::frontend::StereoMethod::BM);
   EXPECT_EQ(error_of([&] { ex::stereo_matchers({"given"}, bm, sgbm); }),
             "--methods: 'given' has nothing to evaluate here");
   EXPECT_EQ(error_of([&] { ex::evaluate_stereo("/nonexistent-smseg", m, 2); }),
@@ -149,7 +149,7 @@ TEST(EvalStereoPathWork, ReportsTheMeasuresAndTheSfmLineOnlyForSfm) {
   EXPECT_EQ(report.substr(0, 46), "frames 3, ground-truth path length 2.00 m\nATE ");
   EXPECT_NE(report.find("end-point drift (start-aligned): 0.200 m = 10.00 %\n"), std::string::npos);
   EXPECT_EQ(report.find("sfm:"), std::string::npos);
-  e.summary.sfm = smseg::features::SfmSummary{};
+  e.summary.sfm = smseg::frontend::SfmSummary{};
   EXPECT_NE(ex::stereo_path_report(e).find("sfm: focal"), std::string::npos);
   const smseg::Json j = ex::stereo_path_json(e);
   EXPECT_EQ(j["format"], "smseg-stereo-path-eval");

@@ -9,16 +9,16 @@
 namespace smseg::test {
 
 /// make-sequence --scene corridor --frames `frames` --label-every `label_every` into `dir`.
-inline features::Sequence small_corridor(const std::filesystem::path& dir, int frames, int label_every) {
-  features::synth::SynthOptions so;
+inline sequence::Sequence small_corridor(const std::filesystem::path& dir, int frames, int label_every) {
+  synth::SynthOptions so;
   so.frames = frames;
   so.label_every = label_every;
-  return features::synth::make_sequence(so, dir);
+  return synth::make_sequence(so, dir);
 }
 
 /// extract-features's defaults without progress output.
-inline features::ExtractOptions quiet_extract_options() {
-  features::ExtractOptions eo;
+inline stacks::ExtractOptions quiet_extract_options() {
+  stacks::ExtractOptions eo;
   eo.progress = false;
   eo.front_end.progress = false;
   return eo;

@@ -15,10 +15,10 @@ namespace smseg::python {
 namespace {
 
 py::dict load_stack(const fs::path& work, int frame) {
-  const features::StackManifest m = features::load_stack_manifest(work);
-  auto stack = std::make_unique<features::FrameStack>(features::FrameStack::open(m, frame, m.is_labelled(frame)));
-  const features::FrameStack* s = stack.get();
-  py::capsule owner(stack.release(), [](void* p) { delete static_cast<features::FrameStack*>(p); });
+  const stacks::StackManifest m = stacks::load_stack_manifest(work);
+  auto stack = std::make_unique<stacks::FrameStack>(stacks::FrameStack::open(m, frame, m.is_labelled(frame)));
+  const stacks::FrameStack* s = stack.get();
+  py::capsule owner(stack.release(), [](void* p) { delete static_cast<stacks::FrameStack*>(p); });
   const py::ssize_t H = m.size.height, W = m.size.width, F = static_cast<py::ssize_t>(m.features.size());
   py::dict d;
   d["work"] = work.string();
@@ -32,7 +32,7 @@ py::dict load_stack(const fs::path& work, int frame) {
 }
 
 py::dict stack_manifest(const fs::path& work) {
-  const features::StackManifest m = features::load_stack_manifest(work);
+  const stacks::StackManifest m = stacks::load_stack_manifest(work);
   py::dict d;
   d["work"] = work.string();
   d["sequence"] = m.sequence.string();
@@ -48,7 +48,7 @@ py::dict stack_manifest(const fs::path& work) {
 }
 
 py::dict load_sequence(const fs::path& path) {
-  const features::Sequence seq = features::load_sequence(path);
+  const sequence::Sequence seq = sequence::load_sequence(path);
   py::list classes, colours;
   for (const auto& c : seq.classes) {
     classes.append(c.name);
@@ -57,7 +57,7 @@ py::dict load_sequence(const fs::path& path) {
   py::dict d;
   d["manifest"] = seq.manifest.string();
   d["name"] = seq.name;
-  d["kind"] = seq.kind == features::SequenceKind::Mono ? "mono" : "stereo";
+  d["kind"] = seq.kind == sequence::SequenceKind::Mono ? "mono" : "stereo";
   d["width"] = seq.size.width;
   d["height"] = seq.size.height;
   d["frame_count"] = seq.frame_count();
@@ -80,7 +80,7 @@ py::array_t<T> copy_mat(const cv::Mat& mat) {
 }
 
 py::dict read_frame(const fs::path& path, int frame) {
-  const features::Sequence seq = features::load_sequence(path);
+  const sequence::Sequence seq = sequence::load_sequence(path);
   if (frame < 0 || frame >= seq.frame_count())
     throw Error(seq.manifest.string(), "frames", "frame " + std::to_string(frame) + " is not in 0.." +
                                                      std::to_string(seq.frame_count() - 1));

@@ -69,8 +69,8 @@ std::shared_ptr<WindowForest> fit_window_forest(const WindowTrainArgs& a, forest
   p.progress = a.progress;
   p.validate("ExtraTreesWindowClassifier");
   if (a.works.empty()) throw Error("", "stacks", "no work folder given");
-  const auto range = features::FrameRange::parse(a.frames, "frames");
-  const features::StackSet set = features::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range,
+  const auto range = stacks::FrameRange::parse(a.frames, "frames");
+  const stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range,
                                                        true, true, a.features);
   auto model = std::make_shared<WindowForest>();
   py::gil_scoped_release unlocked;

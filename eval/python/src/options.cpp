@@ -44,9 +44,9 @@ nlohmann::json table_json(const options::Table<S>& table) {
 
 py::object option_tables() {
   return to_python({{"training", table_json(forest::train_params_table())},
-                    {"extract_features", table_json(features::extract_options_table())},
+                    {"extract_features", table_json(stacks::extract_options_table())},
                     {"evaluate", table_json(eval::eval_options_table())},
-                    {"make_sequence", table_json(features::synth::synth_options_table())}});
+                    {"make_sequence", table_json(synth::synth_options_table())}});
 }
 
 }  // namespace

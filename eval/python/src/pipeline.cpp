@@ -22,12 +22,12 @@ namespace {
 
 /// extract-features' options from keywords (their declarations, extract_options_table), and the few
 /// that only the call has.
-features::ExtractOptions extract_options(const JsonView& v) {
-  const auto& table = features::extract_options_table();
+stacks::ExtractOptions extract_options(const JsonView& v) {
+  const auto& table = stacks::extract_options_table();
   table.check_known(v, options::kPython, {"frames", "progress", "n_jobs", "verbose"});
-  features::ExtractOptions opt;
+  stacks::ExtractOptions opt;
   table.read(opt, v, options::kPython);
-  if (v.has("frames")) opt.frames = features::FrameRange::parse(v.str("frames"), "frames");
+  if (v.has("frames")) opt.frames = stacks::FrameRange::parse(v.str("frames"), "frames");
   if (v.has("progress")) opt.progress = v.boolean("progress");
   validate_options(table.option_names(options::kPython), [&] {
     opt.resolve();
@@ -39,17 +39,17 @@ features::ExtractOptions extract_options(const JsonView& v) {
 py::dict extract(const std::string& sequence_dir, const std::string& out_dir, const py::dict& options) {
   const nlohmann::json keywords = keywords_json(options);
   const JsonView v(keywords, "", "");
-  const features::ExtractOptions opt = extract_options(v);
+  const stacks::ExtractOptions opt = extract_options(v);
   const int n_jobs = v.has("n_jobs") ? static_cast<int>(v.integer("n_jobs")) : 0;
   const bool verbose = v.has("verbose") && v.boolean("verbose");
-  features::set_solver_verbose(verbose);
+  sfm::set_solver_verbose(verbose);
   std::unique_ptr<tbb::global_control> limit;
   if (n_jobs > 0) limit = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, n_jobs);
-  const features::Sequence seq = features::load_sequence(sequence_dir);
-  features::ExtractReport r;
+  const sequence::Sequence seq = sequence::load_sequence(sequence_dir);
+  stacks::ExtractReport r;
   {
     py::gil_scoped_release unlocked;
-    r = features::extract_features(seq, out_dir, opt);
+    r = stacks::extract_features(seq, out_dir, opt);
   }
   py::dict d;
   d["work"] = out_dir;
@@ -69,7 +69,7 @@ eval::EvalOptions eval_options(const JsonView& v) {
   table.check_known(v, options::kPython, {"test_frames", "out", "pictures", "progress", "n_jobs"});
   eval::EvalOptions opt;
   table.read(opt, v, options::kPython);
-  if (v.has("test_frames")) opt.frames = features::FrameRange::parse(v.str("test_frames"), "test_frames");
+  if (v.has("test_frames")) opt.frames = stacks::FrameRange::parse(v.str("test_frames"), "test_frames");
   if (v.has("progress")) opt.progress = v.boolean("progress");
   validate_options(table.option_names(options::kPython), [&] { opt.validate(); });
   return opt;

@@ -13,7 +13,7 @@
 #include "smseg/common/output.hpp"
 #include "pcl_write.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace pcl_write {
 
@@ -48,7 +48,7 @@ void save_atomic(const fs::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>&
 
 }  // namespace pcl_write
 
-void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, const Sequence& seq) {
+void write_cloud(const fs::path& path, const std::vector<stacks::CloudPoint>& cloud, const sequence::Sequence& seq) {
   pcl_write::check_extension(path);
   pcl::PointCloud<pcl::PointXYZRGBL> pc;
   pc.reserve(cloud.size());
@@ -70,4 +70,4 @@ void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, con
   pcl_write::save_atomic(path, pc);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

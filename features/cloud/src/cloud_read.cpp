@@ -18,7 +18,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/common/io.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace cloud_read {
 
@@ -799,4 +799,4 @@ ColouredCloud read_coloured_cloud(const fs::path& path) {
   return c;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

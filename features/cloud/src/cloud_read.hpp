@@ -8,7 +8,7 @@
 
 #include "smseg/cloud/cloud_segment.hpp"
 
-namespace smseg::features::cloud_read {
+namespace smseg::cloud::cloud_read {
 
 /// The whole bytes of a PCD file (`file` names it in errors): header as PCL writes it, DATA ascii,
 /// binary or binary_compressed; fields x y z (F4 or F8), rgb/rgba (4 bytes, packed 0x00RRGGBB), label
@@ -24,4 +24,4 @@ ColouredCloud parse_ply(std::string_view bytes, const std::string& file);
 /// `out_size` bytes; false when the stream is malformed or does not make exactly that many bytes.
 bool lzf_decompress(std::string_view in, std::string& out, std::size_t out_size);
 
-}  // namespace smseg::features::cloud_read
+}  // namespace smseg::cloud::cloud_read

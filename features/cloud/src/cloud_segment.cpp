@@ -20,7 +20,7 @@
 #include "knn_graph.hpp"
 #include "pcl_write.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -151,7 +151,7 @@ std::vector<int> centroid_mincut(const ColouredCloud& cloud, const CentroidMinCu
     const KnnGraph knn = knn_graph(cloud, params.neighbours);
     rep.sigma = params.sigma > 0 ? params.sigma : knn.mean_distance;
     if (!(rep.sigma > 0)) throw Error("", "--sigma", "the points coincide: the mean neighbour distance is 0");
-    FlowGraph g;
+    graphcut::FlowGraph g;
     g.source.resize(cloud.size());
     g.sink.resize(cloud.size());
     // Source side = object. Cost of object 1 - P_obj (the sink link, cut when the point stays with the
@@ -166,7 +166,7 @@ std::vector<int> centroid_mincut(const ColouredCloud& cloud, const CentroidMinCu
       g.edges.push_back({p.i, p.j, w, w});
     }
     std::vector<std::uint8_t> sink_side;
-    rep.flow = max_flow(g, &sink_side);
+    rep.flow = graphcut::max_flow(g, &sink_side);
     for (std::size_t i = 0; i < cloud.size(); ++i) labels[i] = sink_side[i] ? 0 : 1;
   } else {
     if (cloud.size() < std::size_t(params.neighbours) + 1)
@@ -202,4 +202,4 @@ std::vector<int> centroid_mincut(const ColouredCloud& cloud, const CentroidMinCu
   return labels;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -6,7 +6,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/cloud/cloud_segment.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -142,4 +142,4 @@ double f1_score(std::span<const int> truth, std::span<const int> predicted, int 
   return 2.0 * double(tp) / double(2 * tp + fp + fn);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

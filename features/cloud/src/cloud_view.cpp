@@ -12,7 +12,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/saliency.hpp>
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 void ProjectionParams::validate() const {
   if (!(min_depth > 0) || !std::isfinite(min_depth)) throw Error("", "--min-depth", "must be positive (metres)");
@@ -332,4 +332,4 @@ InstanceScore score_instances(std::span<const int> truth, std::span<const int> p
   return s;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

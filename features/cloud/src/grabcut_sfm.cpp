@@ -18,7 +18,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -43,7 +43,7 @@ void PinholeIntrinsics::validate() const {
   if (!std::isfinite(cx) || !std::isfinite(cy)) throw Error("", "intrinsics", "the principal point must be finite");
 }
 
-bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
+bool project_point(const Eigen::Vector3f& world, const sequence::Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
                    double* depth) {
   const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
   const Eigen::Vector3d c(pose.t[0], pose.t[1], pose.t[2]);
@@ -495,11 +495,11 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
   return 2.0 * double(tp) / double(2 * tp + fp + fn);
 }
 
-std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& c, const Pose& pose, int step) {
+std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const sequence::Calibration& c, const sequence::Pose& pose, int step) {
   if (step < 1) throw Error("", "--dense-cloud", "the pixel step must be >= 1");
   if (depth.type() != CV_32FC1 || !c.fx) throw Error("", "depth", "expected a CV_32FC1 depth map and a focal length");
-  const Eigen::Matrix3d R = pose_rotation(pose);
-  const Eigen::Vector3d centre = pose_centre(pose);
+  const Eigen::Matrix3d R = frontend::pose_rotation(pose);
+  const Eigen::Vector3d centre = frontend::pose_centre(pose);
   const double fx = *c.fx, fy = c.fy.value_or(fx);
   std::vector<Eigen::Vector3f> out;
   for (int y = 0; y < depth.rows; y += step)
@@ -511,17 +511,17 @@ std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calib
   return out;
 }
 
-std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& fe, int frame, int window) {
+std::vector<Eigen::Vector3f> window_cloud(const frontend::FrontEndResult& fe, int frame, int window) {
   std::vector<Eigen::Vector3f> out;
   const int first = fe.first_frame, n = static_cast<int>(fe.poses.size());
-  for (const Track& t : fe.tracks) {
+  for (const frontend::Track& t : fe.tracks) {
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     int count = 0;
     for (std::size_t i = 0; i < t.frames.size(); ++i) {
       const int f = t.frames[i];
       if (f < frame - window || f > frame + window || f < first || f >= first + n) continue;
       if (i >= t.disparities.size() || !(t.disparities[i] > 0) || i >= t.points.size()) continue;
-      const Pose& p = fe.poses[std::size_t(f - first)];
+      const sequence::Pose& p = fe.poses[std::size_t(f - first)];
       const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(p.R.data());
       sum += R * t.points[i] + Eigen::Vector3d(p.t[0], p.t[1], p.t[2]);
       ++count;
@@ -560,4 +560,4 @@ cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const Gra
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

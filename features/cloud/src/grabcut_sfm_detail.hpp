@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace smseg::features::detail {
+namespace smseg::cloud::detail {
 
 /// Seeds for separate stages, so that changing one stage's draws does not shift another's.
 inline std::uint64_t stage_seed(std::uint64_t seed, std::uint64_t stage) {
@@ -26,4 +26,4 @@ inline double median(std::vector<double> v) {
   return 0.5 * (lo + hi);
 }
 
-}  // namespace smseg::features::detail
+}  // namespace smseg::cloud::detail

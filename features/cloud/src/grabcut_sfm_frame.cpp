@@ -9,18 +9,18 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
-Eigen::Vector3d scene_up(const FrontEndResult& fe, bool* planar_path) {
-  GravityOptions g;
-  g.method = GravityMethod::Estimate;
+Eigen::Vector3d scene_up(const frontend::FrontEndResult& fe, bool* planar_path) {
+  frontend::GravityOptions g;
+  g.method = frontend::GravityMethod::Estimate;
   const double camera_height = fe.poses.empty() ? 1.0 : std::max(0.1, std::abs(fe.poses.front().t[1]));
-  const GravityEstimate e = estimate_gravity(fe.poses, fe.first_frame, fe.tracks, camera_height, g);
+  const frontend::GravityEstimate e = frontend::estimate_gravity(fe.poses, fe.first_frame, fe.tracks, camera_height, g);
   if (planar_path) *planar_path = e.source == "camera-path";
   return e.up;
 }
 
-PinholeIntrinsics frame_intrinsics(const Sequence& seq, const FrontEndResult& fe, std::string* source) {
+PinholeIntrinsics frame_intrinsics(const sequence::Sequence& seq, const frontend::FrontEndResult& fe, std::string* source) {
   PinholeIntrinsics k;
   k.cx = seq.calibration.cx;
   k.cy = seq.calibration.cy;
@@ -71,4 +71,4 @@ cv::Mat largest_region(const cv::Mat& mask) {
   return comp == best;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -13,7 +13,7 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -31,7 +31,7 @@ constexpr int kSpacingNeighbour = 4;  // the cloud's spacing: distance to the 4t
 
 /// The frame: its pose, intrinsics and size, and what the steps read off them.
 struct View {
-  const Pose& pose;
+  const sequence::Pose& pose;
   const PinholeIntrinsics& intrinsics;
   cv::Size size;
   Eigen::Vector3d camera;
@@ -434,7 +434,7 @@ GrabCutSfmParams GrabCutSfmParams::paper() {
   return p;
 }
 
-cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, const Pose& pose, const cv::Mat& image,
+cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, const sequence::Pose& pose, const cv::Mat& image,
                     const GrabCutSfmParams& params, GrabCutSfmReport* report_out, const Cloud* plane_cloud) {
   params.validate();
   intrinsics.validate();
@@ -464,4 +464,4 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
   return mask;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -11,7 +11,7 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -271,4 +271,4 @@ double cloud_spacing(const std::vector<Eigen::Vector3f>& points, int k) {
   return median_of(kth);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

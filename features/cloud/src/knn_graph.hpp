@@ -4,7 +4,7 @@
 
 #include "smseg/cloud/cloud_segment.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 struct KnnGraph {
   struct Pair {
@@ -22,4 +22,4 @@ struct KnnGraph {
 /// not depend on the thread count.
 KnnGraph knn_graph(const ColouredCloud& cloud, int k);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

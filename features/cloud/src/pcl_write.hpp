@@ -5,7 +5,7 @@
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 
-namespace smseg::features::pcl_write {
+namespace smseg::cloud::pcl_write {
 
 /// Error naming `path` unless it ends in .pcd or .ply.
 void check_extension(const std::filesystem::path& path);
@@ -14,4 +14,4 @@ void check_extension(const std::filesystem::path& path);
 /// it over `path`: an interrupted write never leaves a half-written cloud. Error naming `path` on failure.
 void save_atomic(const std::filesystem::path& path, const pcl::PointCloud<pcl::PointXYZRGBL>& pc);
 
-}  // namespace smseg::features::pcl_write
+}  // namespace smseg::cloud::pcl_write

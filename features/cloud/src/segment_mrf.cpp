@@ -20,7 +20,7 @@
 #include "smseg/graphcut/graphcut.hpp"
 #include "knn_graph.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 namespace {
 
@@ -287,7 +287,7 @@ std::vector<int> mrf_segment(const ColouredCloud& cloud, const MrfSeeds& seeds, 
   for (const auto& p : knn.pairs) sq += (colour[std::size_t(p.i)] - colour[std::size_t(p.j)]).squaredNorm();
   const double mean_sq = knn.pairs.empty() ? 0.0 : sq / double(knn.pairs.size());
   rep.beta = mean_sq > 0 ? 1.0 / (2.0 * mean_sq) : 0.0;
-  PottsEnergy e;
+  graphcut::PottsEnergy e;
   e.nodes = static_cast<int>(n);
   e.labels = L;
   e.unary.assign(n * std::size_t(L), 0.0);
@@ -305,7 +305,7 @@ std::vector<int> mrf_segment(const ColouredCloud& cloud, const MrfSeeds& seeds, 
     for (int i : seeds.regions[std::size_t(l)]) c.push_back(colour[std::size_t(i)]);
     gmm[std::size_t(l)].init(c, params.components);
   }
-  ExpansionSolver solver;
+  graphcut::ExpansionSolver solver;
   std::vector<int> labels;
   for (int it = 0; it < params.max_iterations; ++it) {
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 2048), [&](const tbb::blocked_range<std::size_t>& r) {
@@ -313,7 +313,7 @@ std::vector<int> mrf_segment(const ColouredCloud& cloud, const MrfSeeds& seeds, 
         for (int l = 0; l < L; ++l)
           e.unary[i * std::size_t(L) + std::size_t(l)] = -std::log(gmm[std::size_t(l)].likelihood(colour[i]) + 1e-300);
     });
-    const ExpansionReport r = solver.solve(e, labels);
+    const graphcut::ExpansionReport r = solver.solve(e, labels);
     rep.energies.push_back(r.energy);
     ++rep.iterations;
     if (it > 0) {
@@ -347,4 +347,4 @@ std::vector<int> seed_truth(const ColouredCloud& cloud, const MrfSeeds& seeds) {
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

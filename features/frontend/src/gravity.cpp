@@ -11,7 +11,7 @@
 #include "smseg/common/names.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 namespace {
 
 // A path is "planar" when its second principal extent is at least kPlanarShare of its first and its
@@ -26,16 +26,16 @@ double degrees_between(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
 }
 
 // Step 1 of gravity.hpp: the up direction the camera path suggests.
-Eigen::Vector3d path_prior(const std::vector<Pose>& poses, double camera_height, std::string& source) {
+Eigen::Vector3d path_prior(const std::vector<sequence::Pose>& poses, double camera_height, std::string& source) {
   Eigen::Vector3d cam_up = Eigen::Vector3d::Zero(), mean = Eigen::Vector3d::Zero();
-  for (const Pose& p : poses) {
+  for (const sequence::Pose& p : poses) {
     cam_up -= pose_rotation(p).col(1);  // camera y points down
     mean += pose_centre(p);
   }
   cam_up.normalize();
   mean /= static_cast<double>(poses.size());
   Eigen::Matrix3d C = Eigen::Matrix3d::Zero();
-  for (const Pose& p : poses) {
+  for (const sequence::Pose& p : poses) {
     const Eigen::Vector3d d = pose_centre(p) - mean;
     C += d * d.transpose();
   }
@@ -69,7 +69,7 @@ Eigen::Vector3d path_prior(const std::vector<Pose>& poses, double camera_height,
 
 // One point per track, the world position of its first observation, when it lies well below the
 // camera that saw it (candidates for the ground).
-std::vector<Eigen::Vector3d> ground_candidates(const std::vector<Pose>& poses, int first_frame,
+std::vector<Eigen::Vector3d> ground_candidates(const std::vector<sequence::Pose>& poses, int first_frame,
                                                const std::vector<Track>& tracks, const Eigen::Vector3d& up,
                                                double min_below) {
   std::vector<Eigen::Vector3d> out;
@@ -105,7 +105,7 @@ void GravityOptions::validate() const {
   if (iterations < 1 || iterations > 1000000) throw Error("", "gravity.iterations", "must be 1..1000000");
 }
 
-GravityEstimate estimate_gravity(const std::vector<Pose>& poses, int first_frame, const std::vector<Track>& tracks,
+GravityEstimate estimate_gravity(const std::vector<sequence::Pose>& poses, int first_frame, const std::vector<Track>& tracks,
                                  double camera_height, const GravityOptions& o) {
   GravityEstimate g;
   if (poses.empty()) {
@@ -134,7 +134,7 @@ GravityEstimate estimate_gravity(const std::vector<Pose>& poses, int first_frame
   return g;
 }
 
-void level_world(std::vector<Pose>& poses, const Eigen::Vector3d& up) {
+void level_world(std::vector<sequence::Pose>& poses, const Eigen::Vector3d& up) {
   if (poses.empty() || !(up.norm() > 0)) return;
   const Eigen::Matrix3d tilt = Eigen::Quaterniond::FromTwoVectors(up.normalized(), Eigen::Vector3d::UnitY()).toRotationMatrix();
   // Heading: turn about +Y so that the first camera's optical axis, on the ground, points along +Z
@@ -143,7 +143,7 @@ void level_world(std::vector<Pose>& poses, const Eigen::Vector3d& up) {
   const double yaw = std::hypot(forward.x(), forward.z()) > 1e-9 ? std::atan2(forward.x(), forward.z()) : 0.0;
   const Eigen::Matrix3d Q = Eigen::AngleAxisd(-yaw, Eigen::Vector3d::UnitY()).toRotationMatrix() * tilt;
   const Eigen::Vector3d pivot = pose_centre(poses.front());
-  for (Pose& p : poses) p = make_pose(Q * pose_rotation(p), Q * (pose_centre(p) - pivot) + pivot);
+  for (sequence::Pose& p : poses) p = make_pose(Q * pose_rotation(p), Q * (pose_centre(p) - pivot) + pivot);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -9,7 +9,7 @@
 
 #include "smseg/frontend/gravity.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -80,4 +80,4 @@ PlaneFit fit_ground_plane(const std::vector<Eigen::Vector3d>& pts, const Eigen::
   return best.inliers >= min_inliers ? best : PlaneFit{};
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

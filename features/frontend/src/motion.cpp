@@ -14,7 +14,7 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -250,7 +250,7 @@ MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std:
   return est;
 }
 
-StereoCamera StereoCamera::from(const Calibration& calib) {
+StereoCamera StereoCamera::from(const sequence::Calibration& calib) {
   if (!calib.fx || !(*calib.fx > 0)) throw Error("", "calibration.fx", "the stereo camera needs the focal length");
   if (!calib.baseline || !(*calib.baseline > 0))
     throw Error("", "calibration.baseline", "the stereo camera needs the baseline");
@@ -434,8 +434,8 @@ RigidMotion refine_motion(const RigidMotion& initial, const std::vector<Eigen::V
   return M;
 }
 
-Pose initial_pose(double camera_height) {
-  Pose p;
+sequence::Pose initial_pose(double camera_height) {
+  sequence::Pose p;
   p.R = {-1, 0, 0, 0, -1, 0, 0, 0, 1};
   p.t = {0, camera_height, 0};
   return p;
@@ -446,7 +446,7 @@ namespace detail {
 PathChain::PathChain(double camera_height)
     : first_(initial_pose(camera_height)), Rw_(pose_rotation(first_)), c_(first_.t[0], first_.t[1], first_.t[2]) {}
 
-Pose PathChain::step(PairMotion& pm) {
+sequence::Pose PathChain::step(PairMotion& pm) {
   if (pm.ok && pm.motion.R.allFinite() && pm.motion.t.allFinite()) {
     pm.bridged = false;
     last_good_ = pm.motion;
@@ -462,9 +462,9 @@ Pose PathChain::step(PairMotion& pm) {
 
 }  // namespace detail
 
-std::vector<Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_height) {
+std::vector<sequence::Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_height) {
   detail::PathChain chain(camera_height);
-  std::vector<Pose> poses;
+  std::vector<sequence::Pose> poses;
   poses.reserve(pairs.size() + 1);
   poses.push_back(chain.first());
   for (auto& pm : pairs) poses.push_back(chain.step(pm));
@@ -658,4 +658,4 @@ std::vector<PairMotion> estimate_pair_motions(const std::vector<Track>& tracks, 
   return pair_motions(tracks, first_frame, frame_count, o, &camera, &refine);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -14,7 +14,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/common/progress.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -93,9 +93,9 @@ struct FrameInput {
 
 /// The camera height the world origin is put under: the option's, else the sequence's; the sequence
 /// must be a stereo one with a focal length and a baseline.
-double checked_camera_height(const Sequence& seq, const FrontEndOptions& o) {
+double checked_camera_height(const sequence::Sequence& seq, const FrontEndOptions& o) {
   const std::string manifest = seq.manifest.string();
-  if (seq.kind != SequenceKind::Stereo) throw Error(manifest, "kind", "the stereo front end needs a stereo sequence");
+  if (seq.kind != sequence::SequenceKind::Stereo) throw Error(manifest, "kind", "the stereo front end needs a stereo sequence");
   if (!seq.calibration.fx || !(*seq.calibration.fx > 0))
     throw Error(manifest, "calibration.fx", "the stereo front end needs the focal length");
   if (!seq.calibration.baseline || !(*seq.calibration.baseline > 0))
@@ -111,7 +111,7 @@ double checked_camera_height(const Sequence& seq, const FrontEndOptions& o) {
 /// The frames [first, first + n) of one front-end run, what the tracker makes of them (observations and
 /// matches between consecutive frames), and the time each stage took per frame.
 struct FrameStage {
-  const Sequence& seq;
+  const sequence::Sequence& seq;
   const FrontEndOptions& o;
   int first, n;
   std::vector<FrameObservations> obs;
@@ -120,7 +120,7 @@ struct FrameStage {
   Progress progress;
   std::atomic<int> done{0};
 
-  FrameStage(const Sequence& s, const FrontEndOptions& opts, int first_frame, int frames)
+  FrameStage(const sequence::Sequence& s, const FrontEndOptions& opts, int first_frame, int frames)
       : seq(s), o(opts), first(first_frame), n(frames), obs(n), matches(std::max(0, n - 1)), t_disp(n), t_kp(n),
         t_match(std::max(0, n - 1)), progress("front end", n, opts.progress) {}
 
@@ -254,7 +254,7 @@ double mean_over(const std::vector<double>& v, int denom) {
 
 }  // namespace
 
-FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& o) {
+FrontEndResult run_stereo_front_end(const sequence::Sequence& seq, const FrontEndOptions& o) {
   const auto wall0 = Clock::now();
   o.validate();
   const double height = checked_camera_height(seq, o);
@@ -292,4 +292,4 @@ FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& 
   return res;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

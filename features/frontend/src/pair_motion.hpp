@@ -11,7 +11,7 @@
 
 #include "smseg/frontend/motion.hpp"
 
-namespace smseg::features::detail {
+namespace smseg::frontend::detail {
 
 /// One pair's correspondences, in track order: 3D points in frames t (P) and t+1 (Q) and, for the
 /// refinement, their (u, v, d) measurements (ma, mb).
@@ -44,15 +44,15 @@ PairMotion choose_pair_motion(std::vector<Candidate>& candidates, const PairData
 class PathChain {
  public:
   explicit PathChain(double camera_height);
-  const Pose& first() const { return first_; }
+  const sequence::Pose& first() const { return first_; }
   /// The pose of the pair's second frame; marks the pair bridged (and replaces its motion) when bad.
-  Pose step(PairMotion& pm);
+  sequence::Pose step(PairMotion& pm);
 
  private:
-  Pose first_;
+  sequence::Pose first_;
   Eigen::Matrix3d Rw_;
   Eigen::Vector3d c_;
   RigidMotion last_good_;  // identity until a good pair is seen
 };
 
-}  // namespace smseg::features::detail
+}  // namespace smseg::frontend::detail

@@ -8,7 +8,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -157,8 +157,8 @@ void apply_disparity_offset(cv::Mat& disparity, double offset) {
   });
 }
 
-cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) {
-  if (seq.kind != SequenceKind::Stereo)
+cv::Mat frame_disparity(const sequence::Sequence& seq, int frame, const StereoOptions& o) {
+  if (seq.kind != sequence::SequenceKind::Stereo)
     throw Error(seq.manifest.string(), "kind", "the stereo front end needs a stereo sequence");
   if (o.method == StereoMethod::Given) {
     cv::Mat d = seq.load_disparity(frame);
@@ -175,4 +175,4 @@ cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& o) 
   }
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

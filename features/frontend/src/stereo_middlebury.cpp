@@ -10,7 +10,7 @@
 
 #include "smseg/frontend/stereo.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -178,4 +178,4 @@ DisparityScore score_disparity(const cv::Mat& est, const cv::Mat& gt, const cv::
   return s;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -9,7 +9,7 @@
 
 #include "pair_motion.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -23,7 +23,7 @@ struct StereoFrontEndStream::Path {
   detail::PathChain chain;
 };
 
-StereoFrontEndStream::StereoFrontEndStream(const Calibration& calibration, std::optional<double> camera_height,
+StereoFrontEndStream::StereoFrontEndStream(const sequence::Calibration& calibration, std::optional<double> camera_height,
                                            const FrontEndOptions& options, const std::string& source)
     : calib_(calibration), opt_(options) {
   opt_.validate();
@@ -145,4 +145,4 @@ StreamFrame StereoFrontEndStream::advance(Prepared&& in) {
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

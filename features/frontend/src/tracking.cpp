@@ -12,7 +12,7 @@
 #include <opencv2/features2d.hpp>
 #include <opencv2/video/tracking.hpp>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 constexpr std::array<EnumName<KeypointMethod>, 4> kKeypointMethodNames{{{KeypointMethod::Sift, "sift"},
@@ -210,7 +210,7 @@ Eigen::Vector3d backproject(double x, double y, double d, double fx, double fy, 
 }
 
 FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& kps, const cv::Mat& disparity,
-                                    const cv::Mat& labels, const Calibration& calib) {
+                                    const cv::Mat& labels, const sequence::Calibration& calib) {
   std::vector<cv::Point2f> pixels;
   pixels.reserve(kps.size());
   for (const auto& k : kps) pixels.push_back(k.pt);
@@ -218,7 +218,7 @@ FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& kps, const 
 }
 
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
-                                 const Calibration& calib) {
+                                 const sequence::Calibration& calib) {
   if (disparity.type() != CV_32FC1) throw Error("", "disparity", "expected CV_32FC1");
   if (!calib.fx || !calib.baseline) throw Error("", "calibration", "stereo needs fx and the baseline");
   const double fx = *calib.fx, fy = calib.fy.value_or(fx), B = *calib.baseline;
@@ -239,7 +239,7 @@ FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const c
     if (ok) f.points[i] = backproject(p.x, p.y, d, fx, fy, calib.cx, calib.cy, B);
     if (!labels.empty()) {
       const std::uint8_t l = labels.at<std::uint8_t>(y, x);
-      f.labels[i] = l == kVoid ? -1 : l;
+      f.labels[i] = l == sequence::kVoid ? -1 : l;
     }
   }
   return f;
@@ -339,4 +339,4 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
   return kept;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -5,7 +5,7 @@
 
 #include <Eigen/Dense>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -344,15 +344,15 @@ void write_tracks(const fs::path& path, const FrontEndResult& r, const std::stri
 
 namespace {
 
-std::vector<Pose> poses_from_json(const JsonView& poses, long n) {
+std::vector<sequence::Pose> poses_from_json(const JsonView& poses, long n) {
   if (static_cast<long>(poses.size()) != n)
     poses.fail("expected frame_count = " + std::to_string(n) + " poses, found " + std::to_string(poses.size()));
-  std::vector<Pose> out;
+  std::vector<sequence::Pose> out;
   for (std::size_t i = 0; i < poses.size(); ++i) {
     const JsonView p = poses.at(i);
     const Eigen::Matrix3d R = rotation_from(p.at("R"));
     const auto t = numbers(p.at("t"), 3, "3 numbers");
-    Pose pose;
+    sequence::Pose pose;
     for (int a = 0; a < 3; ++a)
       for (int b = 0; b < 3; ++b) pose.R[3 * a + b] = R(a, b);
     pose.t = {t[0], t[1], t[2]};
@@ -441,7 +441,7 @@ TracksFile read_tracks(const fs::path& path) {
   return out;
 }
 
-void check_made_from(const TracksFile& tracks, const fs::path& path, const Sequence& seq) {
+void check_made_from(const TracksFile& tracks, const fs::path& path, const sequence::Sequence& seq) {
   const auto size_text = [](cv::Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); };
   if (tracks.sequence_name != seq.name)
     throw Error(path.string(), "sequence",
@@ -458,4 +458,4 @@ void check_made_from(const TracksFile& tracks, const fs::path& path, const Seque
                     std::to_string(seq.frame_count()) + " frames (" + seq.manifest.string() + ")");
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

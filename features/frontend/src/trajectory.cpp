@@ -7,7 +7,7 @@
 
 #include <Eigen/Dense>
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 namespace {
 
@@ -37,17 +37,17 @@ double rotation_angle_deg(const Eigen::Matrix3d& R) {
 
 }  // namespace
 
-Eigen::Vector3d pose_centre(const Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
+Eigen::Vector3d pose_centre(const sequence::Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
 
-Eigen::Matrix3d pose_rotation(const Pose& p) {
+Eigen::Matrix3d pose_rotation(const sequence::Pose& p) {
   Eigen::Matrix3d R;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R(i, j) = p.R[3 * i + j];
   return R;
 }
 
-Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c) {
-  Pose p;
+sequence::Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c) {
+  sequence::Pose p;
   for (int i = 0; i < 3; ++i) {
     for (int j = 0; j < 3; ++j) p.R[3 * i + j] = R(i, j);
     p.t[i] = c(i);
@@ -85,13 +85,13 @@ Similarity3 umeyama(const std::vector<Eigen::Vector3d>& src, const std::vector<E
   return out;
 }
 
-double path_length(const std::vector<Pose>& poses) {
+double path_length(const std::vector<sequence::Pose>& poses) {
   double len = 0;
   for (std::size_t i = 1; i < poses.size(); ++i) len += (pose_centre(poses[i]) - pose_centre(poses[i - 1])).norm();
   return len;
 }
 
-PathError absolute_path_error(const std::vector<Pose>& estimate, const std::vector<Pose>& truth,
+PathError absolute_path_error(const std::vector<sequence::Pose>& estimate, const std::vector<sequence::Pose>& truth,
                               PathAlignment alignment) {
   if (estimate.size() != truth.size())
     throw Error("", "poses",
@@ -117,7 +117,7 @@ PathError absolute_path_error(const std::vector<Pose>& estimate, const std::vect
   return out;
 }
 
-RelativeError relative_path_error(const std::vector<Pose>& estimate, const std::vector<Pose>& truth) {
+RelativeError relative_path_error(const std::vector<sequence::Pose>& estimate, const std::vector<sequence::Pose>& truth) {
   if (estimate.size() != truth.size())
     throw Error("", "poses",
                 "estimated path has " + std::to_string(estimate.size()) + " poses, ground truth " +
@@ -126,7 +126,7 @@ RelativeError relative_path_error(const std::vector<Pose>& estimate, const std::
   double st = 0, sr = 0;
   for (std::size_t i = 0; i + 1 < estimate.size(); ++i) {
     // Relative motion of camera i+1 in camera i's frame: R = Ri^T Rj, t = Ri^T (cj - ci).
-    auto rel = [](const Pose& a, const Pose& b, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
+    auto rel = [](const sequence::Pose& a, const sequence::Pose& b, Eigen::Matrix3d& R, Eigen::Vector3d& t) {
       const Eigen::Matrix3d Ra = pose_rotation(a);
       R = Ra.transpose() * pose_rotation(b);
       t = Ra.transpose() * (pose_centre(b) - pose_centre(a));
@@ -188,4 +188,4 @@ DepthError tracked_depth_error(const std::vector<Track>& tracks, const std::func
   return out;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -9,7 +9,7 @@
 
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::graphcut {
 
 namespace {
 
@@ -627,4 +627,4 @@ double brute_force_minimum(const PottsEnergy& energy, std::vector<int>* best) {
   return lowest;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::graphcut

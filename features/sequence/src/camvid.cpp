@@ -12,7 +12,7 @@
 #include "smseg/sequence/image_file.hpp"
 #include "sequence_parse.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 namespace {
 
@@ -381,4 +381,4 @@ std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, c
   return result;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

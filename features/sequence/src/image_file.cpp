@@ -11,7 +11,7 @@
 
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 namespace {
 
@@ -122,4 +122,4 @@ cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize
   return m;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -10,7 +10,7 @@
 #include "smseg/sequence/image_file.hpp"
 #include "sequence_parse.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 namespace {
 
@@ -222,4 +222,4 @@ Sequence import_kitti(const fs::path& dir, const fs::path& out, const KittiImpor
   return load_sequence(out);  // what a reader sees, validated
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

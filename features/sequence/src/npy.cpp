@@ -3,7 +3,7 @@
 #include <cstring>
 #include <functional>
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 namespace {
 
@@ -137,4 +137,4 @@ void write_npy_f32_atomic(const fs::path& path, const cv::Mat& m) {
   write_file_atomic(path, out);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

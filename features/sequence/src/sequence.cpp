@@ -14,7 +14,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 namespace {
 
@@ -520,4 +520,4 @@ void write_image_atomic(const fs::path& path, const cv::Mat& image) {
   write_file_atomic(path, std::string_view(reinterpret_cast<const char*>(buf.data()), buf.size()));
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

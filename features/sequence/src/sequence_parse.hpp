@@ -6,7 +6,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 /// Whether R (row-major 3x3) is a rotation: R R^T = I to 1e-4 and det R > 0, as the tracks reader
 /// checks its poses.
@@ -20,4 +20,4 @@ Sequence sequence_from_json(const Json& doc, const fs::path& manifest);
 /// what an importer is about to write.
 void check_before_saving(const Sequence& seq);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

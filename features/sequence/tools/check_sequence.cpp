@@ -14,7 +14,7 @@ int main(int argc, char** argv) {
   app.add_option("SEQUENCE", dir, "sequence folder (holding sequence.json) or manifest file")->required();
   app.add_flag("--quick", quick, "check the manifest and that files exist, without decoding images");
   return smseg::run_tool(app, argc, argv, [&] {
-    using namespace smseg::features;
+    using namespace smseg::sequence;
     const Sequence seq = load_sequence(dir);
     if (!quick) validate_images(seq);
     std::cout << seq.manifest.string() << ": OK: " << (seq.kind == SequenceKind::Stereo ? "stereo" : "mono")

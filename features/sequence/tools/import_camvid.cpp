@@ -9,7 +9,7 @@
 #include "smseg/sequence/camvid.hpp"
 
 int main(int argc, char** argv) {
-  using namespace smseg::features;
+  using namespace smseg::sequence;
   CLI::App app{"Import a CamVid-style folder (frames.csv, classes.csv, image and label folders) as mono\n"
                "sequences: one sequence.json per contiguous run of a CamVid sequence within one split\n"
                "(the 15 Hz run 0016E5_07959..08159 is one, each 1 Hz run another). Images are referred to\n"

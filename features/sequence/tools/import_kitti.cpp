@@ -7,7 +7,7 @@
 #include "smseg/sequence/kitti.hpp"
 
 int main(int argc, char** argv) {
-  using namespace smseg::features;
+  using namespace smseg::sequence;
   CLI::App app{"Import a rectified KITTI stereo slice as a stereo sequence (sequence.json in OUT; the images\n"
                "are referred to where they are, not copied). Layouts: KITTI odometry's own (image_0/, image_1/,\n"
                "calib.txt with P0/P1, optional times.txt and poses.txt) or ../shared/data/kitti-stereo's\n"

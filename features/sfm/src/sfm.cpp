@@ -25,7 +25,7 @@
 #include "sfm_map.hpp"
 #include "sfm_matching.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 namespace sfm_front_end {
 
@@ -41,10 +41,10 @@ double mean(const std::vector<double>& v, int denom) {
 
 }  // namespace
 
-MonoFrontEnd::MonoFrontEnd(const Sequence& seq, const SfmOptions& options, Clock::time_point wall0)
+MonoFrontEnd::MonoFrontEnd(const sequence::Sequence& seq, const SfmOptions& options, Clock::time_point wall0)
     : seq_(seq), options_(options), wall_start_(wall0) {
   const std::string manifest = seq.manifest.string();
-  if (options_.tracker == SfmTracker::Descriptors && options_.tracking.detector == KeypointMethod::Gftt)
+  if (options_.tracker == SfmTracker::Descriptors && options_.tracking.detector == frontend::KeypointMethod::Gftt)
     throw Error(manifest, "tracking.detector",
                 "gftt corners have no descriptors, and this sequence's frames call for descriptor matching; use "
                 "--tracker klt or another detector");
@@ -56,7 +56,7 @@ MonoFrontEnd::MonoFrontEnd(const Sequence& seq, const SfmOptions& options, Clock
   height_ = *height;
   first_frame_ = options_.first_frame;
   n_ = seq.range_end(first_frame_, options_.last_frame) - first_frame_;
-  descriptor_norm_ = descriptor_norm(options_.tracking.detector);
+  descriptor_norm_ = frontend::descriptor_norm(options_.tracking.detector);
   report_.tracker = options_.tracker;
   const int n_pairs = std::max(0, n_ - 1);
   pixels_.resize(n_);
@@ -71,7 +71,7 @@ MonoFrontEnd::MonoFrontEnd(const Sequence& seq, const SfmOptions& options, Clock
   pnp_inliers_.assign(n_, 0);
 }
 
-FrontEndResult MonoFrontEnd::run() {
+frontend::FrontEndResult MonoFrontEnd::run() {
   if (options_.tracker == SfmTracker::Klt)
     track_klt();
   else
@@ -97,7 +97,7 @@ void MonoFrontEnd::track_klt() {
     const cv::Mat img = seq_.load_left_gray(first_frame_ + t);
     const auto t0 = Clock::now();
     std::vector<cv::DMatch> m;
-    pixels_[t] = klt_step(prev_img, t > 0 ? pixels_[t - 1] : std::vector<cv::Point2f>(), img, detected[t],
+    pixels_[t] = frontend::klt_step(prev_img, t > 0 ? pixels_[t - 1] : std::vector<cv::Point2f>(), img, detected[t],
                           options_.tracking.max_keypoints, options_.klt, m);
     if (t > 0) {
       pairs_[t - 1] = verify_pair(m, pixels_[t - 1], pixels_[t], options_);
@@ -148,9 +148,9 @@ void MonoFrontEnd::detect_with_descriptors(int c0, int c1, Progress& progress) {
 }
 
 /// Detects frame i's keypoints, appending their positions; times the detection.
-FrameKeypoints MonoFrontEnd::detect_frame(int i, std::vector<cv::Point2f>& positions) {
+frontend::FrameKeypoints MonoFrontEnd::detect_frame(int i, std::vector<cv::Point2f>& positions) {
   const auto t0 = Clock::now();
-  FrameKeypoints kp = detect_keypoints(seq_.load_left_gray(first_frame_ + i), options_.tracking);
+  frontend::FrameKeypoints kp = frontend::detect_keypoints(seq_.load_left_gray(first_frame_ + i), options_.tracking);
   for (const auto& k : kp.keypoints) positions.push_back(k.pt);
   seconds_keypoints_[i] = since(t0);
   return kp;
@@ -166,15 +166,15 @@ void MonoFrontEnd::match_pair(int t) {
   std::vector<cv::DMatch> m =
       o.match_radius_px > 0 ? match_gated(a, pixels_[t], b, pixels_[t + 1], norm, o.match_radius_px, o.lowe_ratio)
       : o.lowe_ratio > 0    ? match_ratio(a, b, norm, o.lowe_ratio)
-                            : match_symmetric(a, b, norm);
-  drop_far_matches(m, pixels_[t], pixels_[t + 1], o.tracking);
+                            : frontend::match_symmetric(a, b, norm);
+  frontend::drop_far_matches(m, pixels_[t], pixels_[t + 1], o.tracking);
   pairs_[t] = verify_pair(m, pixels_[t], pixels_[t + 1], o);
   if (o.epipolar_ratio > 0 && pairs_[t].has_f) {
     // Guided matching along the verified pair's epipolar lines, then verified again (the
     // fundamental matrix is re-estimated from the larger set).
     m = match_epipolar(a, pixels_[t], b, pixels_[t + 1], pairs_[t].F, norm, o.fundamental_threshold_px,
                        o.epipolar_ratio);
-    drop_far_matches(m, pixels_[t], pixels_[t + 1], o.tracking);
+    frontend::drop_far_matches(m, pixels_[t], pixels_[t + 1], o.tracking);
     pairs_[t] = verify_pair(m, pixels_[t], pixels_[t + 1], o);
   }
   matches_[t] = std::move(m);
@@ -187,7 +187,7 @@ void MonoFrontEnd::chain_tracks() {
     n_keypoints_[i] = static_cast<int>(pixels_[i].size());
     total_keypoints_ += n_keypoints_[i];
   }
-  tracks_.tid = chain_matches(n_keypoints_, matches_, &ntracks_);
+  tracks_.tid = frontend::chain_matches(n_keypoints_, matches_, &ntracks_);
   tracks_.tobs.resize(ntracks_);
   for (int t = 0; t < n_; ++t)
     for (int i = 0; i < n_keypoints_[t]; ++i) tracks_.tobs[track_of_[t][i]].push_back({t, i});
@@ -196,7 +196,7 @@ void MonoFrontEnd::chain_tracks() {
 // ---- 2. focal length ----
 
 void MonoFrontEnd::choose_focal_length() {
-  const Calibration camera = sfm_camera(seq_, 1);  // its principal point; the focal is found below
+  const sequence::Calibration camera = sfm_camera(seq_, 1);  // its principal point; the focal is found below
   intrinsics_.cx = camera.cx;
   intrinsics_.cy = camera.cy;
   if (options_.focal) {
@@ -339,7 +339,7 @@ void MonoFrontEnd::level_on_ground() {
   collect_ground_candidates(cand, below);
   report_.ground_candidates = static_cast<int>(cand.size());
   const double h_typ = median(below);
-  const PlaneFit plane = fit_ground_plane(cand, up, options_.ground_threshold * h_typ, options_.ground_max_tilt_deg,
+  const frontend::PlaneFit plane = frontend::fit_ground_plane(cand, up, options_.ground_threshold * h_typ, options_.ground_max_tilt_deg,
                                           options_.ground_iterations, options_.seed, options_.ground_min_inliers);
   Eigen::Vector3d n_up = up;
   double d = 0;
@@ -424,7 +424,7 @@ void MonoFrontEnd::set_world_axes(const Eigen::Vector3d& n_up, double d) {
 
 // Never initialised: every frame at the first pose of the stereo convention.
 void MonoFrontEnd::stand_at_first_pose() {
-  const Pose p0 = initial_pose(height_);
+  const sequence::Pose p0 = frontend::initial_pose(height_);
   Eigen::Matrix3d R0;
   for (int r = 0; r < 3; ++r)
     for (int k = 0; k < 3; ++k) R0(r, k) = p0.R[3 * r + k];
@@ -439,13 +439,13 @@ void MonoFrontEnd::stand_at_first_pose() {
 
 // ---- output ----
 
-FrontEndResult MonoFrontEnd::assemble_result() {
-  FrontEndResult res;
+frontend::FrontEndResult MonoFrontEnd::assemble_result() {
+  frontend::FrontEndResult res;
   res.first_frame = first_frame_;
   res.poses.resize(n_);
-  for (int t = 0; t < n_; ++t) res.poses[t] = make_pose(world_rotation(t), world_centre(t));
-  FilterCounts fc;
-  res.tracks = build_tracks(frame_observations(), matches_, options_.filters, fc);
+  for (int t = 0; t < n_; ++t) res.poses[t] = frontend::make_pose(world_rotation(t), world_centre(t));
+  frontend::FilterCounts fc;
+  res.tracks = frontend::build_tracks(frame_observations(), matches_, options_.filters, fc);
   for (auto& tr : res.tracks)
     for (int& f : tr.frames) f += first_frame_;
   fill_pair_motions(res);
@@ -462,12 +462,12 @@ Eigen::Vector3d MonoFrontEnd::world_centre(int t) const { return scale_ * world_
 
 /// Per frame its keypoints, their labels (labelled frames) and, where kept, their 3D points in the
 /// camera (metres) and inverse depths.
-std::vector<FrameObservations> MonoFrontEnd::frame_observations() const {
-  std::vector<FrameObservations> fobs(n_);
+std::vector<frontend::FrameObservations> MonoFrontEnd::frame_observations() const {
+  std::vector<frontend::FrameObservations> fobs(n_);
   for (int t = 0; t < n_; ++t) {
     auto& fo = fobs[t];
     fo.pixels = pixels_[t];
-    fo.disparities.assign(n_keypoints_[t], kInvalidDisparity);
+    fo.disparities.assign(n_keypoints_[t], frontend::kInvalidDisparity);
     fo.points.assign(n_keypoints_[t], Eigen::Vector3d::Zero());
     const cv::Mat labels = seq_.is_labelled(first_frame_ + t) ? seq_.load_labels(first_frame_ + t) : cv::Mat();
     if (!labels.empty()) fo.labels.assign(n_keypoints_[t], -1);
@@ -476,7 +476,7 @@ std::vector<FrameObservations> MonoFrontEnd::frame_observations() const {
         const int x = std::clamp(static_cast<int>(std::lround(pixels_[t][i].x)), 0, labels.cols - 1);
         const int y = std::clamp(static_cast<int>(std::lround(pixels_[t][i].y)), 0, labels.rows - 1);
         const std::uint8_t l = labels.at<std::uint8_t>(y, x);
-        fo.labels[i] = l == kVoid ? -1 : l;
+        fo.labels[i] = l == sequence::kVoid ? -1 : l;
       }
       if (!keep_[t][i] || !has_point_[track_of_[t][i]]) continue;
       const Eigen::Vector3d xc = scale_ * (pose_[t].R * point_[track_of_[t][i]] + pose_[t].t);
@@ -487,7 +487,7 @@ std::vector<FrameObservations> MonoFrontEnd::frame_observations() const {
   return fobs;
 }
 
-void MonoFrontEnd::fill_pair_motions(FrontEndResult& res) const {
+void MonoFrontEnd::fill_pair_motions(frontend::FrontEndResult& res) const {
   res.pair_motions.resize(std::max(0, n_ - 1));
   for (int t = 0; t + 1 < n_; ++t) {
     auto& pm = res.pair_motions[t];
@@ -503,12 +503,12 @@ void MonoFrontEnd::fill_pair_motions(FrontEndResult& res) const {
 }
 
 // Summary (as the stereo front end's).
-void MonoFrontEnd::summarise(FrontEndResult& res, const FilterCounts& fc, double t_sfm) {
-  FrontEndSummary& s = res.summary;
+void MonoFrontEnd::summarise(frontend::FrontEndResult& res, const frontend::FilterCounts& fc, double t_sfm) {
+  frontend::FrontEndSummary& s = res.summary;
   s.frames = n_;
   s.keypoints = total_keypoints_;
   s.filters = fc;
-  summarise_tracks_and_motion(res, n_, [this, &res](std::size_t k) {
+  frontend::summarise_tracks_and_motion(res, n_, [this, &res](std::size_t k) {
     return status_[k + 1] != FrameStatus::Still && res.pair_motions[k].points > 0;
   });
   s.seconds.keypoints = mean(seconds_keypoints_, n_);
@@ -522,8 +522,8 @@ void MonoFrontEnd::summarise(FrontEndResult& res, const FilterCounts& fc, double
 
 }  // namespace sfm_front_end
 
-Calibration sfm_camera(const Sequence& seq, double focal) {
-  Calibration c = seq.calibration;
+sequence::Calibration sfm_camera(const sequence::Sequence& seq, double focal) {
+  sequence::Calibration c = seq.calibration;
   c.fx = c.fy = focal;
   if (c.cx == 0 && c.cy == 0) {
     c.cx = (seq.size.width - 1) / 2.0;
@@ -532,13 +532,13 @@ Calibration sfm_camera(const Sequence& seq, double focal) {
   return c;
 }
 
-FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report_out) {
+frontend::FrontEndResult run_mono_front_end(const sequence::Sequence& seq, const SfmOptions& options, SfmReport* report_out) {
   const auto wall0 = sfm_front_end::Clock::now();
   options.validate();
   sfm_front_end::MonoFrontEnd front_end(seq, resolve_tracker(options, seq), wall0);
-  FrontEndResult res = front_end.run();
+  frontend::FrontEndResult res = front_end.run();
   if (report_out) *report_out = front_end.report();
   return res;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -21,7 +21,7 @@
 
 #include "smseg/sfm/sfm.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 namespace {
 
@@ -192,4 +192,4 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cams, std::vector<Eigen::Vector3d
   return summary;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -15,7 +15,7 @@
 #include "sfm_map.hpp"
 #include "sfm_matching.hpp"
 
-namespace smseg::features::sfm_front_end {
+namespace smseg::sfm::sfm_front_end {
 
 using sfm_map::MapCandidate;
 using sfm_map::TrackTable;
@@ -98,8 +98,8 @@ struct BaProblem {
 class MonoFrontEnd {
  public:
   /// `options` validated and their tracker resolved; wall0: when the run began (for the summary).
-  MonoFrontEnd(const Sequence& seq, const SfmOptions& options, Clock::time_point wall0);
-  FrontEndResult run();
+  MonoFrontEnd(const sequence::Sequence& seq, const SfmOptions& options, Clock::time_point wall0);
+  frontend::FrontEndResult run();
   const SfmReport& report() const { return report_; }
 
  private:
@@ -108,7 +108,7 @@ class MonoFrontEnd {
   std::vector<std::vector<cv::Point2f>> detect_positions();
   void match_descriptors();
   void detect_with_descriptors(int c0, int c1, Progress& progress);
-  FrameKeypoints detect_frame(int i, std::vector<cv::Point2f>& positions);
+  frontend::FrameKeypoints detect_frame(int i, std::vector<cv::Point2f>& positions);
   void match_pair(int t);
   void chain_tracks();
   // 2. focal length
@@ -168,14 +168,14 @@ class MonoFrontEnd {
   void set_world_axes(const Eigen::Vector3d& n_up, double d);
   void stand_at_first_pose();
   // Output
-  FrontEndResult assemble_result();
+  frontend::FrontEndResult assemble_result();
   Eigen::Matrix3d world_rotation(int t) const;
   Eigen::Vector3d world_centre(int t) const;
-  std::vector<FrameObservations> frame_observations() const;
-  void fill_pair_motions(FrontEndResult& res) const;
-  void summarise(FrontEndResult& res, const FilterCounts& fc, double t_sfm);
+  std::vector<frontend::FrameObservations> frame_observations() const;
+  void fill_pair_motions(frontend::FrontEndResult& res) const;
+  void summarise(frontend::FrontEndResult& res, const frontend::FilterCounts& fc, double t_sfm);
 
-  const Sequence& seq_;
+  const sequence::Sequence& seq_;
   const SfmOptions options_;
   const Clock::time_point wall_start_;
   Clock::time_point sfm_start_;
@@ -228,4 +228,4 @@ class MonoFrontEnd {
   Eigen::Vector3d origin_ = Eigen::Vector3d::Zero();
 };
 
-}  // namespace smseg::features::sfm_front_end
+}  // namespace smseg::sfm::sfm_front_end

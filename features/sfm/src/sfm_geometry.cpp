@@ -8,7 +8,7 @@
 
 #include "smseg/sfm/sfm.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 namespace {
 
@@ -85,4 +85,4 @@ std::optional<double> estimate_focal_from_fundamentals(const std::vector<cv::Mat
   return std::exp((a + b) / 2);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -6,7 +6,7 @@
 
 #include <opencv2/features2d.hpp>
 
-namespace smseg::features::sfm_map {
+namespace smseg::sfm::sfm_map {
 
 bool TrackTable::merge(int from, int into) {
   if (from == into) return false;
@@ -79,4 +79,4 @@ std::vector<MapCandidate> match_local_map(int t, const std::vector<int>& window,
   return out;
 }
 
-}  // namespace smseg::features::sfm_map
+}  // namespace smseg::sfm::sfm_map

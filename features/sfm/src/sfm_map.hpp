@@ -13,7 +13,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace smseg::features::sfm_map {
+namespace smseg::sfm::sfm_map {
 
 /// Which track each keypoint belongs to and each track's observations.
 struct TrackTable {
@@ -41,4 +41,4 @@ std::vector<MapCandidate> match_local_map(int t, const std::vector<int>& window,
                                           const std::vector<char>& has_point, const std::vector<cv::Mat>& descriptors,
                                           int norm, double ratio);
 
-}  // namespace smseg::features::sfm_map
+}  // namespace smseg::sfm::sfm_map

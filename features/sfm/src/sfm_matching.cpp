@@ -8,7 +8,7 @@
 
 #include <opencv2/calib3d.hpp>
 
-namespace smseg::features::sfm_matching {
+namespace smseg::sfm::sfm_matching {
 
 double median(std::vector<double> v) {
   if (v.empty()) return 0;
@@ -186,4 +186,4 @@ PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>&
   return info;
 }
 
-}  // namespace smseg::features::sfm_matching
+}  // namespace smseg::sfm::sfm_matching

@@ -8,7 +8,7 @@
 
 #include "smseg/sfm/sfm.hpp"
 
-namespace smseg::features::sfm_matching {
+namespace smseg::sfm::sfm_matching {
 
 /// The median of v (the upper one for an even count); 0 for none.
 double median(std::vector<double> v);
@@ -41,4 +41,4 @@ struct PairInfo {
 PairInfo verify_pair(std::vector<cv::DMatch>& m, const std::vector<cv::Point2f>& pa, const std::vector<cv::Point2f>& pb,
                      const SfmOptions& o);
 
-}  // namespace smseg::features::sfm_matching
+}  // namespace smseg::sfm::sfm_matching

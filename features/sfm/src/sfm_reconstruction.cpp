@@ -11,7 +11,7 @@
 
 #include "sfm_front_end.hpp"
 
-namespace smseg::features::sfm_front_end {
+namespace smseg::sfm::sfm_front_end {
 
 using namespace sfm_matching;
 
@@ -481,4 +481,4 @@ void MonoFrontEnd::triangulate_remaining() {
   }
 }
 
-}  // namespace smseg::features::sfm_front_end
+}  // namespace smseg::sfm::sfm_front_end

@@ -9,7 +9,7 @@
 
 #include "smseg/common/error.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 const std::vector<std::string>& appearance_feature_names() {
   static const std::vector<std::string> names{"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol"};
@@ -111,4 +111,4 @@ void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
   append_position(bgr.size(), out);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

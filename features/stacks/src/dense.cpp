@@ -11,14 +11,14 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
 constexpr int kNormalStep = 2;  // pixels either side for the surface normal: 1 is dominated by the matcher's steps
 
 // Camera-frame 3D points of the valid pixels (NaN elsewhere).
-cv::Mat camera_points(const cv::Mat& depth, const Calibration& c) {
+cv::Mat camera_points(const cv::Mat& depth, const sequence::Calibration& c) {
   cv::Mat pts(depth.size(), CV_64FC3, cv::Scalar::all(std::nan("")));
   const double fx = *c.fx, fy = c.fy.value_or(*c.fx);
   for (int y = 0; y < depth.rows; ++y) {
@@ -69,10 +69,10 @@ const std::vector<std::string>& dense_feature_names() {
   return names;
 }
 
-StereoOptions dense_stereo_options(const StereoOptions& front_end) {
-  StereoOptions o = front_end;
-  if (o.method == StereoMethod::Given) return o;  // the sequence's own disparities are dense already
-  o.method = StereoMethod::SGBM;
+frontend::StereoOptions dense_stereo_options(const frontend::StereoOptions& front_end) {
+  frontend::StereoOptions o = front_end;
+  if (o.method == frontend::StereoMethod::Given) return o;  // the sequence's own disparities are dense already
+  o.method = frontend::StereoMethod::SGBM;
   o.block_size = 7;
   // Eight paths instead of five: on the synthetic corridor's slanted walls and floor the median relative
   // depth error (frames 0, 6, 12) falls from 5.0 / 4.9 / 3.8 % to 3.9 / 4.2 / 2.9 % (lab 2.8-3.4 ->
@@ -81,11 +81,11 @@ StereoOptions dense_stereo_options(const StereoOptions& front_end) {
   return o;
 }
 
-cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& options) {
-  const Calibration& c = seq.calibration;
+cv::Mat dense_depth(const sequence::Sequence& seq, int frame, const frontend::StereoOptions& options) {
+  const sequence::Calibration& c = seq.calibration;
   if (!c.fx || !c.baseline || !(*c.baseline > 0))
     throw Error(seq.manifest.string(), "calibration", "dense depth needs the focal length and the stereo baseline");
-  const cv::Mat d = frame_disparity(seq, frame, options);
+  const cv::Mat d = frontend::frame_disparity(seq, frame, options);
   cv::Mat depth(d.size(), CV_32FC1, cv::Scalar(0));
   const double fb = *c.fx * *c.baseline;
   for (int y = 0; y < d.rows; ++y) {
@@ -97,13 +97,13 @@ cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& options
   return depth;
 }
 
-CameraPath camera_path_near(const std::vector<Pose>& poses, int frame, int future_frames, bool causal) {
+CameraPath camera_path_near(const std::vector<sequence::Pose>& poses, int frame, int future_frames, bool causal) {
   const int n = static_cast<int>(poses.size());
   if (frame < 0 || frame >= n) throw Error("", "frame", "no pose for frame " + std::to_string(frame));
   const int first = causal ? std::max(0, frame - future_frames) : frame;
   const int last = causal ? frame : std::min(n - 1, frame + future_frames);
   CameraPath path;
-  for (int f = first; f <= last; ++f) path.push_back(pose_centre(poses[std::size_t(f)]));
+  for (int f = first; f <= last; ++f) path.push_back(frontend::pose_centre(poses[std::size_t(f)]));
   return path;
 }
 
@@ -115,13 +115,13 @@ double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path) {
   return best;
 }
 
-void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
+void append_dense_rasters(const cv::Mat& depth, const sequence::Calibration& calibration, const sequence::Pose& pose,
                           std::vector<cv::Mat>& out, double height_shift, const CameraPath& path) {
   if (depth.empty() || depth.type() != CV_32FC1) throw Error("", "depth", "expected a non-empty CV_32FC1 depth map");
   if (!calibration.fx) throw Error("", "calibration", "dense channels need the focal length");
   const cv::Mat pts = camera_points(depth, calibration);
-  const Eigen::Matrix3d R = pose_rotation(pose);
-  const Eigen::Vector3d centre = pose_centre(pose);
+  const Eigen::Matrix3d R = frontend::pose_rotation(pose);
+  const Eigen::Vector3d centre = frontend::pose_centre(pose);
   const Eigen::Vector3d up_in_camera = R.transpose() * Eigen::Vector3d::UnitY();
   const CameraPath route = path.empty() ? CameraPath{centre} : simplified_path(path);
   const int W = depth.cols, H = depth.rows;
@@ -158,4 +158,4 @@ void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, 
   out.push_back(to_path);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -19,7 +19,7 @@
 #include "smseg/common/output.hpp"
 #include "smseg/common/progress.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -36,13 +36,13 @@ FeatureOptions effective_features(const FrontEnd& front_end, const ExtractOption
 
 // FNV-1a (64 bits) of the sequence's manifest: its frames, calibration and classes, what the stacks are
 // made of besides the options. Recorded in stacks.json so that a resume reuses only stacks of this input.
-std::string sequence_digest(const Sequence& seq) {
+std::string sequence_digest(const sequence::Sequence& seq) {
   std::error_code ec;
   if (seq.manifest.empty() || !fs::is_regular_file(seq.manifest, ec)) return "none";  // made in memory
   return fnv1a64_hex(read_file(seq.manifest));
 }
 
-Json options_json(const Sequence& seq, const FrontEnd& front_end, const ExtractOptions& o) {
+Json options_json(const sequence::Sequence& seq, const FrontEnd& front_end, const ExtractOptions& o) {
   Json fe = front_end.options_json(o);
   if (!fe.contains("camera_height") && seq.camera_height) fe["camera_height"] = *seq.camera_height;
   return {{"front_end", fe},
@@ -61,7 +61,7 @@ std::vector<std::string> stack_channel_names(const FeatureOptions& o) {
 // Whether an earlier run's stacks.json describes stacks made the way this run makes them. Work folders
 // from before the input digest was recorded are judged without it. The channel list counts too: the
 // same options made five dense channels before fZC.
-bool same_stacks(const StackManifest& old, const Sequence& seq, const Json& options,
+bool same_stacks(const StackManifest& old, const sequence::Sequence& seq, const Json& options,
                  const std::vector<std::string>& channels) {
   Json old_options = old.options, new_options = options;
   if (!old_options.contains("input")) new_options.erase("input");
@@ -87,7 +87,7 @@ void remove_foreign_stacks(const fs::path& work) {
 
 // The frames whose three files are on disk. Each file is written whole (temporary, then rename), so a
 // file that is there is complete; a frame killed between its files lacks one and is redone.
-bool frame_files_present(const fs::path& work, const Sequence& seq, int f) {
+bool frame_files_present(const fs::path& work, const sequence::Sequence& seq, int f) {
   std::error_code ec;
   return fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
          (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
@@ -116,8 +116,8 @@ cv::Mat false_colour(const cv::Mat& raster, const cv::Mat& points) {
 }
 
 // The ground-truth path moved rigidly so that its pose at `first` coincides with `estimated_first`.
-std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, const Pose& estimated_first) {
-  const auto mat = [](const Pose& p) {
+std::vector<sequence::Pose> align_at_first_frame(const std::vector<sequence::Pose>& gt, int first, const sequence::Pose& estimated_first) {
+  const auto mat = [](const sequence::Pose& p) {
     Eigen::Matrix4d m = Eigen::Matrix4d::Identity();
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) m(r, c) = p.R[r * 3 + c];
@@ -126,10 +126,10 @@ std::vector<Pose> align_at_first_frame(const std::vector<Pose>& gt, int first, c
     return m;
   };
   const Eigen::Matrix4d A = mat(estimated_first) * mat(gt[first]).inverse();
-  std::vector<Pose> out;
+  std::vector<sequence::Pose> out;
   for (std::size_t i = first; i < gt.size(); ++i) {
     const Eigen::Matrix4d m = A * mat(gt[i]);
-    Pose p;
+    sequence::Pose p;
     for (int r = 0; r < 3; ++r) {
       for (int c = 0; c < 3; ++c) p.R[r * 3 + c] = m(r, c);
       p.t[r] = m(r, 3);
@@ -147,16 +147,16 @@ Json feature_options_json(const FeatureOptions& o) {
   return j;
 }
 
-PointCloudVideo video_from_tracks(const FrontEndResult& fe, int frame_count, int causal_min_frames) {
+PointCloudVideo video_from_tracks(const frontend::FrontEndResult& fe, int frame_count, int causal_min_frames) {
   PointCloudVideo v;
-  v.poses.assign(frame_count, Pose{});
+  v.poses.assign(frame_count, sequence::Pose{});
   v.observations.resize(frame_count);
   for (std::size_t i = 0; i < fe.poses.size(); ++i) {
     const int f = fe.first_frame + static_cast<int>(i);
     if (f >= 0 && f < frame_count) v.poses[f] = fe.poses[i];
   }
   for (std::size_t k = 0; k < fe.tracks.size(); ++k) {
-    const Track& t = fe.tracks[k];
+    const frontend::Track& t = fe.tracks[k];
     for (std::size_t i = causal_min_frames > 0 ? causal_min_frames - 1 : 0; i < t.size(); ++i) {
       const int f = t.frames[i];
       if (f < 0 || f >= frame_count) continue;
@@ -181,10 +181,10 @@ namespace {
 // the val figures by +0.5 global, +0.8 class average (docs/sfm.md).
 struct SweepInputs {
   std::vector<bool> usable;
-  Calibration calibration;
+  sequence::Calibration calibration;
 };
 
-SweepInputs sweep_inputs(const Sequence& seq, const FrontEndResult& fe) {
+SweepInputs sweep_inputs(const sequence::Sequence& seq, const frontend::FrontEndResult& fe) {
   SweepInputs in;
   in.usable.assign(seq.frame_count(), false);
   for (int k = 0; k < static_cast<int>(fe.poses.size()); ++k) {
@@ -193,7 +193,7 @@ SweepInputs sweep_inputs(const Sequence& seq, const FrontEndResult& fe) {
   }
   const double focal = fe.summary.sfm ? fe.summary.sfm->focal : 0;
   if (!(focal > 0)) throw Error(seq.manifest.string(), "focal", "the structure from motion reported no focal length");
-  in.calibration = sfm_camera(seq, focal);
+  in.calibration = sfm::sfm_camera(seq, focal);
   return in;
 }
 
@@ -222,7 +222,7 @@ cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<s
 namespace {
 
 // Frames and previews asked for must lie in the sequence (Error naming the option).
-void check_frame_options(const Sequence& seq, const ExtractOptions& opt) {
+void check_frame_options(const sequence::Sequence& seq, const ExtractOptions& opt) {
   if (opt.frames.begin >= seq.frame_count())
     throw Error("", "--frames", opt.frames.str() + " selects none of the " + std::to_string(seq.frame_count()) +
                                    " frames of " + seq.manifest.string());
@@ -237,7 +237,7 @@ void check_frame_options(const Sequence& seq, const ExtractOptions& opt) {
 // the same options and input, every frame whose files are on disk is kept, whether an earlier run
 // finished (listed in stacks.json) or was killed (stacks.json is written first, so the files on disk
 // were made under it).
-StackManifest start_manifest(const Sequence& seq, const fs::path& work, const Json& options,
+StackManifest start_manifest(const sequence::Sequence& seq, const fs::path& work, const Json& options,
                              const ExtractOptions& opt, bool& resume_from_files) {
   StackManifest m;
   std::error_code ec;
@@ -277,10 +277,10 @@ StackManifest start_manifest(const Sequence& seq, const fs::path& work, const Js
 
 // The front end over the whole sequence (fC needs the future path), timed into the report; its tracks
 // written to WORK/tracks.json. Error when it kept no tracked point.
-FrontEndResult run_front_end(const Sequence& seq, const fs::path& work, const FrontEnd& front_end,
+frontend::FrontEndResult run_front_end(const sequence::Sequence& seq, const fs::path& work, const FrontEnd& front_end,
                              const ExtractOptions& opt, const Json& options, ExtractReport& report) {
   const auto t0 = std::chrono::steady_clock::now();
-  FrontEndResult fe = front_end.run(seq, opt);
+  frontend::FrontEndResult fe = front_end.run(seq, opt);
   report.front_end_seconds = seconds_since(t0);
   report.summary = fe.summary;
   if (fe.tracks.empty())
@@ -288,21 +288,21 @@ FrontEndResult run_front_end(const Sequence& seq, const fs::path& work, const Fr
                 std::string("the front end kept no tracked 3D point in any of the ") + std::to_string(seq.frame_count()) +
                     " frames (" + std::string(front_end.no_tracks_hint()) +
                     "): there is nothing to compute features from");
-  write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
+  frontend::write_tracks(work / "tracks.json", fe, seq.name, seq.size, options["front_end"]);
   return fe;
 }
 
 // WORK/path.png: the camera path from above, with the ground truth's when the sequence has one.
-void write_path_picture(const Sequence& seq, const fs::path& work, const FrontEndResult& fe,
+void write_path_picture(const sequence::Sequence& seq, const fs::path& work, const frontend::FrontEndResult& fe,
                         const std::vector<CloudPoint>& cloud) {
-  std::vector<Pose> gt;
+  std::vector<sequence::Pose> gt;
   if (static_cast<int>(seq.gt_poses.size()) == seq.frame_count() && !fe.poses.empty())
     gt = align_at_first_frame(seq.gt_poses, fe.first_frame, fe.poses.front());
-  write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, cloud, seq));
+  sequence::write_image_atomic(work / "path.png", plot_top_down(fe.poses, gt.empty() ? nullptr : &gt, cloud, seq));
 }
 
 // The frames of --frames to write now (todo) and those whose stacks are on disk already (kept).
-void plan_frames(const Sequence& seq, const fs::path& work, const ExtractOptions& opt, const StackManifest& m,
+void plan_frames(const sequence::Sequence& seq, const fs::path& work, const ExtractOptions& opt, const StackManifest& m,
                  bool resume_from_files, std::vector<int>& todo, std::vector<int>& kept) {
   for (int f = 0; f < seq.frame_count(); ++f) {
     if (!opt.frames.contains(f)) continue;
@@ -319,7 +319,7 @@ void plan_frames(const Sequence& seq, const fs::path& work, const ExtractOptions
 // matching, or a plane sweep over the SfM's posed neighbours).
 class ImageRasters {
  public:
-  ImageRasters(const Sequence& seq, const FrontEndResult& fe, const PointCloudVideo& video,
+  ImageRasters(const sequence::Sequence& seq, const frontend::FrontEndResult& fe, const PointCloudVideo& video,
                std::optional<double> camera_height, const ExtractOptions& opt, bool monocular)
       : seq_(seq), video_(video), camera_height_(camera_height), opt_(opt), monocular_(monocular),
         dense_stereo_(dense_stereo_options(opt.front_end.stereo)),
@@ -343,17 +343,17 @@ class ImageRasters {
     return plane_sweep_depth(seq_.load_left_gray(f), video_.poses[f], views, sweep_.calibration, PlaneSweepOptions{});
   }
 
-  const Sequence& seq_;
+  const sequence::Sequence& seq_;
   const PointCloudVideo& video_;
   std::optional<double> camera_height_;
   const ExtractOptions& opt_;
   bool monocular_;
-  StereoOptions dense_stereo_;
+  frontend::StereoOptions dense_stereo_;
   SweepInputs sweep_;
 };
 
 // Writes the stacks of `todo` in parallel; returns the seconds spent computing features, summed.
-double write_stacks(const Sequence& seq, const fs::path& work, const std::vector<int>& todo,
+double write_stacks(const sequence::Sequence& seq, const fs::path& work, const std::vector<int>& todo,
                     const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
                     bool progress_on) {
   Progress progress("extract-features", static_cast<long>(todo.size()), progress_on);
@@ -383,7 +383,7 @@ double write_stacks(const Sequence& seq, const fs::path& work, const std::vector
 }
 
 // Previews of the frames asked for, whether their stacks were written now or earlier.
-void write_previews(const Sequence& seq, const fs::path& work, const std::vector<int>& frames,
+void write_previews(const sequence::Sequence& seq, const fs::path& work, const std::vector<int>& frames,
                     const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
                     const std::vector<std::string>& channels) {
   for (int f : frames) {
@@ -391,12 +391,12 @@ void write_previews(const Sequence& seq, const fs::path& work, const std::vector
     std::snprintf(name, sizeof name, "%06d_features.png", f);
     std::vector<cv::Mat> rasters = rasterise_features(video, attrs, f, seq.size);
     image_rasters.append(f, rasters);
-    write_image_atomic(work / "preview" / name, feature_preview(rasters, channels));
+    sequence::write_image_atomic(work / "preview" / name, feature_preview(rasters, channels));
   }
 }
 
 // Records the frames now on disk (all of them, including earlier runs', finished or killed).
-void record_frames(const Sequence& seq, StackManifest& m, const std::vector<int>& todo, const std::vector<int>& kept) {
+void record_frames(const sequence::Sequence& seq, StackManifest& m, const std::vector<int>& todo, const std::vector<int>& kept) {
   std::vector<int> frames = m.frames;
   frames.insert(frames.end(), todo.begin(), todo.end());
   frames.insert(frames.end(), kept.begin(), kept.end());
@@ -424,7 +424,7 @@ std::string report_text(const ExtractReport& r, const std::string& work) {
                 s.track_length_mean, s.inlier_ratio_mean, s.bridged_pairs.size(), r.bytes_per_frame / 1e6);
   std::string text = std::string(line) + "\n";
   if (!s.sfm) return text;
-  const SfmSummary& m = *s.sfm;
+  const frontend::SfmSummary& m = *s.sfm;
   std::snprintf(line, sizeof line,
                 "sfm (%s): focal %.1f px (%s); key frames %d; frames posed %d, still %d, bridged %d of %d; "
                 "reprojection RMS %.3f px over %ld observations; scale %.4g m/unit (ground inliers %d); "
@@ -435,7 +435,7 @@ std::string report_text(const ExtractReport& r, const std::string& work) {
   return text + line + "\n";
 }
 
-ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
+ExtractReport extract_features(const sequence::Sequence& seq, const fs::path& work, const ExtractOptions& opt) {
   opt.features.validate();
   const FrontEnd& front_end = front_end_for(seq, opt);
   front_end.check(seq, opt);
@@ -446,7 +446,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   bool resume_from_files = false;
   StackManifest m = start_manifest(seq, work, options, opt, resume_from_files);
 
-  const FrontEndResult fe = run_front_end(seq, work, front_end, opt, options, report);
+  const frontend::FrontEndResult fe = run_front_end(seq, work, front_end, opt, options, report);
   const int min_frames = front_end.min_track_frames(opt);
   const PointCloudVideo video = video_from_tracks(fe, seq.frame_count(), opt.features.causal ? min_frames : 0);
   const FeatureOptions features = effective_features(front_end, opt);
@@ -469,4 +469,4 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   return report;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

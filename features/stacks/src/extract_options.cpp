@@ -2,10 +2,11 @@
 // extract_features, run-experiment's extraction keys; and the one place that turns what the user chose
 // (a tracker, keypoints, "auto") into the two front ends' options.
 #include "smseg/common/options.hpp"
+#include "smseg/sfm/sfm_options.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -21,11 +22,11 @@ std::string motion_name(const std::string& name, const std::string& field) {
   return name;
 }
 std::string tracker_name(const std::string& name, const std::string& field) {
-  if (name != "auto") parse_stereo_tracker(name, field);  // klt | descriptors, as the SfM's
+  if (name != "auto") frontend::parse_stereo_tracker(name, field);  // klt | descriptors, as the SfM's
   return name;
 }
 std::string keypoints_name(const std::string& name, const std::string& field) {
-  if (name != "auto") parse_keypoint_method(name, field);
+  if (name != "auto") frontend::parse_keypoint_method(name, field);
   return name;
 }
 
@@ -37,9 +38,9 @@ void declare_choices(options::Table<E>& t) {
           +[](E& o) -> std::string& { return o.motion; }, front_end_choices(), &motion_name, &options::as_written)
       .only(kCommandLine | kPython);
   t.named("stereo", "--stereo", "disparity (bm: block matching, sgbm: semi-global, given: from the sequence)",
-          +[](E& o) -> StereoMethod& { return o.front_end.stereo.method; }, "bm | sgbm | given",
-          +[](const std::string& s, const std::string& f) { return parse_stereo_method(s, f); },
-          +[](const StereoMethod& m) { return std::string(stereo_method_name(m)); })
+          +[](E& o) -> frontend::StereoMethod& { return o.front_end.stereo.method; }, "bm | sgbm | given",
+          +[](const std::string& s, const std::string& f) { return frontend::parse_stereo_method(s, f); },
+          +[](const frontend::StereoMethod& m) { return std::string(frontend::stereo_method_name(m)); })
       .only(kCommandLine | kPython);
   t.number("num_disparities", "--num-disparities", "disparity search range, multiple of 16",
            +[](E& o) -> int& { return o.front_end.stereo.num_disparities; }, 16, 1024)
@@ -54,8 +55,8 @@ void declare_choices(options::Table<E>& t) {
           &options::as_written)
       .checked_as("tracking.detector");
   t.optional_number("max_keypoints", "--max-keypoints",
-                    "strongest keypoints kept per frame (default: " + std::to_string(TrackingOptions{}.max_keypoints) +
-                        " stereo, " + std::to_string(SfmOptions{}.tracking.max_keypoints) + " sfm)",
+                    "strongest keypoints kept per frame (default: " + std::to_string(frontend::TrackingOptions{}.max_keypoints) +
+                        " stereo, " + std::to_string(sfm::SfmOptions{}.tracking.max_keypoints) + " sfm)",
                     +[](E& o) -> std::optional<int>& { return o.max_keypoints; }, 1, 100000)
       .checked_as("tracking.max_keypoints");
   t.number("gftt_quality", "--gftt-quality", "gftt: corners weaker than this share of the strongest are dropped",
@@ -86,51 +87,13 @@ void declare_tracks_and_motion(options::Table<E>& t) {
   t.named("gravity", "--gravity",
           "stereo: world Y up along the first camera's up axis (level: the thesis assumes it level) | along\n"
           "gravity estimated from the camera path and a RANSAC ground plane (estimate; docs/stereo.md)",
-          +[](E& o) -> GravityMethod& { return o.front_end.gravity.method; }, "level | estimate",
-          +[](const std::string& s, const std::string& f) { return parse_gravity_method(s, f); },
-          +[](const GravityMethod& m) { return std::string(gravity_method_name(m)); });
+          +[](E& o) -> frontend::GravityMethod& { return o.front_end.gravity.method; }, "level | estimate",
+          +[](const std::string& s, const std::string& f) { return frontend::parse_gravity_method(s, f); },
+          +[](const frontend::GravityMethod& m) { return std::string(frontend::gravity_method_name(m)); });
   t.optional_number("camera_height", "--camera-height",
                     "camera height above the ground in metres (default: the sequence's)",
                     +[](E& o) -> std::optional<double>& { return o.front_end.camera_height; }, 1e-3, 1e4)
       .checked_as("sfm.camera_height");
-}
-
-void declare_sfm(options::Table<E>& t) {
-  t.optional_number("focal", "--focal",
-                    "sfm: focal length in pixels (default: the manifest's fx, else estimated by self-calibration, "
-                    "else the image width)",
-                    +[](E& o) -> std::optional<double>& { return o.sfm.focal; }, 1.0, 1e6)
-      .checked_as("sfm.focal");
-  t.number("match_radius", "--match-radius",
-           "sfm, descriptors: match candidates within this many pixels; 0 = the whole image (wide baselines)",
-           +[](E& o) -> double& { return o.sfm.match_radius_px; }, 0.0, 1e5)
-      .checked_as("sfm.match_radius_px");
-  t.number("lowe_ratio", "--lowe-ratio", "sfm, descriptors: Lowe's ratio test, e.g. 0.8 for wide baselines; 0 = off",
-           +[](E& o) -> double& { return o.sfm.lowe_ratio; }, 0.0, 0.999999)
-      .checked_as("sfm.lowe_ratio");
-  t.number("epipolar_ratio", "--epipolar-ratio",
-           "sfm, descriptors: match each verified pair again along its epipolar lines, with this ratio test;\n"
-           "0 = off",
-           +[](E& o) -> double& { return o.sfm.epipolar_ratio; }, 0.0, 0.999999)
-      .checked_as("sfm.epipolar_ratio");
-  t.number("map_window", "--map-window",
-           "sfm, descriptors: also match each frame's keypoints to the 3D points of this many frames before\n"
-           "it (joins tracks broken by a missed match); 0 = off",
-           +[](E& o) -> int& { return o.sfm.map_window; }, 0, 30)
-      .checked_as("sfm.map_window");
-  t.number("reprojection_threshold", "--reprojection-threshold",
-           "sfm: inlier threshold of PnP, triangulation and the final filter, pixels",
-           +[](E& o) -> double& { return o.sfm.reprojection_threshold_px; }, 1e-3, 1e3)
-      .checked_as("sfm.reprojection_threshold_px");
-  t.number("keyframe_motion", "--keyframe-motion",
-           "sfm: median track motion since the last key frame that makes a key frame, pixels",
-           +[](E& o) -> double& { return o.sfm.keyframe_motion_px; }, 1e-3, 1e4)
-      .checked_as("sfm.keyframe_motion_px");
-  t.number("ba_window", "--ba-window", "sfm: key frames in the local bundle adjustment",
-           +[](E& o) -> int& { return o.sfm.ba_window; }, 3, 1000)
-      .checked_as("sfm.ba_window");
-  t.number("sfm_seed", "--seed", "sfm: RANSAC seed", +[](E& o) -> std::uint64_t& { return o.sfm.seed; },
-           std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max());
 }
 
 }  // namespace
@@ -142,7 +105,7 @@ const options::Table<ExtractOptions>& extract_options_table() {
     options::Table<E> t("extract_features", kCommandLine | kConfig | kPython);
     declare_choices(t);
     declare_tracks_and_motion(t);
-    declare_sfm(t);
+    t.include(sfm::sfm_options_table(), +[](E& o) -> sfm::SfmOptions& { return o.sfm; });
     t.include(feature_options_table(), +[](E& o) -> FeatureOptions& { return o.features; });
     // What a run does, not how its stacks are made: neither recorded nor in configs.
     t.flag("force", "--force", "rewrite frames already done (and a work folder made with other options)",
@@ -154,11 +117,11 @@ const options::Table<ExtractOptions>& extract_options_table() {
 }
 
 void ExtractOptions::resolve() {
-  front_end.tracker = parse_stereo_tracker(tracker, "tracker");
-  front_end.tracking.detector = parse_keypoint_method(keypoints, front_end.tracker, "keypoints");
+  front_end.tracker = frontend::parse_stereo_tracker(tracker, "tracker");
+  front_end.tracking.detector = frontend::parse_keypoint_method(keypoints, front_end.tracker, "keypoints");
   front_end.refine.enabled = !no_refine;
-  sfm.tracker = parse_sfm_tracker(tracker, "tracker");
-  sfm.tracking.detector = keypoints == "auto" ? KeypointMethod::Sift : parse_keypoint_method(keypoints, "keypoints");
+  sfm.tracker = sfm::parse_sfm_tracker(tracker, "tracker");
+  sfm.tracking.detector = keypoints == "auto" ? frontend::KeypointMethod::Sift : frontend::parse_keypoint_method(keypoints, "keypoints");
   sfm.tracking.gftt_quality = front_end.tracking.gftt_quality;
   if (max_keypoints) front_end.tracking.max_keypoints = sfm.tracking.max_keypoints = *max_keypoints;
   sfm.filters = front_end.filters;
@@ -170,4 +133,4 @@ void ExtractOptions::validate() const {
   features.validate();
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -8,26 +8,26 @@
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/extract.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
 class StereoFrontEnd final : public FrontEnd {
  public:
   std::string_view name() const override { return "stereo"; }
-  bool is_default_for(const Sequence& seq) const override { return seq.kind == SequenceKind::Stereo; }
-  void check(const Sequence& seq, const ExtractOptions&) const override {
-    if (seq.kind != SequenceKind::Stereo)
+  bool is_default_for(const sequence::Sequence& seq) const override { return seq.kind == sequence::SequenceKind::Stereo; }
+  void check(const sequence::Sequence& seq, const ExtractOptions&) const override {
+    if (seq.kind != sequence::SequenceKind::Stereo)
       throw Error(seq.manifest.string(), "kind",
                   "stereo motion needs a stereo sequence; this one is mono (use the structure-from-motion path, "
                   "--motion sfm or auto)");
   }
-  FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const override {
-    FrontEndOptions fe = o.front_end;
+  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    frontend::FrontEndOptions fe = o.front_end;
     fe.progress = o.progress;
-    return run_stereo_front_end(seq, fe);
+    return frontend::run_stereo_front_end(seq, fe);
   }
-  Json options_json(const ExtractOptions& o) const override { return front_end_options_to_json(o.front_end); }
+  Json options_json(const ExtractOptions& o) const override { return frontend::front_end_options_to_json(o.front_end); }
   int min_track_frames(const ExtractOptions& o) const override { return o.front_end.filters.min_frames; }
   HeightReference auto_height_reference() const override { return HeightReference::Plane; }
   bool monocular() const override { return false; }
@@ -37,20 +37,20 @@ class StereoFrontEnd final : public FrontEnd {
 class SfmFrontEnd final : public FrontEnd {
  public:
   std::string_view name() const override { return "sfm"; }
-  bool is_default_for(const Sequence& seq) const override { return seq.kind == SequenceKind::Mono; }
-  void check(const Sequence& seq, const ExtractOptions& o) const override {
-    if (o.front_end.gravity.method != GravityMethod::Level)
+  bool is_default_for(const sequence::Sequence& seq) const override { return seq.kind == sequence::SequenceKind::Mono; }
+  void check(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    if (o.front_end.gravity.method != frontend::GravityMethod::Level)
       throw Error(seq.manifest.string(), "gravity",
                   "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
                   "ground plane");
     as_run(o).validate();
   }
-  FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const override {
-    return run_mono_front_end(seq, as_run(o));
+  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    return sfm::run_mono_front_end(seq, as_run(o));
   }
   Json options_json(const ExtractOptions& o) const override {
-    const SfmOptions s = as_run(o);
-    Json fe = {{"method", "sfm"}, {"sfm", sfm_options_to_json(s)}};
+    const sfm::SfmOptions s = as_run(o);
+    Json fe = {{"method", "sfm"}, {"sfm", sfm::sfm_options_to_json(s)}};
     if (s.camera_height) fe["camera_height"] = *s.camera_height;
     return fe;
   }
@@ -64,8 +64,8 @@ class SfmFrontEnd final : public FrontEnd {
 
  private:
   // The SfM options as run: the camera height from the extraction options when not set.
-  static SfmOptions as_run(const ExtractOptions& o) {
-    SfmOptions s = o.sfm;
+  static sfm::SfmOptions as_run(const ExtractOptions& o) {
+    sfm::SfmOptions s = o.sfm;
     if (!s.camera_height) s.camera_height = o.front_end.camera_height;
     s.progress = o.progress;
     return s;
@@ -97,11 +97,11 @@ void check_motion_name(const std::string& name, const std::string& field) {
   if (name != "auto") front_end_named(name, field);
 }
 
-const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options) {
+const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options) {
   if (options.motion != "auto") return front_end_named(options.motion, "motion");
   for (const FrontEnd* f : front_ends())
     if (f->is_default_for(seq)) return *f;
   throw Error(seq.manifest.string(), "kind", "no front end runs on this kind of sequence");
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -12,7 +12,7 @@
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -50,13 +50,13 @@ struct PreparedView {
   Eigen::Vector3d t;
 };
 
-PreparedView prepare(const SweepView& v, const Pose& reference_pose) {
+PreparedView prepare(const SweepView& v, const sequence::Pose& reference_pose) {
   PreparedView p;
   v.gray.convertTo(p.image, CV_32F);
   p.ones = cv::Mat(v.gray.size(), CV_8UC1, cv::Scalar(1));
-  const Eigen::Matrix3d Rr = pose_rotation(reference_pose), Rn = pose_rotation(v.pose);
+  const Eigen::Matrix3d Rr = frontend::pose_rotation(reference_pose), Rn = frontend::pose_rotation(v.pose);
   p.R = Rn.transpose() * Rr;
-  p.t = Rn.transpose() * (pose_centre(reference_pose) - pose_centre(v.pose));
+  p.t = Rn.transpose() * (frontend::pose_centre(reference_pose) - frontend::pose_centre(v.pose));
   return p;
 }
 
@@ -153,18 +153,18 @@ void PlaneSweepOptions::validate() const {
   if (consistency_planes < 0) throw Error("", "plane_sweep.consistency_planes", "must be >= 0");
 }
 
-int sweep_plane_count(const Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
+int sweep_plane_count(const sequence::Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
                       const PlaneSweepOptions& o) {
   double baseline = 0;
   for (const auto& v : neighbours)
-    baseline = std::max(baseline, (pose_centre(v.pose) - pose_centre(reference_pose)).norm());
+    baseline = std::max(baseline, (frontend::pose_centre(v.pose) - frontend::pose_centre(reference_pose)).norm());
   const double span_px = focal * baseline * (1.0 / o.min_depth - 1.0 / o.max_depth);
   const double wanted = std::ceil(span_px / o.max_step_px) + 1;
   return static_cast<int>(std::clamp(wanted, double(o.min_planes), double(o.max_planes)));
 }
 
-cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const Calibration& camera,
+cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
                           const PlaneSweepOptions& o) {
   o.validate();
   if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
@@ -228,11 +228,11 @@ cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_p
   return depth;
 }
 
-std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<Pose>& poses,
+std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<sequence::Pose>& poses,
                                   const SweepNeighbourOptions& o) {
   const int n = static_cast<int>(usable.size());
   if (f < 0 || f >= n || !usable[f] || static_cast<int>(poses.size()) != n) return {};
-  const auto baseline = [&](int g) { return (pose_centre(poses[g]) - pose_centre(poses[f])).norm(); };
+  const auto baseline = [&](int g) { return (frontend::pose_centre(poses[g]) - frontend::pose_centre(poses[f])).norm(); };
   // Per side: the nearest frame at least target_baseline away, else the widest at least min_baseline.
   const auto pick = [&](int dir) {
     int widest = -1;
@@ -259,4 +259,4 @@ std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const 
   return {first, second};
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

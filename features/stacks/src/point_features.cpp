@@ -13,16 +13,16 @@
 #include <Eigen/Geometry>
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
-Eigen::Matrix3d rotation(const Pose& p) {
+Eigen::Matrix3d rotation(const sequence::Pose& p) {
   Eigen::Matrix3d R;
   R << p.R[0], p.R[1], p.R[2], p.R[3], p.R[4], p.R[5], p.R[6], p.R[7], p.R[8];
   return R;
 }
-Eigen::Vector3d centre(const Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
+Eigen::Vector3d centre(const sequence::Pose& p) { return {p.t[0], p.t[1], p.t[2]}; }
 
 // Sets a and b to va and vb on every pixel whose centre lies inside the triangle t (x0,y0,x1,y1,x2,y2),
 // edges included: one pass over the triangle's bounding box with edge functions.
@@ -68,22 +68,22 @@ HeightReference height_reference_from_string(const std::string& s, const std::st
 
 // The cameras' median height (world Y of their centres) over the frames: HeightReference::Camera's
 // reference, the camera height the SfM scaled its run to.
-static double median_camera_height(const std::vector<Pose>& poses) {
+static double median_camera_height(const std::vector<sequence::Pose>& poses) {
   if (poses.empty()) return 0;
   std::vector<double> ys;
   ys.reserve(poses.size());
-  for (const Pose& p : poses) ys.push_back(centre(p).y());
+  for (const sequence::Pose& p : poses) ys.push_back(centre(p).y());
   const auto mid = ys.begin() + static_cast<std::ptrdiff_t>(ys.size() / 2);
   std::nth_element(ys.begin(), mid, ys.end());
   return *mid;
 }
 
-std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<Pose>& poses) {
+std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<sequence::Pose>& poses) {
   if (opt.height_reference != HeightReference::Camera) return std::nullopt;
   return median_camera_height(poses);
 }
 
-double height_shift(std::optional<double> camera_height, const Pose& pose) {
+double height_shift(std::optional<double> camera_height, const sequence::Pose& pose) {
   return camera_height ? *camera_height - centre(pose).y() : 0.0;
 }
 
@@ -146,7 +146,7 @@ void FeatureOptions::validate() const {
     throw Error("", "--sweep-reach", "must be in 1..1000 frames (got " + std::to_string(sweep_reach) + ")");
 }
 
-void CausalPointAttributes::add_frame(const Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {
+void CausalPointAttributes::add_frame(const sequence::Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {
   const Eigen::Matrix3d R = rotation(pose);
   const Eigen::Vector3d C = centre(pose);
   const double shift = height_shift(camera_height_, pose);
@@ -306,4 +306,4 @@ double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1) {
   return sat.at<double>(y1, x1) - sat.at<double>(y0, x1) - sat.at<double>(y1, x0) + sat.at<double>(y0, x0);
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

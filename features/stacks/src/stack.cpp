@@ -14,7 +14,7 @@
 
 #include "smseg/common/digest.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 namespace {
 
@@ -26,7 +26,7 @@ std::string frame_stem(int frame) {
 
 std::string npy_bytes(const std::string& descr, const std::vector<std::size_t>& shape, const void* data,
                       std::size_t n) {
-  std::string out = make_npy_header(descr, shape);
+  std::string out = sequence::make_npy_header(descr, shape);
   out.append(static_cast<const char*>(data), n);
   return out;
 }
@@ -72,7 +72,7 @@ void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Ma
     body.append(reinterpret_cast<const char*>(c.data), c.total() * 8);
   }
   write_file_atomic(sat_path(work, frame),
-                    make_npy_header("<f8", {sats.size(), std::size_t(H + 1), std::size_t(W + 1)}) + body);
+                    sequence::make_npy_header("<f8", {sats.size(), std::size_t(H + 1), std::size_t(W + 1)}) + body);
   const cv::Mat g = gray.isContinuous() ? gray : gray.clone();
   write_file_atomic(gray_path(work, frame), npy_bytes("|u1", {std::size_t(H), std::size_t(W)}, g.data, g.total()));
   if (!labels.empty()) {
@@ -191,7 +191,7 @@ struct FrameStack::Mapping {
     const ssize_t got = ::pread(fd, head.data(), head.size(), 0);
     if (got < 0) throw Error(path.string(), "", std::string("cannot be read: ") + std::strerror(errno));
     head.resize(static_cast<std::size_t>(got));
-    const NpyHeader h = parse_npy_header(head, path);
+    const sequence::NpyHeader h = sequence::parse_npy_header(head, path);
     if (h.descr != descr) throw Error(path.string(), "descr", "is '" + h.descr + "', expected '" + descr + "'");
     if (h.shape != shape) {
       std::string have, want;
@@ -419,4 +419,4 @@ Json training_data_record(const StackSet& set) {
   return {{"works", works}, {"features", set.dataset.features}};
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

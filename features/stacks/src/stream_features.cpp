@@ -1,6 +1,6 @@
 #include "smseg/stacks/stream_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 FeatureStream::FeatureStream(cv::Size size, const FeatureOptions& options, int min_track_frames)
     : size_(size), min_track_frames_(min_track_frames) {
@@ -14,12 +14,12 @@ FeatureStream::FeatureStream(cv::Size size, const FeatureOptions& options, int m
   attrs_.fR.resize(1);
 }
 
-const std::vector<cv::Mat>& FeatureStream::push(const StreamFrame& frame) {
+const std::vector<cv::Mat>& FeatureStream::push(const frontend::StreamFrame& frame) {
   // The frame's observations whose tracks have passed the track-length filter (video_from_tracks'
   // causal rule), in track order as the whole-sequence extraction lists them.
   auto& obs = video_.observations[0];
   obs.clear();
-  for (const StreamObservation& o : frame.observations) {
+  for (const frontend::StreamObservation& o : frame.observations) {
     if (o.seen < min_track_frames_) continue;
     Observation p;
     p.track = o.track;
@@ -42,4 +42,4 @@ const std::vector<cv::Mat>& FeatureStream::push(const StreamFrame& frame) {
   return sats_;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -6,9 +6,9 @@
 
 #include <opencv2/imgproc.hpp>
 
-namespace smseg::features {
+namespace smseg::stacks {
 
-std::vector<CloudPoint> track_cloud(const FrontEndResult& fe, const PointCloudVideo& video,
+std::vector<CloudPoint> track_cloud(const frontend::FrontEndResult& fe, const PointCloudVideo& video,
                                     const PointAttributes& attrs) {
   std::vector<Eigen::Vector3d> sum(fe.tracks.size(), Eigen::Vector3d::Zero());
   std::vector<int> count(fe.tracks.size(), 0);
@@ -32,8 +32,8 @@ std::vector<CloudPoint> track_cloud(const FrontEndResult& fe, const PointCloudVi
   return cloud;
 }
 
-cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* gt, const std::vector<CloudPoint>& cloud,
-                      const Sequence& seq, int size) {
+cv::Mat plot_top_down(const std::vector<sequence::Pose>& path, const std::vector<sequence::Pose>* gt, const std::vector<CloudPoint>& cloud,
+                      const sequence::Sequence& seq, int size) {
   // Extent: the paths and the central 98% of the cloud (a few far outliers must not shrink the plot).
   std::vector<double> xs, zs;
   for (const auto& p : path) {
@@ -77,7 +77,7 @@ cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* gt
     }
     cv::circle(img, px(c.position.x(), c.position.z()), 1, colour, cv::FILLED);
   }
-  const auto draw_path = [&](const std::vector<Pose>& p, const cv::Scalar& colour) {
+  const auto draw_path = [&](const std::vector<sequence::Pose>& p, const cv::Scalar& colour) {
     for (std::size_t i = 1; i < p.size(); ++i)
       cv::line(img, px(p[i - 1].t[0], p[i - 1].t[2]), px(p[i].t[0], p[i].t[2]), colour, 2, cv::LINE_AA);
     if (!p.empty()) cv::circle(img, px(p[0].t[0], p[0].t[2]), 5, colour, 2, cv::LINE_AA);
@@ -94,4 +94,4 @@ cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* gt
   return img;
 }
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -11,7 +11,10 @@
 
 int main(int argc, char** argv) {
   using namespace smseg;
-  using namespace smseg::features;
+  using namespace smseg::sequence;
+  using namespace smseg::sfm;
+  using namespace smseg::stacks;
+  using namespace smseg::cloud;
   CLI::App app{
       "Run the front end of a sequence and write its feature stacks (thesis 3.2.2, 3.2.3, 3.2.6).\n"
       "Stereo (default for stereo sequences): disparity (block matching with a left-right check by\n"

@@ -11,7 +11,7 @@
 
 #include "synth_detail.hpp"
 
-namespace smseg::features::synth::build {
+namespace smseg::synth::build {
 
 using detail::lin;
 using detail::Rng;
@@ -349,7 +349,7 @@ inline void choose_phase(Person& p, const Scene& sc, const SynthOptions& o, Rng&
   double best = -1, best_phase = 0;
   std::vector<Vector2d> cam(o.frames);
   for (int f = 0; f < o.frames; ++f) {
-    const Pose pose = camera_pose(sc, o, f);
+    const sequence::Pose pose = camera_pose(sc, o, f);
     cam[f] = Vector2d(pose.t[0], pose.t[2]);
   }
   for (int j = 0; j < 48; ++j) {
@@ -609,4 +609,4 @@ void build_tabletop(Scene& sc, const SynthOptions& o, Rng& r);
 /// Moves everything by -shift in XZ so that the world origin is under the first camera position.
 void shift_scene(Scene& sc, const Vector2d& shift);
 
-}  // namespace smseg::features::synth::build
+}  // namespace smseg::synth::build

@@ -8,7 +8,7 @@
 
 #include "smseg/synth/synth.hpp"
 
-namespace smseg::features::synth::detail {
+namespace smseg::synth::detail {
 
 /// SplitMix64 finaliser: a good 64-bit mixer.
 inline std::uint64_t mix64(std::uint64_t x) {
@@ -104,7 +104,7 @@ inline bool intersect(const Quad& q, const Eigen::Vector3d& o, const Eigen::Vect
 
 /// The direction of the ray through pixel (x, y): R * ((x - cx) / fx, (y - cy) / fx, 1), so that lambda
 /// along it is z-depth. Shared by pixel_ray and the renderer (bit-identical rays).
-inline Eigen::Vector3d ray_direction(const Pose& pose, double fx, double cx, double cy, double x, double y) {
+inline Eigen::Vector3d ray_direction(const sequence::Pose& pose, double fx, double cx, double cy, double x, double y) {
   const double a = (x - cx) / fx, b = (y - cy) / fx;
   const auto& R = pose.R;
   return {R[0] * a + R[1] * b + R[2], R[3] * a + R[4] * b + R[5], R[6] * a + R[7] * b + R[8]};
@@ -114,4 +114,4 @@ inline Eigen::Vector3d ray_direction(const Pose& pose, double fx, double cx, dou
 /// pixel footprint of fp metres on the surface. Defined in synth_texture.cpp.
 Rgb albedo(const Material& m, float s, float t, float fp);
 
-}  // namespace smseg::features::synth::detail
+}  // namespace smseg::synth::detail

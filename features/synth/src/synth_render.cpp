@@ -12,7 +12,7 @@
 #include "smseg/common/progress.hpp"
 #include "synth_detail.hpp"
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 using detail::Rgb;
 using Eigen::Matrix3d;
@@ -23,7 +23,7 @@ namespace {
 constexpr int kTile = 8;
 constexpr double kPi = std::numbers::pi;
 
-Matrix3d rotation(const Pose& p) {
+Matrix3d rotation(const sequence::Pose& p) {
   Matrix3d R;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) R(i, j) = p.R[3 * i + j];
@@ -38,7 +38,7 @@ struct Bins {
   const std::vector<int>& at(int x, int y) const { return lists[(y / kTile) * tiles_x + x / kTile]; }
 };
 
-Bins bin_quads(const std::vector<Quad>& quads, const Pose& pose, const SynthOptions& o) {
+Bins bin_quads(const std::vector<Quad>& quads, const sequence::Pose& pose, const SynthOptions& o) {
   Bins b;
   b.tiles_x = (o.width + kTile - 1) / kTile;
   b.tiles_y = (o.height + kTile - 1) / kTile;
@@ -119,7 +119,7 @@ struct View {
   const Scene& sc;
   const SynthOptions& o;
   const std::vector<Quad>& quads;
-  const Pose& pose;
+  const sequence::Pose& pose;
   Bins bins;
   Vector3d C;
   double fxd, cxd, cyd;
@@ -128,7 +128,7 @@ struct View {
   const std::vector<float>& lut;
   std::vector<LightF> lights;
 
-  View(const Scene& scene, const SynthOptions& opts, const std::vector<Quad>& qs, const Pose& p, int frame, int camera)
+  View(const Scene& scene, const SynthOptions& opts, const std::vector<Quad>& qs, const sequence::Pose& p, int frame, int camera)
       : sc(scene), o(opts), quads(qs), pose(p), bins(bin_quads(qs, p, opts)), C(p.t[0], p.t[1], p.t[2]),
         fxd(opts.fx()), cxd(opts.cx()), cyd(opts.cy()), fx(static_cast<float>(fxd)),
         gain(static_cast<float>(1.0 + 0.12 * std::sin(2 * kPi * frame_time(opts, frame) / 20.0 + scene.gain_phase))),
@@ -211,7 +211,7 @@ void render_row(const View& v, int y, cv::Vec3f* row, const ViewMaps& maps) {
       if (detail::intersect(v.quads[qi], v.bins.num[qi], v.C, d, best)) hit = qi;
     if (hit < 0) {
       row[x] = cv::Vec3f(0, 0, 0);
-      maps.set(y, x, kVoid, 0.0f, 0);
+      maps.set(y, x, sequence::kVoid, 0.0f, 0);
       prev_hit = -1;
       continue;
     }
@@ -255,7 +255,7 @@ void add_sensor_noise(const cv::Mat& lin, cv::Mat& image, const SynthOptions& o,
 }
 
 /// Renders one camera: BGR image, and optionally labels and depth.
-void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>& quads, const Pose& pose, int frame,
+void render_view(const Scene& sc, const SynthOptions& o, const std::vector<Quad>& quads, const sequence::Pose& pose, int frame,
                  int camera, cv::Mat& image, cv::Mat* labels, cv::Mat* depth, cv::Mat* instances) {
   const View view(sc, o, quads, pose, frame, camera);
   const ViewMaps maps{labels, depth, instances};
@@ -280,7 +280,7 @@ Frame render_frame(const Scene& scene, const SynthOptions& opts, int frame) {
   fr.pose = camera_pose(scene, opts, frame);
   const std::vector<Quad> quads = quads_at(scene, frame_time(opts, frame));
   render_view(scene, opts, quads, fr.pose, frame, 0, fr.left, &fr.labels, &fr.depth, &fr.instances);
-  Pose right = fr.pose;
+  sequence::Pose right = fr.pose;
   for (int i = 0; i < 3; ++i) right.t[i] += opts.baseline * fr.pose.R[3 * i + 0];
   render_view(scene, opts, quads, right, frame, 1, fr.right, nullptr, nullptr, nullptr);
   return fr;
@@ -299,12 +299,12 @@ void create_folders(const fs::path& out_dir, bool instances) {
 }
 
 /// The manifest of the sequence to render: name, calibration, classes and the files of every frame.
-Sequence sequence_manifest(const SynthOptions& opts, const fs::path& out_dir, bool instances) {
-  Sequence seq;
+sequence::Sequence sequence_manifest(const SynthOptions& opts, const fs::path& out_dir, bool instances) {
+  sequence::Sequence seq;
   seq.root = out_dir;
-  seq.manifest = out_dir / kManifestName;
+  seq.manifest = out_dir / sequence::kManifestName;
   seq.name = "synth-" + opts.scene + "-seed" + std::to_string(opts.seed);
-  seq.kind = SequenceKind::Stereo;
+  seq.kind = sequence::SequenceKind::Stereo;
   seq.size = cv::Size(opts.width, opts.height);
   seq.calibration.fx = opts.fx();
   seq.calibration.fy = opts.fx();
@@ -312,11 +312,11 @@ Sequence sequence_manifest(const SynthOptions& opts, const fs::path& out_dir, bo
   seq.calibration.cy = opts.cy();
   seq.calibration.baseline = opts.baseline;
   seq.camera_height = opts.camera_y();
-  seq.label_encoding = LabelEncoding::Rgb;
+  seq.label_encoding = sequence::LabelEncoding::Rgb;
   seq.classes = classes(opts.scene);
   seq.void_class = void_class();
   for (int f = 0; f < opts.frames; ++f) {
-    FrameEntry e;
+    sequence::FrameEntry e;
     e.left = fs::path("left") / frame_name(f, ".png");
     e.right = fs::path("right") / frame_name(f, ".png");
     e.label = fs::path("labels") / frame_name(f, ".png");
@@ -333,17 +333,17 @@ Sequence sequence_manifest(const SynthOptions& opts, const fs::path& out_dir, bo
 }
 
 /// Renders every frame in parallel and writes its files; the ground-truth poses into seq.
-void render_frames(const Scene& scene, const SynthOptions& opts, const fs::path& out_dir, Sequence& seq) {
+void render_frames(const Scene& scene, const SynthOptions& opts, const fs::path& out_dir, sequence::Sequence& seq) {
   Progress progress("make-sequence " + opts.scene, opts.frames, opts.progress);
   tbb::parallel_for(tbb::blocked_range<int>(0, opts.frames, 1), [&](const tbb::blocked_range<int>& range) {
     for (int f = range.begin(); f != range.end(); ++f) {
       const Frame fr = render_frame(scene, opts, f);
-      const FrameEntry& e = seq.frames[f];
-      write_image_atomic(out_dir / e.left, fr.left);
-      write_image_atomic(out_dir / e.right, fr.right);
-      write_image_atomic(out_dir / e.label, colour_labels(fr.labels, seq));
-      write_npy_f32_atomic(out_dir / e.gt_depth, fr.depth);
-      if (!e.instances.empty()) write_image_atomic(out_dir / e.instances, fr.instances);
+      const sequence::FrameEntry& e = seq.frames[f];
+      sequence::write_image_atomic(out_dir / e.left, fr.left);
+      sequence::write_image_atomic(out_dir / e.right, fr.right);
+      sequence::write_image_atomic(out_dir / e.label, sequence::colour_labels(fr.labels, seq));
+      sequence::write_npy_f32_atomic(out_dir / e.gt_depth, fr.depth);
+      if (!e.instances.empty()) sequence::write_image_atomic(out_dir / e.instances, fr.instances);
       seq.gt_poses[f] = fr.pose;
       progress.tick();
     }
@@ -395,19 +395,19 @@ Json generator_extra(const SynthOptions& opts, const Scene& scene, bool instance
 
 }  // namespace
 
-Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
+sequence::Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir) {
   opts.validate();
   const Scene scene = build_scene(opts);
   const bool instances = has_instances(opts.scene);
   create_folders(out_dir, instances);
-  Sequence seq = sequence_manifest(opts, out_dir, instances);
+  sequence::Sequence seq = sequence_manifest(opts, out_dir, instances);
   render_frames(scene, opts, out_dir, seq);
   seq.extra = generator_extra(opts, scene, instances);
-  save_sequence(seq);
-  return load_sequence(out_dir);
+  sequence::save_sequence(seq);
+  return sequence::load_sequence(out_dir);
 }
 
-cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double max_depth, double scale) {
+cv::Mat make_montage(const sequence::Sequence& seq, const std::vector<int>& frames, double max_depth, double scale) {
   if (frames.empty()) throw Error(seq.manifest.string(), "montage", "no frames to show");
   if (!(scale > 0.05 && scale <= 4)) throw Error("", "montage scale", "must be in (0.05, 4]");
   if (!(max_depth > 0)) throw Error("", "montage max_depth", "must be positive");
@@ -434,7 +434,7 @@ cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double
     place(seq.load_left(f), 0, y, cv::INTER_AREA);
     cv::putText(out, "frame " + std::to_string(f), cv::Point(4, y + H - 6), cv::FONT_HERSHEY_SIMPLEX, 0.4,
                 cv::Scalar(255, 255, 255), 1, cv::LINE_AA);
-    place(colour_labels(seq.load_labels(f), seq), 1, y, cv::INTER_NEAREST);
+    place(sequence::colour_labels(seq.load_labels(f), seq), 1, y, cv::INTER_NEAREST);
     const cv::Mat d = seq.load_gt_depth(f);
     cv::Mat d8(d.size(), CV_8UC1);
     for (int r = 0; r < d.rows; ++r)
@@ -451,4 +451,4 @@ cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double
   return out;
 }
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth

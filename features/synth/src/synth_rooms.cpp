@@ -2,7 +2,7 @@
 // blocks of synth_builder.hpp (see synth.hpp for what each scene holds).
 #include "synth_builder.hpp"
 
-namespace smseg::features::synth::build {
+namespace smseg::synth::build {
 
 namespace {
 
@@ -721,4 +721,4 @@ void shift_scene(Scene& sc, const Vector2d& shift) {
 }
 
 
-}  // namespace smseg::features::synth::build
+}  // namespace smseg::synth::build

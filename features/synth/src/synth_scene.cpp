@@ -5,23 +5,23 @@
 
 #include "smseg/common/options.hpp"
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 using namespace build;
 
 
 // -------------------------------------------------------------------------------------------------
 
-std::vector<ClassInfo> classes() {
+std::vector<sequence::ClassInfo> classes() {
   // Colours follow the thesis figures: floor light blue, wall dark blue, ceiling green, furniture red,
   // obstacle salmon; person yellow.
   return {{"floor", 0, {120, 190, 250}},  {"wall", 1, {30, 50, 160}},     {"ceiling", 2, {40, 170, 60}},
           {"furniture", 3, {210, 30, 30}}, {"obstacle", 4, {250, 140, 120}}, {"person", 5, {250, 220, 30}}};
 }
 
-ClassInfo void_class() { return {"void", 255, {0, 0, 0}}; }
+sequence::ClassInfo void_class() { return {"void", 255, {0, 0, 0}}; }
 
-std::vector<ClassInfo> classes(const std::string& scene) {
+std::vector<sequence::ClassInfo> classes(const std::string& scene) {
   if (scene != "tabletop") return classes();
   // Floor, wall and ceiling as in the other scenes; the table red like furniture, objects orange.
   return {{"floor", 0, {120, 190, 250}}, {"wall", 1, {30, 50, 160}},   {"ceiling", 2, {40, 170, 60}},
@@ -108,7 +108,7 @@ double SynthOptions::camera_y() const {
 
 double frame_time(const SynthOptions& opts, int frame) { return frame / opts.fps; }
 
-Pose camera_pose(const Scene& scene, const SynthOptions& o, int frame) {
+sequence::Pose camera_pose(const Scene& scene, const SynthOptions& o, int frame) {
   const CameraPath& p = scene.path;
   if (frame < 0 || frame >= static_cast<int>(p.frame_arc.size()))
     throw Error("", "frame", "frame " + std::to_string(frame) + " is outside the scene's " +
@@ -142,7 +142,7 @@ Pose camera_pose(const Scene& scene, const SynthOptions& o, int frame) {
   const Matrix3d R = R0 * Eigen::AngleAxisd(yaw, Vector3d::UnitY()).toRotationMatrix() *
                      Eigen::AngleAxisd(pitch, Vector3d::UnitX()).toRotationMatrix() *
                      Eigen::AngleAxisd(roll, Vector3d::UnitZ()).toRotationMatrix();
-  Pose pose;
+  sequence::Pose pose;
   for (int i = 0; i < 3; ++i)
     for (int j = 0; j < 3; ++j) pose.R[3 * i + j] = R(i, j);
   pose.t = {pos.x(), y, pos.y()};
@@ -162,7 +162,7 @@ Scene build_scene(const SynthOptions& opts) {
   } else {
     build_tabletop(sc, opts, r);
   }
-  const Pose p0 = camera_pose(sc, opts, 0);
+  const sequence::Pose p0 = camera_pose(sc, opts, 0);
   shift_scene(sc, Vector2d(p0.t[0], p0.t[2]));
   return sc;
 }
@@ -188,8 +188,8 @@ RayHit cast_ray(const std::vector<Quad>& quads, const Vector3d& origin, const Ve
   return h;
 }
 
-Vector3d pixel_ray(const SynthOptions& opts, const Pose& pose, double x, double y) {
+Vector3d pixel_ray(const SynthOptions& opts, const sequence::Pose& pose, double x, double y) {
   return detail::ray_direction(pose, opts.fx(), opts.cx(), opts.cy(), x, y);
 }
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth

@@ -6,7 +6,7 @@
 
 #include "synth_detail.hpp"
 
-namespace smseg::features::synth::detail {
+namespace smseg::synth::detail {
 
 namespace {
 
@@ -389,4 +389,4 @@ Rgb albedo(const Material& m, float s, float t, float fp) {
   return rgb(m.a);
 }
 
-}  // namespace smseg::features::synth::detail
+}  // namespace smseg::synth::detail

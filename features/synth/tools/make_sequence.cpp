@@ -11,8 +11,8 @@
 #include "smseg/synth/synth.hpp"
 
 int main(int argc, char** argv) {
-  using namespace smseg::features;
-  synth::SynthOptions o;
+  using namespace smseg::sequence;
+  smseg::synth::SynthOptions o;
   CLI::App app{"Render a synthetic stereo video as a small indoor robot would record it: a rectified stereo\n"
                "rig (12 cm baseline, ~1 m above the floor) driving through a corridor with turns or around a\n"
                "cluttered lab, with a walking person, textured surfaces, lighting changes and sensor noise.\n"
@@ -27,7 +27,7 @@ int main(int argc, char** argv) {
   int montage_frames = 4;
   double montage_scale = 1.0;
   bool quiet = false;
-  synth::synth_options_table().add_to(app, o);
+  smseg::synth::synth_options_table().add_to(app, o);
   app.add_option("--size", size, "image size WIDTHxHEIGHT")->capture_default_str();
   app.add_option("-o,--output", out, "output folder (created; existing files of the same names are replaced)")
       ->required();
@@ -45,18 +45,18 @@ int main(int argc, char** argv) {
     o.width = std::stoi(m[1]);
     o.height = std::stoi(m[2]);
     o.progress = !quiet;
-    smseg::OptionNames option_of = synth::synth_options_table().option_names();
+    smseg::OptionNames option_of = smseg::synth::synth_options_table().option_names();
     option_of["width"] = "--size (width)";
     option_of["height"] = "--size (height)";
     smseg::validate_options(option_of, [&] { o.validate(); });
     const smseg::OutputLock one_writer(out, {montage});
-    const Sequence seq = synth::make_sequence(o, out);
+    const Sequence seq = smseg::synth::make_sequence(o, out);
     if (!montage.empty()) {
       std::vector<int> frames;
       const int n = std::min(montage_frames, seq.frame_count());
       for (int i = 0; i < n; ++i)
         frames.push_back(n == 1 ? 0 : static_cast<int>(std::lround(double(i) * (seq.frame_count() - 1) / (n - 1))));
-      write_image_atomic(montage, synth::make_montage(seq, frames, 10.0, montage_scale));
+      write_image_atomic(montage, smseg::synth::make_montage(seq, frames, 10.0, montage_scale));
     }
     std::cout << seq.manifest.string() << ": " << seq.frame_count() << " frames of " << seq.size.width << "x"
               << seq.size.height << ", " << seq.labelled_frames.size() << " labelled, scene " << o.scene << ", seed "

@@ -25,7 +25,7 @@
 #include "smseg/cloud/cloud_segment.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::cloud;
 namespace fs = std::filesystem;
 
 namespace {

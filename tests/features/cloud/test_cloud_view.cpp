@@ -9,7 +9,7 @@
 
 namespace {
 
-using namespace smseg::features;
+using namespace smseg::cloud;
 
 ViewCamera camera() {
   ViewCamera c;

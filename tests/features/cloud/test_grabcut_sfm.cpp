@@ -14,7 +14,9 @@
 #include "smseg/cloud/grabcut_sfm.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::cloud;
 
 namespace {
 

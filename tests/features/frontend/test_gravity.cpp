@@ -17,7 +17,8 @@
 #include "smseg/synth/synth.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
 
 namespace {
 

@@ -9,7 +9,8 @@
 #include "smseg/frontend/motion.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
 
 namespace {
 

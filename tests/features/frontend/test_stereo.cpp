@@ -16,7 +16,7 @@
 
 namespace fs = std::filesystem;
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::frontend;
 
 namespace {
 

@@ -18,7 +18,8 @@
 
 namespace fs = std::filesystem;
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
 
 namespace {
 

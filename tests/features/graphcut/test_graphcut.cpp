@@ -9,7 +9,7 @@
 #include "smseg/graphcut/graphcut.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::graphcut;
 
 namespace {
 

@@ -9,7 +9,7 @@
 #include "smseg/sequence/camvid.hpp"
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
+using namespace smseg::sequence;
 
 namespace {
 fs::path temp_dir(const std::string& name) {

@@ -12,7 +12,7 @@
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
+using namespace smseg::sequence;
 using smseg::test::temp_dir;
 
 namespace {

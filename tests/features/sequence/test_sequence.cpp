@@ -14,7 +14,7 @@
 #include "smseg/sequence/sequence.hpp"
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
+using namespace smseg::sequence;
 using smseg::Json;
 
 namespace {

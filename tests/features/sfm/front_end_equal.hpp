@@ -4,8 +4,8 @@
 
 #include "smseg/frontend/motion.hpp"
 
-inline void expect_same_front_end(const smseg::features::FrontEndResult& one,
-                                  const smseg::features::FrontEndResult& many) {
+inline void expect_same_front_end(const smseg::frontend::FrontEndResult& one,
+                                  const smseg::frontend::FrontEndResult& many) {
   ASSERT_EQ(one.poses.size(), many.poses.size());
   for (std::size_t i = 0; i < one.poses.size(); ++i) {
     EXPECT_EQ(one.poses[i].R, many.poses[i].R) << i;

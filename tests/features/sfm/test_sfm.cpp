@@ -19,7 +19,10 @@
 #include "front_end_equal.hpp"
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::sfm;
+using namespace smseg::stacks;
 
 namespace {
 

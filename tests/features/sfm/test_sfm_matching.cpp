@@ -9,7 +9,7 @@
 #include "sfm_map.hpp"
 #include "sfm_matching.hpp"
 
-using namespace smseg::features;
+using namespace smseg::sfm;
 
 namespace {
 

@@ -16,7 +16,8 @@
 namespace {
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::stacks;
 namespace fs = std::filesystem;
 
 std::vector<cv::Mat> rasters_of(const cv::Mat& bgr) {

@@ -20,7 +20,9 @@
 namespace {
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::stacks;
 namespace fs = std::filesystem;
 
 struct DepthScore {

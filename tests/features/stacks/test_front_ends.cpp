@@ -8,7 +8,9 @@
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/front_ends.hpp"
 
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::stacks;
 
 namespace {
 

@@ -7,7 +7,8 @@
 
 #include "smseg/stacks/point_features.hpp"
 
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::stacks;
 
 namespace {
 

@@ -10,7 +10,8 @@
 #include "smseg/stacks/stack.hpp"
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::stacks;
 
 namespace {
 

@@ -18,8 +18,8 @@
 namespace {
 
 namespace fs = std::filesystem;
-using namespace smseg::features;
-namespace sy = smseg::features::synth;
+using namespace smseg::sequence;
+namespace sy = smseg::synth;
 using Eigen::Vector3d;
 
 sy::SynthOptions small(const std::string& scene, int frames = 24) {

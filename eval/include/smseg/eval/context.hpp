@@ -47,7 +47,7 @@ std::vector<cv::Mat> posterior_rasters(const forest::Classifier& classifier, con
                                        int trees);
 
 struct ContextOptions {
-  features::FrameRange frames;       ///< frames of each work folder written (and, in folds, trained on)
+  stacks::FrameRange frames;       ///< frames of each work folder written (and, in folds, trained on)
   std::vector<std::string> keep;     ///< features copied to the output besides the context (empty: the forest's)
   int folds = 0;                     ///< 0: context_from_forest; >= 2: out-of-fold (context_out_of_fold)
   std::size_t memory_mb = 2048;      ///< training budget of each fold forest (TrainParams::memory_mb)

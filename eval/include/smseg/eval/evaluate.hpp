@@ -48,7 +48,7 @@ inline constexpr int kLargeSuperpixels = 25;
 int superpixels_from_string(const std::string& s, const std::string& option);
 
 struct EvalOptions {
-  features::FrameRange frames;  ///< labelled frames inside this range are tested
+  stacks::FrameRange frames;  ///< labelled frames inside this range are tested
   int grid = 0;                 ///< B > 0: B x B cells vote; 0: no grid
   int superpixels = 0;          ///< SLIC region size > 0: superpixels vote; 0: none (exclusive with grid)
   int votes = 6;                ///< V: distinct random pixels per region that vote (>= region size: all)
@@ -132,14 +132,14 @@ cv::Mat vote_regions(const forest::Classifier& classifier, const forest::FrameDa
                      int count, const EvalOptions& opt, int frame_index);
 
 /// Checks that the forest fits the stacks (classes, features, image size): one Error naming the file.
-void check_forest_fits(const forest::Forest& forest, const features::StackSet& set);
+void check_forest_fits(const forest::Forest& forest, const stacks::StackSet& set);
 /// The same against one work folder's manifest (classes and image size; its features are checked where
 /// they are selected by name).
-void check_forest_fits(const forest::Forest& forest, const features::StackManifest& m);
+void check_forest_fits(const forest::Forest& forest, const stacks::StackManifest& m);
 
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt);
 /// The same on stacks already open (the forest is checked against them).
-EvalResult evaluate(const forest::Forest& forest, const features::StackSet& set, const std::vector<fs::path>& works,
+EvalResult evaluate(const forest::Forest& forest, const stacks::StackSet& set, const std::vector<fs::path>& works,
                     const EvalOptions& opt);
 
 }  // namespace smseg::eval

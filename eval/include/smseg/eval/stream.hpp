@@ -19,14 +19,14 @@
 namespace smseg::eval {
 
 struct StreamOptions {
-  features::FrontEndOptions front_end;  ///< the stereo front end (as extract-features takes it)
+  frontend::FrontEndOptions front_end;  ///< the stereo front end (as extract-features takes it)
   EvalOptions eval;                     ///< per pixel, grid or superpixel voting, smoothing; frames and pictures unused
 };
 
 /// Milliseconds of each stage of one frame.
 struct StreamStageTimes {
   double read = 0;      ///< the source's time to give the pair
-  features::StreamFrontEndTimes front_end;
+  frontend::StreamFrontEndTimes front_end;
   double features = 0;  ///< point attributes, rasters and summed-area tables
   double classify = 0;  ///< regions, classification, voting and smoothing (label_frame)
 };
@@ -36,17 +36,17 @@ class StreamLabeller {
   /// The forest must have been trained on `size` frames and read only the structure-and-motion
   /// features (and textons, from the left image); Error naming `forest_file` otherwise. Calibration
   /// and camera height as StereoFrontEndStream needs them (Error naming `source`).
-  StreamLabeller(const forest::Forest& forest, const std::string& forest_file, const features::Calibration& calibration,
+  StreamLabeller(const forest::Forest& forest, const std::string& forest_file, const sequence::Calibration& calibration,
                  std::optional<double> camera_height, cv::Size size, const StreamOptions& options,
                  const std::string& source);
 
   /// The first half of a frame's work, which needs no earlier frame (disparity, keypoints): thread-safe,
   /// so that a pipeline prepares the next pairs while label() runs (8-bit grey images).
-  features::StereoFrontEndStream::Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
+  frontend::StereoFrontEndStream::Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
 
   /// Labels the next prepared pair, in order. `frame_index` keys the voting pixels (a sequence's
   /// frame number, as eval-forest uses it). Returns the class positions (CV_8UC1).
-  cv::Mat label(features::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
+  cv::Mat label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
 
   /// prepare() then label().
   cv::Mat push(const cv::Mat& left_gray, const cv::Mat& right_gray, int frame_index, StreamStageTimes* times = nullptr) {
@@ -54,16 +54,16 @@ class StreamLabeller {
   }
 
   /// The last frame's front-end result (pose, observations).
-  const features::StreamFrame& last_frame() const { return frame_; }
+  const frontend::StreamFrame& last_frame() const { return frame_; }
 
  private:
   std::vector<int> table_of_feature_;  // per forest feature: its index in structure_feature_names()
   forest::Classifier classifier_;
   EvalOptions eval_;
   cv::Size size_;
-  features::StereoFrontEndStream front_end_;
-  features::FeatureStream features_;
-  features::StreamFrame frame_;
+  frontend::StereoFrontEndStream front_end_;
+  stacks::FeatureStream features_;
+  frontend::StreamFrame frame_;
 };
 
 /// One stereo pair of a stream, as a source gives it.

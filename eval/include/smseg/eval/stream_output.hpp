@@ -28,11 +28,11 @@ class FrameSource {
 /// The frames [range) of a stereo sequence folder; Error (option --frames) when it selects none.
 class SequenceFrames : public FrameSource {
  public:
-  SequenceFrames(const features::Sequence& seq, const features::FrameRange& range);
+  SequenceFrames(const sequence::Sequence& seq, const stacks::FrameRange& range);
   bool next(StreamInput& pair, bool want_colour) override;
 
  private:
-  const features::Sequence& seq_;
+  const sequence::Sequence& seq_;
   int next_ = 0, end_ = 0;
 };
 
@@ -79,7 +79,7 @@ struct StreamOutputOptions {
 class StreamWriter {
  public:
   /// Makes the folders under `staging`; Error naming `out`/video when the video cannot be written.
-  StreamWriter(const std::filesystem::path& staging, const std::filesystem::path& out, const features::Sequence& seq,
+  StreamWriter(const std::filesystem::path& staging, const std::filesystem::path& out, const sequence::Sequence& seq,
                const StreamOutputOptions& options);
   /// Whether the pairs need their colour image (for overlays).
   bool needs_colour() const { return colour_; }
@@ -90,7 +90,7 @@ class StreamWriter {
 
  private:
   std::filesystem::path staging_;
-  const features::Sequence& seq_;
+  const sequence::Sequence& seq_;
   StreamOutputOptions options_;
   cv::VideoWriter video_;
   bool colour_ = false;

@@ -58,7 +58,7 @@ inline constexpr int kExperimentVersion = 1;
 /// Where a sequence comes from.
 struct SequenceSource {
   enum class Kind { Synthetic, Path, Work } kind = Kind::Synthetic;
-  features::synth::SynthOptions synth;  ///< Synthetic
+  synth::SynthOptions synth;  ///< Synthetic
   fs::path path;                        ///< Path: sequence folder; Work: work folder (absolute)
 };
 
@@ -83,7 +83,7 @@ struct Point {
   std::vector<std::string> case_keys;   ///< those of them a case set (its label names them in display)
   std::string label;
   std::vector<std::string> train, test;  ///< sequence names
-  features::FrameRange train_frames, test_frames;
+  stacks::FrameRange train_frames, test_frames;
   forest::TrainParams train_params;      ///< memory_mb and progress are set by the runner
   std::vector<std::string> features;     ///< empty: all
   eval::EvalOptions eval;                ///< frames, grid, superpixels, votes, vote, trees, tolerance, seed

@@ -18,7 +18,7 @@ namespace smseg::experiments {
 struct StereoEvalRow {
   std::string scene;
   std::string method;
-  features::DisparityScore score;
+  frontend::DisparityScore score;
   double seconds = 0;
 };
 
@@ -26,20 +26,20 @@ struct StereoEvalRow {
 struct StereoEvaluation {
   std::string data;  ///< the data folder as given
   double threshold = 2.0;
-  std::vector<features::StereoOptions> matchers;
+  std::vector<frontend::StereoOptions> matchers;
   std::vector<std::string> scenes;  ///< sorted
   std::vector<StereoEvalRow> rows;  ///< scene-major: rows[s * matchers.size() + m]
 };
 
 /// The matchers named in `methods` (bm, sgbm; Error naming --methods otherwise), each validated: BM
 /// as `bm`, SGBM as `sgbm` with BM's uniqueness ratio, left-right tolerance and speckle window.
-std::vector<features::StereoOptions> stereo_matchers(const std::vector<std::string>& methods,
-                                                     const features::StereoOptions& bm, features::StereoOptions sgbm);
+std::vector<frontend::StereoOptions> stereo_matchers(const std::vector<std::string>& methods,
+                                                     const frontend::StereoOptions& bm, frontend::StereoOptions sgbm);
 
 /// Runs every matcher on every scene of `data` (each with the scene's disparity range rounded up to a
 /// multiple of 16), with a progress line on stderr. Error when the folder holds no scenes or a scene's
 /// images, ground truth and mask differ in size.
-StereoEvaluation evaluate_stereo(const std::string& data, const std::vector<features::StereoOptions>& matchers,
+StereoEvaluation evaluate_stereo(const std::string& data, const std::vector<frontend::StereoOptions>& matchers,
                                  double threshold);
 
 /// The table: one row per scene, per matcher the valid and bad shares in percent, then the means.

@@ -19,12 +19,12 @@ namespace smseg::experiments {
 struct StereoPathEvaluation {
   std::string sequence;                ///< the sequence's manifest
   std::filesystem::path tracks;        ///< the tracks file read
-  std::vector<features::Pose> estimate, truth;  ///< the front end's path and the ground truth of the same frames
-  features::PathError rigid, similarity;
-  features::RelativeError rpe;
-  features::DepthError depth;
+  std::vector<sequence::Pose> estimate, truth;  ///< the front end's path and the ground truth of the same frames
+  frontend::PathError rigid, similarity;
+  frontend::RelativeError rpe;
+  frontend::DepthError depth;
   double end_drift = 0;                ///< metres between the last centres, start-aligned
-  features::FrontEndSummary summary;  ///< as the tracks file has it (its sfm part is reported)
+  frontend::FrontEndSummary summary;  ///< as the tracks file has it (its sfm part is reported)
 };
 
 /// Reads the sequence and WORK/tracks.json (or the tracks file `work` itself) and scores the path and

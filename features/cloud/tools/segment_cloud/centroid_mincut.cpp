@@ -15,23 +15,23 @@ int run_centroid_mincut(const CentroidRun& run) {
   const std::string& up = run.up;
   const std::string method = "centroid-mincut";
   const int truth_object = run.truth_object;
-  features::CentroidMinCutParams mc = run.mc;
-  if (solver == "maxflow") mc.solver = features::MinCutSolver::MaxFlow;
-  else if (solver == "pcl") mc.solver = features::MinCutSolver::Pcl;
+  cloud::CentroidMinCutParams mc = run.mc;
+  if (solver == "maxflow") mc.solver = cloud::MinCutSolver::MaxFlow;
+  else if (solver == "pcl") mc.solver = cloud::MinCutSolver::Pcl;
   else throw Error("", "--solver", "\"" + solver + "\" is not a solver (maxflow or pcl)");
   if (up == "x" || up == "y" || up == "z") mc.up = up[0] - 'x';
   else throw Error("", "--up", "must be x, y or z");
   mc.validate();
-  const features::ColouredCloud cloud = features::read_coloured_cloud(input);
-  features::CentroidMinCutReport rep;
+  const cloud::ColouredCloud cloud = cloud::read_coloured_cloud(input);
+  cloud::CentroidMinCutReport rep;
   std::vector<int> labels;
   try {
-    labels = features::centroid_mincut(cloud, mc, &rep);
+    labels = cloud::centroid_mincut(cloud, mc, &rep);
   } catch (const Error& e) {
     throw Error(input, e.field(), e.reason());
   }
   begin_output_set(out);
-  features::write_labelled_cloud(out, cloud, labels);
+  cloud::write_labelled_cloud(out, cloud, labels);
   Json summary = {{"format", "smseg-segment-cloud"},
                   {"version", 1},
                   {"input", input},
@@ -59,10 +59,10 @@ int run_centroid_mincut(const CentroidRun& run) {
     std::vector<int> truth(cloud.size());
     for (std::size_t i = 0; i < truth.size(); ++i)
       truth[i] = cloud.labels[i] < 0 ? -1 : (cloud.labels[i] == truth_object ? 1 : 0);
-    const double f1 = features::f1_score(truth, labels, 1);
+    const double f1 = cloud::f1_score(truth, labels, 1);
     summary["truth_object"] = truth_object;
     summary["f1_object"] = nan_null(f1);
-    summary["f1_background"] = nan_null(features::f1_score(truth, labels, 0));
+    summary["f1_background"] = nan_null(cloud::f1_score(truth, labels, 0));
     line += ", F1 (object) " + fmt(f1);
   }
   write_json_atomic(out + ".json", summary);

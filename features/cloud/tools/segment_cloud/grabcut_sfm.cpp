@@ -15,7 +15,6 @@ namespace segment_cloud {
 namespace {
 
 using namespace smseg;
-namespace sf = smseg::features;
 using Cloud = std::vector<Eigen::Vector3f>;
 
 Json rect_json(const cv::Rect& r) { return {r.x, r.y, r.width, r.height}; }
@@ -29,7 +28,7 @@ constexpr int kDefaultWindow = 10;  // frames either side: the tracks of a monoc
 void resolve_choices(GrabCutSfmCli& o) {
   if (o.support != "table" && o.support != "plane") throw UsageError("", "--support", "must be table or plane");
   const bool table = o.support == "table";
-  o.params.support = table ? sf::SupportChoice::Table : sf::SupportChoice::Plane;
+  o.params.support = table ? smseg::cloud::SupportChoice::Table : smseg::cloud::SupportChoice::Plane;
   if (o.cluster != "auto" && o.cluster != "kmeans" && o.cluster != "euclidean")
     throw Error("", "--cluster", "must be auto, kmeans or euclidean");
   o.params.euclidean = o.cluster == "euclidean" || (o.cluster == "auto" && table);
@@ -66,17 +65,17 @@ void check_options(const GrabCutSfmCli& o) {
 
 /// The frame: its sequence, the work folder's tracks, its pose, intrinsics and image.
 struct Frame {
-  sf::Sequence seq;
+  smseg::sequence::Sequence seq;
   fs::path tracks_path;
-  sf::TracksFile tracks;
-  sf::Pose pose;
-  sf::PinholeIntrinsics intrinsics;
+  smseg::frontend::TracksFile tracks;
+  smseg::sequence::Pose pose;
+  smseg::cloud::PinholeIntrinsics intrinsics;
   std::string focal_source;
   cv::Mat image;
 };
 
 Frame load_frame(const GrabCutSfmCli& o) {
-  Frame f{sf::load_sequence(o.sequence), fs::path(o.work) / "tracks.json", {}, {}, {}, {}, {}};
+  Frame f{smseg::sequence::load_sequence(o.sequence), fs::path(o.work) / "tracks.json", {}, {}, {}, {}, {}};
   if (o.frame >= f.seq.frame_count())
     throw Error(f.seq.manifest.string(), "--frame",
                 "frame " + std::to_string(o.frame) + " is out of range (the sequence has " +
@@ -84,15 +83,15 @@ Frame load_frame(const GrabCutSfmCli& o) {
   std::error_code ec;
   if (!fs::is_regular_file(f.tracks_path, ec))
     throw Error(f.tracks_path.string(), "", "no camera poses: run extract-features on the sequence first");
-  f.tracks = sf::read_tracks(f.tracks_path);
-  sf::check_made_from(f.tracks, f.tracks_path, f.seq);
+  f.tracks = smseg::frontend::read_tracks(f.tracks_path);
+  smseg::frontend::check_made_from(f.tracks, f.tracks_path, f.seq);
   const int first = f.tracks.result.first_frame, posed = static_cast<int>(f.tracks.result.poses.size());
   if (o.frame < first || o.frame >= first + posed)
     throw Error(f.tracks_path.string(), "poses",
                 "frame " + std::to_string(o.frame) + " has no pose (poses cover frames " + std::to_string(first) +
                     ".." + std::to_string(first + posed - 1) + ")");
   f.pose = f.tracks.result.poses[std::size_t(o.frame - first)];
-  f.intrinsics = sf::frame_intrinsics(f.seq, f.tracks.result, &f.focal_source);
+  f.intrinsics = smseg::cloud::frame_intrinsics(f.seq, f.tracks.result, &f.focal_source);
   f.image = f.seq.load_left(o.frame);
   return f;
 }
@@ -103,14 +102,14 @@ Frame load_frame(const GrabCutSfmCli& o) {
 void resolve_scene_defaults(GrabCutSfmCli& o, const Frame& f) {
   if (o.up == "estimate") {
     bool planar_path = false;
-    o.params.up = sf::scene_up(f.tracks.result, &planar_path);
+    o.params.up = smseg::cloud::scene_up(f.tracks.result, &planar_path);
     o.params.refine_up = !planar_path;
   } else if (o.up == "camera") {
     o.params.refine_up = true;  // a camera looking down at a table is tilted by its pitch
   }
   const bool default_cloud = o.cloud.empty() && o.window < 0 && o.dense_cloud == 0;
-  if (!default_cloud || o.params.support != sf::SupportChoice::Table) return;
-  if (f.seq.kind == sf::SequenceKind::Stereo)
+  if (!default_cloud || o.params.support != smseg::cloud::SupportChoice::Table) return;
+  if (f.seq.kind == smseg::sequence::SequenceKind::Stereo)
     o.dense_cloud = std::max(1, int(std::lround(f.seq.size.width / 160.0)));
   else
     o.window = kDefaultWindow;
@@ -121,20 +120,20 @@ void resolve_scene_defaults(GrabCutSfmCli& o, const Frame& f) {
 Cloud frame_cloud(const GrabCutSfmCli& o, const Frame& f, std::string* path) {
   if (o.dense_cloud > 0) {  // the frame's own dense depth, with the stereo range the work folder used
     *path = f.seq.manifest.string();
-    if (f.seq.kind != sf::SequenceKind::Stereo)
+    if (f.seq.kind != smseg::sequence::SequenceKind::Stereo)
       throw Error(*path, "--dense-cloud", "needs a stereo sequence (dense depth from its pairs)");
-    sf::StereoOptions stereo;
+    smseg::frontend::StereoOptions stereo;
     const Json& st = f.tracks.options.contains("stereo") ? f.tracks.options["stereo"] : Json::object();
     stereo.num_disparities = st.value("num_disparities", stereo.num_disparities);
     stereo.min_disparity = st.value("min_disparity", stereo.min_disparity);
-    Cloud c = sf::dense_frame_cloud(sf::dense_depth(f.seq, o.frame, sf::dense_stereo_options(stereo)), f.seq.calibration,
+    Cloud c = smseg::cloud::dense_frame_cloud(smseg::stacks::dense_depth(f.seq, o.frame, smseg::stacks::dense_stereo_options(stereo)), f.seq.calibration,
                                     f.pose, o.dense_cloud);
     if (c.empty()) throw Error(*path, "--dense-cloud", "frame " + std::to_string(o.frame) + " has no dense depth");
     return c;
   }
   if (o.window >= 0) {  // the tracks around the frame
     *path = f.tracks_path.string();
-    Cloud c = sf::window_cloud(f.tracks.result, o.frame, o.window);
+    Cloud c = smseg::cloud::window_cloud(f.tracks.result, o.frame, o.window);
     if (c.empty())
       throw Error(*path, "tracks", "no track has a 3D point within " + std::to_string(o.window) + " frames of frame " +
                                        std::to_string(o.frame));
@@ -143,13 +142,13 @@ Cloud frame_cloud(const GrabCutSfmCli& o, const Frame& f, std::string* path) {
   *path = o.cloud.empty() ? (fs::path(o.work) / "cloud.pcd").string() : o.cloud;
   std::error_code ec;
   if (!fs::is_regular_file(*path, ec)) throw Error(*path, "", "no cloud: run extract-features on the sequence first");
-  return sf::read_coloured_cloud(*path).points;
+  return smseg::cloud::read_coloured_cloud(*path).points;
 }
 
 /// --plane-window: the tracks around the frame, to which the first plane is fitted (empty without it).
 Cloud plane_window_cloud(const GrabCutSfmCli& o, const Frame& f) {
   if (o.plane_window < 0) return {};
-  Cloud c = sf::window_cloud(f.tracks.result, o.frame, o.plane_window);
+  Cloud c = smseg::cloud::window_cloud(f.tracks.result, o.frame, o.plane_window);
   if (c.empty())
     throw Error(f.tracks_path.string(), "--plane-window", "no track has a 3D point within " +
                                                               std::to_string(o.plane_window) + " frames of frame " +
@@ -164,7 +163,7 @@ struct Truth {
   std::string source;
 };
 
-Truth label_truth(const GrabCutSfmCli& o, const sf::Sequence& seq) {
+Truth label_truth(const GrabCutSfmCli& o, const smseg::sequence::Sequence& seq) {
   int cls = -1;
   std::string names;
   for (std::size_t c = 0; c < seq.classes.size(); ++c) {
@@ -176,23 +175,23 @@ Truth label_truth(const GrabCutSfmCli& o, const sf::Sequence& seq) {
   if (!seq.is_labelled(o.frame))
     throw Error(seq.manifest.string(), "--truth-label", "frame " + std::to_string(o.frame) + " has no label image");
   const cv::Mat labels = seq.load_labels(o.frame);
-  Truth t{labels == cls, labels == sf::kVoid, "label " + o.truth_label + " (" + o.truth_region + ")"};
+  Truth t{labels == cls, labels == smseg::sequence::kVoid, "label " + o.truth_label + " (" + o.truth_region + ")"};
   if (cv::countNonZero(t.mask) == 0)
     throw Error(seq.resolve(seq.frames[std::size_t(o.frame)].label).string(), "--truth-label",
                 "frame " + std::to_string(o.frame) + " has no pixel of class " + o.truth_label);
-  if (o.truth_region == "largest") t.mask = sf::largest_region(t.mask);
+  if (o.truth_region == "largest") t.mask = smseg::cloud::largest_region(t.mask);
   return t;
 }
 
 /// The sequence's instance image (object ids 1..K); "nearest": the object whose pixels have the
 /// smallest median ground-truth depth, "all": every object, else one id.
-Truth instance_truth(const GrabCutSfmCli& o, const sf::Sequence& seq) {
+Truth instance_truth(const GrabCutSfmCli& o, const smseg::sequence::Sequence& seq) {
   if (!seq.has_instances(o.frame))
     throw Error(seq.manifest.string(), "--truth-instance", "frame " + std::to_string(o.frame) + " has no instance image");
   const cv::Mat inst = seq.load_instances(o.frame);
   int id = 0;
   if (o.truth_instance == "nearest") {
-    id = sf::nearest_instance(inst, seq.load_gt_depth(o.frame));
+    id = smseg::cloud::nearest_instance(inst, seq.load_gt_depth(o.frame));
     if (id == 0) throw Error(seq.manifest.string(), "--truth-instance", "frame " + std::to_string(o.frame) + " shows no object");
   } else if (o.truth_instance != "all") {
     try {
@@ -212,7 +211,7 @@ Truth instance_truth(const GrabCutSfmCli& o, const sf::Sequence& seq) {
 }
 
 Truth mask_truth(const GrabCutSfmCli& o, const cv::Mat& image) {
-  const cv::Mat m = sf::read_image_file(o.truth_mask, cv::IMREAD_UNCHANGED);
+  const cv::Mat m = smseg::sequence::read_image_file(o.truth_mask, cv::IMREAD_UNCHANGED);
   if (m.type() != CV_8UC1 || m.size() != image.size())
     throw Error(o.truth_mask, "--truth-mask",
                 "must be an 8-bit single-channel image of the frame's size (" + std::to_string(image.cols) + " x " +
@@ -275,7 +274,7 @@ Json params_json(const GrabCutSfmCli& o) {
 }
 
 /// What GrabCutSFM found, step by step (planes or table, clusters, boxes, seconds).
-Json report_json(const GrabCutSfmCli& o, const sf::GrabCutSfmReport& rep) {
+Json report_json(const GrabCutSfmCli& o, const smseg::cloud::GrabCutSfmReport& rep) {
   Json clusters = Json::array();
   for (std::size_t c = 0; c < rep.cluster_sizes.size(); ++c)
     clusters.push_back({{"points", rep.cluster_sizes[c]}, {"in_frame", rep.cluster_in_frame[c]},
@@ -284,7 +283,7 @@ Json report_json(const GrabCutSfmCli& o, const sf::GrabCutSfmReport& rep) {
   for (std::size_t i = 0; i < rep.planes.size(); ++i)
     planes.push_back({{"plane", {rep.planes[i][0], rep.planes[i][1], rep.planes[i][2], rep.planes[i][3]}},
                       {"inliers", rep.planes_inliers[i]}});
-  const sf::TablePlane& t = rep.table;
+  const smseg::cloud::TablePlane& t = rep.table;
   return {{"points", rep.points},
           {"considered", rep.considered},
           {"up", {o.params.up.x(), o.params.up.y(), o.params.up.z()}},
@@ -325,20 +324,20 @@ void score(const cv::Mat& image, const cv::Mat& mask, const Truth& truth, std::u
            const fs::path& stem, Json& summary, std::string& line) {
   auto t0 = std::chrono::steady_clock::now();
   cv::Mat clusters2;
-  const cv::Mat km = sf::kmeans2_colour(image, seed, &clusters2);
+  const cv::Mat km = smseg::cloud::kmeans2_colour(image, seed, &clusters2);
   summary["kmeans2"] = {{"seconds", seconds_since(t0)}, {"foreground_pixels", cv::countNonZero(km)}};
-  sf::write_image_atomic(stem.string() + ".kmeans2.png", km);
+  smseg::sequence::write_image_atomic(stem.string() + ".kmeans2.png", km);
   if (truth.mask.empty()) return;
   std::vector<cv::Point> pts;
   cv::findNonZero(truth.mask, pts);
   const cv::Rect tbox = cv::boundingRect(pts);
   t0 = std::chrono::steady_clock::now();
-  const cv::Mat gb = sf::grabcut_box(image, tbox, iterations, seed);
+  const cv::Mat gb = smseg::cloud::grabcut_box(image, tbox, iterations, seed);
   summary["grabcut_box"] = {{"box", rect_json(tbox)}, {"seconds", seconds_since(t0)}};
-  sf::write_image_atomic(stem.string() + ".box.png", gb);
-  const double f1 = sf::mask_f1(mask, truth.mask, truth.ignore), f1_km = sf::mask_f1(km, truth.mask, truth.ignore);
-  const double f1_km_other = sf::mask_f1(km == 0, truth.mask, truth.ignore);
-  const double f1_box = sf::mask_f1(gb, truth.mask, truth.ignore);
+  smseg::sequence::write_image_atomic(stem.string() + ".box.png", gb);
+  const double f1 = smseg::cloud::mask_f1(mask, truth.mask, truth.ignore), f1_km = smseg::cloud::mask_f1(km, truth.mask, truth.ignore);
+  const double f1_km_other = smseg::cloud::mask_f1(km == 0, truth.mask, truth.ignore);
+  const double f1_box = smseg::cloud::mask_f1(gb, truth.mask, truth.ignore);
   summary["truth"] = {{"source", truth.source}, {"pixels", cv::countNonZero(truth.mask)}, {"box", rect_json(tbox)},
                       {"ignored_pixels", truth.ignore.empty() ? 0 : cv::countNonZero(truth.ignore)}};
   summary["f1"] = {{"grabcut_sfm", nan_null(f1)},
@@ -350,7 +349,7 @@ void score(const cv::Mat& image, const cv::Mat& mask, const Truth& truth, std::u
           fmt(std::max(f1_km, f1_km_other), "%.3f") + "), grabcut on the truth box " + fmt(f1_box, "%.3f");
 }
 
-std::string summary_line(int frame, const sf::GrabCutSfmReport& rep) {
+std::string summary_line(int frame, const smseg::cloud::GrabCutSfmReport& rep) {
   return "frame " + std::to_string(frame) + ": cluster " + std::to_string(rep.chosen) + " of " +
          std::to_string(rep.cluster_sizes.size()) + " (" + fmt(rep.cluster_distances[std::size_t(rep.chosen)], "%.2f") +
          " m, " + std::to_string(rep.inliers_2d) + "/" + std::to_string(rep.chosen_points.size()) +
@@ -375,18 +374,18 @@ int run_grabcut_sfm(const GrabCutSfmCli& cli) {
   const double cloud_seconds = seconds_since(t_cloud);
   const Cloud plane_cloud = plane_window_cloud(o, f);
   const Truth truth = load_truth(o, f);
-  sf::GrabCutSfmReport rep;
+  smseg::cloud::GrabCutSfmReport rep;
   cv::Mat mask;
   try {
-    mask = sf::grabcut_sfm(cloud, f.intrinsics, f.pose, f.image, o.params, &rep, o.plane_window >= 0 ? &plane_cloud : nullptr);
+    mask = smseg::cloud::grabcut_sfm(cloud, f.intrinsics, f.pose, f.image, o.params, &rep, o.plane_window >= 0 ? &plane_cloud : nullptr);
   } catch (const Error& e) {
     throw Error(e.field() == "cloud" ? cloud_path : e.file(), e.field(), e.reason() + " (frame " + std::to_string(o.frame) + ")");
   }
   const fs::path out(o.out);
   const fs::path stem = out.parent_path() / out.stem();
   begin_output_set(o.out);
-  sf::write_image_atomic(out, mask);
-  sf::write_image_atomic(stem.string() + ".overlay.png", sf::grabcut_sfm_overlay(f.image, mask, rep));
+  smseg::sequence::write_image_atomic(out, mask);
+  smseg::sequence::write_image_atomic(stem.string() + ".overlay.png", smseg::cloud::grabcut_sfm_overlay(f.image, mask, rep));
   const auto& k = f.intrinsics;
   Json summary = {{"format", "smseg-segment-cloud"}, {"version", 1}, {"method", "grabcut-sfm"},
                   {"sequence", o.sequence}, {"work", o.work}, {"cloud", cloud_path}, {"frame", o.frame},

@@ -10,11 +10,11 @@ namespace {
 
 /// F1 per ground-truth label of the cloud, each predicted label standing for the ground-truth label most
 /// of its seed carries, and the confusion matrix, into the summary and the line.
-void score_against_labels(const smseg::features::ColouredCloud& cloud, const smseg::features::MrfSeeds& sd,
+void score_against_labels(const smseg::cloud::ColouredCloud& cloud, const smseg::cloud::MrfSeeds& sd,
                           const std::vector<int>& labels, int label_count, smseg::Json& summary, std::string& line) {
   using namespace smseg;
   // Each predicted label stands for the ground-truth label most of its seed carries.
-  const std::vector<int> map = features::seed_truth(cloud, sd);
+  const std::vector<int> map = cloud::seed_truth(cloud, sd);
   std::vector<int> mapped(labels.size());
   for (std::size_t i = 0; i < labels.size(); ++i) mapped[i] = map[std::size_t(labels[i])];
   int truth_max = 0;
@@ -22,7 +22,7 @@ void score_against_labels(const smseg::features::ColouredCloud& cloud, const sms
   Json f1 = Json::array();
   line += ", F1";
   for (int t = 0; t <= truth_max; ++t) {
-    const double v = features::f1_score(cloud.labels, mapped, t);
+    const double v = cloud::f1_score(cloud.labels, mapped, t);
     f1.push_back({{"truth_label", t}, {"f1", nan_null(v)}});
     line += " " + std::to_string(t) + ":" + fmt(v, "%.3f");
   }
@@ -47,24 +47,24 @@ int run_mrf_on_cloud(const MrfCloudRun& run) {
   const std::string& out = run.out;
   const std::string& seeds = run.seeds;
   const std::string method = "mrf";
-  const features::MrfParams& mrf = run.mrf;
-  const features::PlaneSeedParams& plane = run.plane;
+  const cloud::MrfParams& mrf = run.mrf;
+  const cloud::PlaneSeedParams& plane = run.plane;
   mrf.validate();
   plane.validate();
-  const features::ColouredCloud cloud = features::read_coloured_cloud(input);
+  const cloud::ColouredCloud cloud = cloud::read_coloured_cloud(input);
   const auto t0 = std::chrono::steady_clock::now();
-  features::MrfSeeds sd;
-  features::MrfReport rep;
+  cloud::MrfSeeds sd;
+  cloud::MrfReport rep;
   std::vector<int> labels;
   try {
-    sd = seeds == "plane" ? features::plane_seeds(cloud, plane) : features::file_seeds(cloud, seeds);
-    labels = features::mrf_segment(cloud, sd, mrf, &rep);
+    sd = seeds == "plane" ? cloud::plane_seeds(cloud, plane) : cloud::file_seeds(cloud, seeds);
+    labels = cloud::mrf_segment(cloud, sd, mrf, &rep);
   } catch (const Error& e) {
     throw Error(e.file().empty() ? input : e.file(), e.field(), e.reason());
   }
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   begin_output_set(out);
-  features::write_labelled_cloud(out, cloud, labels);
+  cloud::write_labelled_cloud(out, cloud, labels);
   Json seeds_json = Json::array();
   for (std::size_t l = 0; l < sd.regions.size(); ++l)
     seeds_json.push_back({{"label", l},

@@ -264,9 +264,9 @@ int run_method(const CLI::App& app, SegmentCloudOptions& o) {
   const OutputLock one_writer(o.out, {o.input, o.sal.sequence, o.sal.work, o.gc.truth_mask});
   if (o.make_tabletop > 0) {
     o.tab.points = o.make_tabletop;
-    const features::ColouredCloud c = features::make_tabletop_cloud(o.tab);
+    const cloud::ColouredCloud c = cloud::make_tabletop_cloud(o.tab);
     begin_output_set(o.out);  // one file, no summary; this cleans up after killed runs
-    features::write_labelled_cloud(o.out, c, c.labels);
+    cloud::write_labelled_cloud(o.out, c, c.labels);
     std::cout << "tabletop cloud: " << c.size() << " points, " << o.tab.objects << " objects -> " << o.out << "\n";
     return 0;
   }

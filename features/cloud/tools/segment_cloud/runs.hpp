@@ -41,8 +41,8 @@ inline smseg::Json nan_null(double v) { return std::isnan(v) ? smseg::Json(nullp
 /// --method mrf --seeds plane|FILE on a cloud file (mrf_on_cloud.cpp).
 struct MrfCloudRun {
   std::string input, out, seeds;  ///< seeds: plane or a seed file
-  smseg::features::MrfParams mrf;
-  smseg::features::PlaneSeedParams plane;
+  smseg::cloud::MrfParams mrf;
+  smseg::cloud::PlaneSeedParams plane;
 };
 int run_mrf_on_cloud(const MrfCloudRun& run);
 
@@ -50,7 +50,7 @@ int run_mrf_on_cloud(const MrfCloudRun& run);
 struct CentroidRun {
   std::string input, out, solver, up;  ///< solver: maxflow or pcl; up: x, y or z
   int truth_object = 1;
-  smseg::features::CentroidMinCutParams mc;
+  smseg::cloud::CentroidMinCutParams mc;
 };
 int run_centroid_mincut(const CentroidRun& run);
 
@@ -62,10 +62,10 @@ struct SaliencyRun {
   int min_seed_points = 3;
   double split_distance = 0.05;  ///< split seed regions by 3D distance and colour (0: no split)
   double split_colour = 80;
-  smseg::features::SaliencyParams saliency;
-  smseg::features::ProjectionParams projection;
+  smseg::cloud::SaliencyParams saliency;
+  smseg::cloud::ProjectionParams projection;
 };
-int run_saliency_mrf(const SaliencyRun& run, const smseg::features::MrfParams& mrf);  ///< saliency_mrf.cpp
+int run_saliency_mrf(const SaliencyRun& run, const smseg::cloud::MrfParams& mrf);  ///< saliency_mrf.cpp
 
 struct GrabCutSfmCli {
   std::string sequence, work, cloud, out;  // cloud: empty = WORK/cloud.pcd
@@ -78,18 +78,18 @@ struct GrabCutSfmCli {
   std::string support = "table";  // --support table|plane
   std::string cluster = "auto", nearest = "auto", up = "auto";  // up: --plane-up camera|world|estimate|auto
   bool box_to_plane_given = false;  // --box-to-plane on the command line (support plane: off unless given)
-  smseg::features::GrabCutSfmParams params;
+  smseg::cloud::GrabCutSfmParams params;
 };
 int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp
 
 /// Everything segment-cloud's command line fills (options.cpp).
 struct SegmentCloudOptions {
   std::string input, out, method = "centroid-mincut", solver = "maxflow", up = "y", seeds = "plane";
-  smseg::features::CentroidMinCutParams mc;
-  smseg::features::TabletopCloudOptions tab;
-  smseg::features::MrfParams mrf;
-  smseg::features::PlaneSeedParams plane;
-  double mrf_lambda = smseg::features::MrfParams{}.lambda;
+  smseg::cloud::CentroidMinCutParams mc;
+  smseg::cloud::TabletopCloudOptions tab;
+  smseg::cloud::MrfParams mrf;
+  smseg::cloud::PlaneSeedParams plane;
+  double mrf_lambda = smseg::cloud::MrfParams{}.lambda;
   int make_tabletop = 0, threads = 0, truth_object = 1;
   SaliencyRun sal;
   GrabCutSfmCli gc;

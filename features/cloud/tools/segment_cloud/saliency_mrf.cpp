@@ -13,7 +13,9 @@ namespace segment_cloud {
 namespace {
 
 using namespace smseg;
-using namespace smseg::features;
+using namespace smseg::sequence;
+using namespace smseg::frontend;
+using namespace smseg::cloud;
 
 /// The sequence, work folder, cloud and frame of a --seeds saliency run, checked.
 struct SaliencyInput {

@@ -43,32 +43,32 @@ int main(int argc, char** argv) try {
   const float row = 80;
   check("forest", forest::tabular_posterior(trees, &row, 2, acc) == 1, "a 3-tree forest on a threshold");
 
-  check("sequence", features::make_npy_header("<f4", {2, 3}).starts_with("\x93NUMPY"), "an .npy header");
+  check("sequence", sequence::make_npy_header("<f4", {2, 3}).starts_with("\x93NUMPY"), "an .npy header");
 
-  features::synth::SynthOptions synth_options;
+  synth::SynthOptions synth_options;
   synth_options.frames = 1;
-  check("synth", !features::synth::build_scene(synth_options).quads.empty(), "the corridor's geometry");
+  check("synth", !synth::build_scene(synth_options).quads.empty(), "the corridor's geometry");
 
-  check("frontend", std::string(features::gravity_method_name(features::GravityMethod::Estimate)) == "estimate",
+  check("frontend", std::string(frontend::gravity_method_name(frontend::GravityMethod::Estimate)) == "estimate",
         "a gravity method's name");
-  check("sfm", std::string(features::sfm_tracker_name(features::SfmTracker::Klt)) == "klt", "a tracker's name");
-  check("stacks", features::structure_feature_names().size() == 6, "the structure features' names");
+  check("sfm", std::string(sfm::sfm_tracker_name(sfm::SfmTracker::Klt)) == "klt", "a tracker's name");
+  check("stacks", stacks::structure_feature_names().size() == 6, "the structure features' names");
 
-  features::FlowGraph graph;
+  graphcut::FlowGraph graph;
   graph.source = {3, 0};
   graph.sink = {0, 2};
   graph.edges = {{0, 1, 5, 0}};
-  check("graphcut", features::max_flow(graph) == 2, "a two-node max flow");
+  check("graphcut", graphcut::max_flow(graph) == 2, "a two-node max flow");
 
-  features::TabletopCloudOptions cloud_options;
+  cloud::TabletopCloudOptions cloud_options;
   cloud_options.points = 3000;
-  const features::ColouredCloud cloud = features::make_tabletop_cloud(cloud_options);
-  features::CentroidMinCutParams mincut;
+  const cloud::ColouredCloud cloud = cloud::make_tabletop_cloud(cloud_options);
+  cloud::CentroidMinCutParams mincut;
   mincut.radius = 0.3;
-  mincut.solver = features::MinCutSolver::Pcl;
-  const std::vector<int> segmented = features::centroid_mincut(cloud, mincut);
-  features::write_labelled_cloud(scratch / "cloud.pcd", cloud, segmented);
-  const features::ColouredCloud back = features::read_coloured_cloud(scratch / "cloud.pcd");
+  mincut.solver = cloud::MinCutSolver::Pcl;
+  const std::vector<int> segmented = cloud::centroid_mincut(cloud, mincut);
+  cloud::write_labelled_cloud(scratch / "cloud.pcd", cloud, segmented);
+  const cloud::ColouredCloud back = cloud::read_coloured_cloud(scratch / "cloud.pcd");
   check("cloud", back.size() == cloud.size() && back.labels == segmented,
         "PCL's min cut of a tabletop, written by PCL as PCD and read back");
 

@@ -9,10 +9,10 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/track_cloud.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 /// Writes the cloud with PCL (pcl::PointXYZRGBL: the class colour and the class position as label,
 /// 255 = none), binary PCD for ".pcd", binary PLY for ".ply"; atomic. Error naming the file otherwise.
-void write_cloud(const fs::path& path, const std::vector<CloudPoint>& cloud, const Sequence& seq);
+void write_cloud(const fs::path& path, const std::vector<stacks::CloudPoint>& cloud, const sequence::Sequence& seq);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

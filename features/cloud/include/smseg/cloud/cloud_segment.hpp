@@ -18,7 +18,7 @@
 
 #include "smseg/common/io.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 /// A point cloud with optional colours and labels (class or object ids, -1: none).
 struct ColouredCloud {
@@ -165,4 +165,4 @@ std::vector<int> mrf_segment(const ColouredCloud& cloud, const MrfSeeds& seeds, 
 /// Maps each predicted label to the ground-truth label most of its seed region carries (-1: none).
 std::vector<int> seed_truth(const ColouredCloud& cloud, const MrfSeeds& seeds);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

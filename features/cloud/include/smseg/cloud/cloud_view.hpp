@@ -18,12 +18,12 @@
 #include "smseg/cloud/cloud_segment.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 struct ViewCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0;
   cv::Size size;
-  Pose pose;  ///< camera-to-world
+  sequence::Pose pose;  ///< camera-to-world
 };
 
 struct ProjectionParams {
@@ -105,4 +105,4 @@ struct InstanceScore {
 };
 InstanceScore score_instances(std::span<const int> truth, std::span<const int> predicted, int truth_ids, int labels);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

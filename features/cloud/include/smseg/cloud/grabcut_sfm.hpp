@@ -50,7 +50,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::cloud {
 
 struct PinholeIntrinsics {
   double fx = 0, fy = 0, cx = 0, cy = 0;
@@ -58,7 +58,7 @@ struct PinholeIntrinsics {
 };
 
 /// Projects a world point with a camera-to-world pose; false when it lies behind the camera (z <= 1e-6).
-bool project_point(const Eigen::Vector3f& world, const Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
+bool project_point(const Eigen::Vector3f& world, const sequence::Pose& pose, const PinholeIntrinsics& k, cv::Point2f* pixel,
                    double* depth = nullptr);
 
 /// How the supporting plane is found (not in 001's sense of "a plane": 001 removes the dominant one).
@@ -212,30 +212,30 @@ struct GrabCutSfmReport {
 /// its inliers from `points`; unused without plane removal (plane_distance 0).
 /// A frame's dense depth sees the objects a tracked cloud misses but, seen from above a table, often
 /// more floor than table top; the tracks around the frame find the table (docs/graphcuts.md).
-cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const Pose& pose,
+cv::Mat grabcut_sfm(const std::vector<Eigen::Vector3f>& points, const PinholeIntrinsics& intrinsics, const sequence::Pose& pose,
                     const cv::Mat& image, const GrabCutSfmParams& params, GrabCutSfmReport* report = nullptr,
                     const std::vector<Eigen::Vector3f>* plane_cloud = nullptr);
 
 /// A cloud local to one frame (not in 001): one point per track observed with a 3D point in frames
 /// [frame - window, frame + window] (those with a pose), the mean of its world positions there (R P + t of
 /// each observation's frame). Keeps the drift and the far structure of a long sequence out of the clusters.
-std::vector<Eigen::Vector3f> window_cloud(const FrontEndResult& front_end, int frame, int window);
+std::vector<Eigen::Vector3f> window_cloud(const frontend::FrontEndResult& front_end, int frame, int window);
 
 /// The world points of a frame's dense depth map (CV_32FC1 metres, 0 = none; stacks/dense.hpp's
 /// dense_depth) seen from `pose` (camera-to-world), one per `step`-th pixel in x and y: a cloud with
 /// points on surfaces no keypoint was tracked on (low-contrast objects). Error for step < 1.
-std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
+std::vector<Eigen::Vector3f> dense_frame_cloud(const cv::Mat& depth, const sequence::Calibration& calibration, const sequence::Pose& pose,
                                                int step);
 
 /// The up direction of a work folder's world from its camera path and tracks (estimate_gravity, as
 /// extract-features --gravity estimate: the plane of a circling or turning path, else the ground under a
 /// straight one). The camera height it needs for its thresholds is the first camera's.
 /// `planar_path` (optional): whether it came from a planar camera path (a circle or a turn), the reliable case.
-Eigen::Vector3d scene_up(const FrontEndResult& front_end, bool* planar_path = nullptr);
+Eigen::Vector3d scene_up(const frontend::FrontEndResult& front_end, bool* planar_path = nullptr);
 
 /// The pinhole intrinsics of a work folder's frames: the SfM focal of a monocular run (tracks.json), else
 /// the sequence's fx / fy; principal point from the sequence. `source` says which. Error without a focal.
-PinholeIntrinsics frame_intrinsics(const Sequence& sequence, const FrontEndResult& front_end, std::string* source);
+PinholeIntrinsics frame_intrinsics(const sequence::Sequence& sequence, const frontend::FrontEndResult& front_end, std::string* source);
 
 /// The object of an instance image (ids 1..255, 0 none) nearest the camera: the smallest median of the
 /// ground-truth depth (> 0) over its pixels; 0 when no object shows. The truth of --truth-instance nearest.
@@ -294,4 +294,4 @@ double mask_f1(const cv::Mat& predicted, const cv::Mat& truth, const cv::Mat& ig
 /// outliers as crosses), the inlier box thin and the GrabCut box thick in red (001 Fig. 5 and 6).
 cv::Mat grabcut_sfm_overlay(const cv::Mat& image, const cv::Mat& mask, const GrabCutSfmReport& report);
 
-}  // namespace smseg::features
+}  // namespace smseg::cloud

@@ -35,7 +35,7 @@
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// A plane fitted by fit_ground_plane.
 struct PlaneFit {
@@ -83,11 +83,11 @@ struct GravityEstimate {
 
 /// Up direction of the world of `poses` (camera-to-world, poses[i] is sequence frame first_frame + i)
 /// from the camera path and the tracks' points (camera frame, metres). Deterministic for a seed.
-GravityEstimate estimate_gravity(const std::vector<Pose>& poses, int first_frame, const std::vector<Track>& tracks,
+GravityEstimate estimate_gravity(const std::vector<sequence::Pose>& poses, int first_frame, const std::vector<Track>& tracks,
                                  double camera_height, const GravityOptions& options);
 
 /// Rotates every pose about the first camera's centre so that `up` becomes world +Y and the first
 /// camera's optical axis, projected on the ground, stays along +Z. Camera-frame points do not change.
-void level_world(std::vector<Pose>& poses, const Eigen::Vector3d& up);
+void level_world(std::vector<sequence::Pose>& poses, const Eigen::Vector3d& up);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

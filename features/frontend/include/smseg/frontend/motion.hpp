@@ -55,7 +55,7 @@
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// X' = R X + t.
 struct RigidMotion {
@@ -98,7 +98,7 @@ MotionEstimate estimate_motion(const std::vector<Eigen::Vector3d>& p, const std:
 /// A rectified stereo rig: (u, v, d) = (fx X/Z + cx, fy Y/Z + cy, fx B / Z).
 struct StereoCamera {
   double fx = 0, fy = 0, cx = 0, cy = 0, baseline = 0;
-  static StereoCamera from(const Calibration& calib);  ///< Error without fx or baseline
+  static StereoCamera from(const sequence::Calibration& calib);  ///< Error without fx or baseline
   Eigen::Vector3d project(const Eigen::Vector3d& X) const;  ///< (u, v, d)
   Eigen::Vector3d backproject(const Eigen::Vector3d& uvd) const;
 };
@@ -138,11 +138,11 @@ struct PairMotion {
 };
 
 /// The first camera pose (see the world-frame assumption above).
-Pose initial_pose(double camera_height);
+sequence::Pose initial_pose(double camera_height);
 
 /// Chains the pair motions (pairs.size() == frames - 1) into camera-to-world poses; bad pairs are
 /// bridged in place (their motion replaced, bridged = true).
-std::vector<Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_height);
+std::vector<sequence::Pose> chain_poses(std::vector<PairMotion>& pairs, double camera_height);
 
 /// Estimates every pair's motion from tracks (observations of one track in frames t and t+1), in
 /// parallel over pairs; deterministic. Frames first_frame .. first_frame + frame_count - 1; the pair
@@ -233,7 +233,7 @@ struct FrontEndSummary {
 struct FrontEndResult {
   int first_frame = 0;                 ///< sequence index of frames[0]
   std::vector<Track> tracks;           ///< after all filters; frames are sequence indices
-  std::vector<Pose> poses;             ///< one per processed frame (camera-to-world)
+  std::vector<sequence::Pose> poses;             ///< one per processed frame (camera-to-world)
   std::vector<PairMotion> pair_motions;  ///< one per consecutive pair of processed frames
   FrontEndSummary summary;
 };
@@ -248,6 +248,6 @@ void summarise_tracks_and_motion(FrontEndResult& res, int n,
 /// Runs the stereo front end over the sequence. Bad input (mono sequence, missing calibration or
 /// camera height, missing images) is an Error naming file and field; frames with no valid disparity
 /// or no keypoints are not errors: they give no observations and bridged motion (see the summary).
-FrontEndResult run_stereo_front_end(const Sequence& seq, const FrontEndOptions& options);
+FrontEndResult run_stereo_front_end(const sequence::Sequence& seq, const FrontEndOptions& options);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -21,7 +21,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 inline constexpr float kInvalidDisparity = -1.0f;
 
@@ -63,7 +63,7 @@ void apply_disparity_offset(cv::Mat& disparity, double offset);
 /// The disparity of one frame of a stereo sequence: computed from its left/right images (BM, SGBM;
 /// with the calibration's disparity_offset applied), or loaded (Given: already true disparities).
 /// Values <= 0 are normalised to -1.
-cv::Mat frame_disparity(const Sequence& seq, int frame, const StereoOptions& options);
+cv::Mat frame_disparity(const sequence::Sequence& seq, int frame, const StereoOptions& options);
 
 // ---------------------------------------------------------------------------------------------
 // Middlebury 2014 (MiddEval3) helpers, for measuring the matchers on real pairs.
@@ -102,4 +102,4 @@ struct DisparityScore {
 DisparityScore score_disparity(const cv::Mat& estimate, const cv::Mat& ground_truth, const cv::Mat& nonocc_mask,
                                double bad_threshold = 2.0);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

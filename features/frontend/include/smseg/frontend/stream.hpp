@@ -23,7 +23,7 @@
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// One keypoint of the streamed frame with a valid disparity.
 struct StreamObservation {
@@ -41,7 +41,7 @@ struct StreamFrontEndTimes {
 
 struct StreamFrame {
   int index = 0;                                ///< frames pushed before this one
-  Pose pose;                                    ///< camera-to-world
+  sequence::Pose pose;                                    ///< camera-to-world
   std::optional<PairMotion> motion;             ///< the pair (index - 1, index); none for the first frame
   std::vector<StreamObservation> observations;  ///< ascending track id
   std::vector<int> live_tracks;                 ///< ids of every keypoint of the frame, valid or not, ascending
@@ -53,7 +53,7 @@ class StereoFrontEndStream {
   /// Needs fx, the baseline and a camera height (the options' or the calibration's sequence's);
   /// Error naming `source` and the field otherwise. The `given` disparity method needs a sequence
   /// folder and is refused.
-  StereoFrontEndStream(const Calibration& calibration, std::optional<double> camera_height,
+  StereoFrontEndStream(const sequence::Calibration& calibration, std::optional<double> camera_height,
                        const FrontEndOptions& options, const std::string& source);
 
   /// The work of a stereo pair that needs no earlier frame (disparity, keypoints): callable from any
@@ -79,7 +79,7 @@ class StereoFrontEndStream {
   // Track ids of the frame's keypoints from the matches (chain_matches, one frame at a time).
   std::vector<int> chain(const FrameObservations& obs, const std::vector<cv::DMatch>& matches);
 
-  Calibration calib_;
+  sequence::Calibration calib_;
   FrontEndOptions opt_;
   StereoCamera camera_;
   double camera_height_ = 0;
@@ -97,4 +97,4 @@ class StereoFrontEndStream {
   std::shared_ptr<Path> path_;
 };
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

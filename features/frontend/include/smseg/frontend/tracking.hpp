@@ -29,7 +29,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 /// Gftt: Shi-Tomasi corners (OpenCV's GFTTDetector), positions only, no descriptors: for KLT tracking.
 enum class KeypointMethod { Sift, Orb, Akaze, Gftt };
@@ -134,9 +134,9 @@ Eigen::Vector3d backproject(double x, double y, double d, double fx, double fy, 
 
 /// Fills disparities/points (and labels when `labels` is not empty) for keypoints of one frame.
 FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& keypoints, const cv::Mat& disparity,
-                                    const cv::Mat& labels, const Calibration& calib);
+                                    const cv::Mat& labels, const sequence::Calibration& calib);
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
-                                 const Calibration& calib);
+                                 const sequence::Calibration& calib);
 
 /// What each filter removed, in observations ("points") and tracks.
 struct FilterCounts {
@@ -163,4 +163,4 @@ std::vector<Track> build_tracks(const std::vector<FrameObservations>& frames,
                                 const std::vector<std::vector<cv::DMatch>>& matches, const TrackFilterOptions& options,
                                 FilterCounts& counts, std::vector<Track>* after_disparity_filter = nullptr);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

@@ -22,7 +22,7 @@
 
 #include "smseg/frontend/motion.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 inline constexpr const char* kTracksFormat = "smseg-tracks";
 inline constexpr int kTracksVersion = 1;
@@ -44,6 +44,6 @@ void write_tracks(const fs::path& path, const FrontEndResult& result, const std:
 TracksFile read_tracks(const fs::path& path);
 /// Error naming `path` unless its tracks were made from `seq`: the same sequence name and image size,
 /// and no posed frame past the sequence's end (a work folder given with another sequence).
-void check_made_from(const TracksFile& tracks, const fs::path& path, const Sequence& seq);
+void check_made_from(const TracksFile& tracks, const fs::path& path, const sequence::Sequence& seq);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

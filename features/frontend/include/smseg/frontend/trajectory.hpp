@@ -25,7 +25,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::frontend {
 
 enum class PathAlignment { Rigid, Similarity };
 
@@ -55,16 +55,16 @@ struct PathError {
 };
 
 /// Camera centre of a pose (its t) and its camera-to-world rotation, as Eigen types.
-Eigen::Vector3d pose_centre(const Pose& p);
-Eigen::Matrix3d pose_rotation(const Pose& p);
+Eigen::Vector3d pose_centre(const sequence::Pose& p);
+Eigen::Matrix3d pose_rotation(const sequence::Pose& p);
 /// The pose with camera-to-world rotation R and camera centre c (the inverse of the two above).
-Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c);
+sequence::Pose make_pose(const Eigen::Matrix3d& R, const Eigen::Vector3d& c);
 
 /// Ground-truth path length: sum of distances between consecutive centres.
-double path_length(const std::vector<Pose>& poses);
+double path_length(const std::vector<sequence::Pose>& poses);
 
 /// ATE of `estimate` against `truth` (same size >= 2, frame i to frame i; Error otherwise).
-PathError absolute_path_error(const std::vector<Pose>& estimate, const std::vector<Pose>& truth,
+PathError absolute_path_error(const std::vector<sequence::Pose>& estimate, const std::vector<sequence::Pose>& truth,
                               PathAlignment alignment);
 
 struct RelativeError {
@@ -78,7 +78,7 @@ struct RelativeError {
 /// RPE over consecutive frames: E_i = (T_i^-1 T_{i+1})^-1 (G_i^-1 G_{i+1}) with T estimated and G true
 /// camera-to-world transforms; translation = |trans(E_i)|, rotation = angle(rot(E_i)). Error when the
 /// sizes differ.
-RelativeError relative_path_error(const std::vector<Pose>& estimate, const std::vector<Pose>& truth);
+RelativeError relative_path_error(const std::vector<sequence::Pose>& estimate, const std::vector<sequence::Pose>& truth);
 
 struct DepthError {
   long observations = 0;  ///< all observations offered
@@ -92,4 +92,4 @@ struct DepthError {
 /// Observations outside the image or in frames whose depth is empty are skipped.
 DepthError tracked_depth_error(const std::vector<Track>& tracks, const std::function<cv::Mat(int)>& gt_depth);
 
-}  // namespace smseg::features
+}  // namespace smseg::frontend

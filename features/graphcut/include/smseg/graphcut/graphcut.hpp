@@ -15,7 +15,7 @@
 #include <span>
 #include <vector>
 
-namespace smseg::features {
+namespace smseg::graphcut {
 
 /// A directed s-t graph: node i is joined to the source with capacity source[i] and to the sink with
 /// capacity sink[i]; an edge {i, j, forward, backward} has capacity `forward` from i to j and `backward`
@@ -110,4 +110,4 @@ bool expansion_move(const PottsEnergy& energy, std::vector<int>& labelling, int 
 /// is more than 2^24 labellings).
 double brute_force_minimum(const PottsEnergy& energy, std::vector<int>* best = nullptr);
 
-}  // namespace smseg::features
+}  // namespace smseg::graphcut

@@ -8,7 +8,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 struct CamvidImportOptions {
   std::vector<std::string> splits{"train", "val"};  ///< split names as written in frames.csv
@@ -41,4 +41,4 @@ CamvidClasses read_camvid_classes(const fs::path& file);
 /// image of each run and must agree). Errors name the file and line.
 std::vector<CamvidRun> import_camvid(const fs::path& dir, const fs::path& out, const CamvidImportOptions& opt);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -7,7 +7,7 @@
 
 #include "smseg/common/io.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 /// The largest image file read (2047 MiB: a cv::Mat of the bytes is indexed with int).
 constexpr std::uintmax_t kMaxImageBytes = 2047 * kMiB;
@@ -29,4 +29,4 @@ struct ExpectedImageSize {
 /// Error naming the file when it is missing, too large, of another format or size, or corrupt.
 cv::Mat read_image_file(const fs::path& path, int flags, const ExpectedImageSize* expected = nullptr);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -14,7 +14,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 struct KittiImportOptions {
   double camera_height = 1.65;   ///< metres; KITTI's cameras are mounted 1.65 m above the road
@@ -48,4 +48,4 @@ std::vector<ClassInfo> camvid_road_classes(ClassInfo* void_class);
 /// left and a right image of one size and that the poses, when given, count one per frame.
 Sequence import_kitti(const fs::path& dir, const fs::path& out, const KittiImportOptions& opt);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -10,7 +10,7 @@
 
 #include "smseg/common/io.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 struct NpyHeader {
   std::string descr;               ///< e.g. "<f4", "<f8", "|u1"
@@ -29,4 +29,4 @@ cv::Mat read_npy_f32(const fs::path& path);
 /// Writes a CV_32FC1 matrix as a 2-D "<f4" array, atomically.
 void write_npy_f32_atomic(const fs::path& path, const cv::Mat& m);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -17,7 +17,7 @@
 #include "smseg/sequence/npy.hpp"
 #include "smseg/common/io.hpp"
 
-namespace smseg::features {
+namespace smseg::sequence {
 
 inline constexpr std::uint8_t kVoid = 255;  ///< label of void / ignored pixels, everywhere in memory
 inline constexpr const char* kSequenceFormat = "smseg-sequence";
@@ -117,4 +117,4 @@ cv::Mat colour_labels(const cv::Mat& labels, const Sequence& seq);
 /// Writes an image atomically (encoded in memory, then write_file_atomic); extension picks the codec.
 void write_image_atomic(const fs::path& path, const cv::Mat& image);
 
-}  // namespace smseg::features
+}  // namespace smseg::sequence

@@ -72,12 +72,12 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
 
-namespace smseg::features {
+namespace smseg::sfm {
 
 /// SIFT with up to 1500 keypoints per frame and a lower contrast threshold (0.01) than the stereo
 /// default: monocular SfM needs more and longer tracks.
-inline TrackingOptions sfm_default_tracking() {
-  TrackingOptions t;
+inline frontend::TrackingOptions sfm_default_tracking() {
+  frontend::TrackingOptions t;
   t.max_keypoints = 1500;
   t.sift_contrast_threshold = 0.01;
   return t;
@@ -92,9 +92,9 @@ enum class SfmTracker {
 
 struct SfmOptions {
   SfmTracker tracker = SfmTracker::Auto;
-  KltOptions klt;                       ///< KLT window, forward-backward check, spacing of new keypoints
-  TrackingOptions tracking = sfm_default_tracking();
-  TrackFilterOptions filters;
+  frontend::KltOptions klt;                       ///< KLT window, forward-backward check, spacing of new keypoints
+  frontend::TrackingOptions tracking = sfm_default_tracking();
+  frontend::TrackFilterOptions filters;
   std::optional<double> focal;          ///< pixels; overrides the manifest and the estimate
   std::optional<double> camera_height;  ///< metres; overrides the sequence's (one of them is required)
   int first_frame = 0;                  ///< frames [first_frame, last_frame) are processed
@@ -171,24 +171,24 @@ SfmTracker parse_sfm_tracker(const std::string& name, const std::string& field);
 /// The options with SfmTracker::Auto resolved for this sequence (see SfmTracker). Auto picks
 /// Descriptors for a median frame interval above 0.25 s, and then matches over the whole image
 /// (match_radius_px = 0) with Lowe's ratio 0.8 unless lowe_ratio is already set; else Klt.
-SfmOptions resolve_tracker(const SfmOptions& options, const Sequence& seq);
+SfmOptions resolve_tracker(const SfmOptions& options, const sequence::Sequence& seq);
 
 /// The options as JSON (provenance in the work folder; extract-features compares them to resume).
 Json sfm_options_to_json(const SfmOptions& options);
 
 /// The report as it goes into FrontEndSummary::sfm.
-SfmSummary sfm_summary(const SfmReport& report);
+frontend::SfmSummary sfm_summary(const SfmReport& report);
 
 /// Runs monocular SfM over the sequence (mono, or the left images of a stereo sequence). Errors
 /// (missing camera height, no usable focal length, bad frame range, unreadable image) name the file and
 /// field. A sequence without enough motion is not an error: every frame keeps the first pose, no
 /// track has a 3D point, and report->init_frame_a == -1.
-FrontEndResult run_mono_front_end(const Sequence& seq, const SfmOptions& options, SfmReport* report = nullptr);
+frontend::FrontEndResult run_mono_front_end(const sequence::Sequence& seq, const SfmOptions& options, SfmReport* report = nullptr);
 
 /// The pinhole camera an SfM run of `seq` uses with this focal length (pixels): fx = fy = focal, the
 /// manifest's principal point, or the image centre when the manifest gives none (cx = cy = 0). What
 /// reads the SfM's poses with the images (the plane sweep of --dense) needs the same camera.
-Calibration sfm_camera(const Sequence& seq, double focal);
+sequence::Calibration sfm_camera(const sequence::Sequence& seq, double focal);
 
 // ---------------------------------------------------------------------------------------------
 // Building blocks, public for tests and benchmarks.
@@ -235,4 +235,4 @@ BaSummary bundle_adjust(std::vector<BaCamera>& cameras, std::vector<Eigen::Vecto
 void set_solver_verbose(bool verbose);
 bool solver_verbose();
 
-}  // namespace smseg::features
+}  // namespace smseg::sfm

@@ -17,7 +17,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 /// {"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol"}, in raster order.
 const std::vector<std::string>& appearance_feature_names();
@@ -29,4 +29,4 @@ bool is_appearance_feature(const std::string& name);
 /// appearance_feature_names() order, each CV_64FC1 of the image's size.
 void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -33,25 +33,25 @@
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 /// {"fZV", "fZI", "fZH", "fZU", "fZE", "fZC"}, in raster order.
 const std::vector<std::string>& dense_feature_names();
 
 /// The matcher of the dense depth: SGBM, 7x7 blocks, eight paths, `num_disparities` and `min_disparity` of the front
 /// end's options (its range fits the sequence), its left-right check and speckle filter.
-StereoOptions dense_stereo_options(const StereoOptions& front_end);
+frontend::StereoOptions dense_stereo_options(const frontend::StereoOptions& front_end);
 
 /// Depth (CV_32FC1, metres, 0 where invalid) of one frame of a stereo sequence from its dense
 /// disparity. Error for a sequence without a focal length or baseline.
-cv::Mat dense_depth(const Sequence& seq, int frame, const StereoOptions& dense_options);
+cv::Mat dense_depth(const sequence::Sequence& seq, int frame, const frontend::StereoOptions& dense_options);
 
 /// The camera path fZC measures against: an ordered list of world camera centres (at least one).
 using CameraPath = std::vector<Eigen::Vector3d>;
 
 /// The centres of frames `frame`..`frame` + future_frames (causal: `frame` - future_frames..`frame`) of
 /// `poses`, clipped to the video.
-CameraPath camera_path_near(const std::vector<Pose>& poses, int frame, int future_frames, bool causal);
+CameraPath camera_path_near(const std::vector<sequence::Pose>& poses, int frame, int future_frames, bool causal);
 
 /// Distance from `p` to the polyline through `path` (to its one point when it has one).
 double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path);
@@ -60,7 +60,7 @@ double distance_to_path(const Eigen::Vector3d& p, const CameraPath& path);
 /// in dense_feature_names() order, each CV_64FC1 of the depth's size. height_shift is added to every
 /// fZH (world Y): HeightReference::Camera's reference height minus the camera's own, else 0. fZC
 /// measures to `path` (camera_path_near); an empty path means the camera's own centre.
-void append_dense_rasters(const cv::Mat& depth, const Calibration& calibration, const Pose& pose,
+void append_dense_rasters(const cv::Mat& depth, const sequence::Calibration& calibration, const sequence::Pose& pose,
                           std::vector<cv::Mat>& out, double height_shift = 0, const CameraPath& path = {});
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -19,7 +19,7 @@
 #include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/stack.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct ExtractOptions {
   /// The front end tracks and camera motion come from, by name (front_ends.hpp: "stereo", "sfm"), or
@@ -31,8 +31,8 @@ struct ExtractOptions {
   std::string tracker = "auto";    ///< auto | klt | descriptors
   std::optional<int> max_keypoints;  ///< unset: each front end's default
   bool no_refine = false;          ///< stereo motion without the reprojection refinement
-  FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)
-  SfmOptions sfm;              ///< the monocular front end (its camera_height defaults to front_end's)
+  frontend::FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)
+  sfm::SfmOptions sfm;              ///< the monocular front end (its camera_height defaults to front_end's)
   FeatureOptions features;     ///< causal fC, future frames
   FrameRange frames;           ///< frames whose stacks are written (the front end always sees all)
   bool force = false;          ///< rewrite frames already done
@@ -54,7 +54,7 @@ struct ExtractReport {
   int frames_written = 0, frames_skipped = 0;
   double front_end_seconds = 0, features_seconds_per_frame = 0;
   std::size_t bytes_per_frame = 0;
-  FrontEndSummary summary;
+  frontend::FrontEndSummary summary;
   std::vector<CloudPoint> cloud;  ///< one point per track (cloud.hpp); the tool writes it with PCL
 };
 
@@ -62,7 +62,7 @@ struct ExtractReport {
 /// causal_min_frames > 0 is the causal rule (FeatureOptions::causal): a track's observations are used
 /// from its causal_min_frames-th on, the frame at which it is known to pass the track-length filter
 /// (TrackFilterOptions::min_frames), as a live stream sees it (stream.hpp).
-PointCloudVideo video_from_tracks(const FrontEndResult& front_end, int frame_count, int causal_min_frames = 0);
+PointCloudVideo video_from_tracks(const frontend::FrontEndResult& front_end, int frame_count, int causal_min_frames = 0);
 
 /// The feature options as recorded in stacks.json (and in run-experiment's cache keys).
 Json feature_options_json(const FeatureOptions& options);
@@ -70,7 +70,7 @@ Json feature_options_json(const FeatureOptions& options);
 /// Runs everything for `seq` into the work folder `work`. A work folder made with other options is an
 /// Error unless force is set (then it is rebuilt). A front end that cannot run on the sequence (stereo on
 /// a mono one) is an Error. Frames whose stacks exist are skipped unless force.
-ExtractReport extract_features(const Sequence& seq, const fs::path& work, const ExtractOptions& options);
+ExtractReport extract_features(const sequence::Sequence& seq, const fs::path& work, const ExtractOptions& options);
 
 /// What extract-features prints of a run into `work`: one summary (two lines), and one line of the
 /// structure from motion when it ran. Each line ends with a newline.
@@ -79,4 +79,4 @@ std::string report_text(const ExtractReport& report, const std::string& work);
 /// A false-colour picture of one frame's six rasters (2 x 3 tiles, each named), for people.
 cv::Mat feature_preview(const std::vector<cv::Mat>& rasters, const std::vector<std::string>& names);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

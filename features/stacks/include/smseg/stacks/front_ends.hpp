@@ -16,7 +16,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/point_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct ExtractOptions;
 
@@ -26,10 +26,10 @@ class FrontEnd {
   /// The name options choose it by ("stereo", "sfm").
   virtual std::string_view name() const = 0;
   /// Whether "auto" picks it for this sequence.
-  virtual bool is_default_for(const Sequence& seq) const = 0;
+  virtual bool is_default_for(const sequence::Sequence& seq) const = 0;
   /// Error naming the manifest (or the option) when it cannot run on this sequence with these options.
-  virtual void check(const Sequence& seq, const ExtractOptions& o) const = 0;
-  virtual FrontEndResult run(const Sequence& seq, const ExtractOptions& o) const = 0;
+  virtual void check(const sequence::Sequence& seq, const ExtractOptions& o) const = 0;
+  virtual frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const = 0;
   /// Its options as stacks.json and tracks.json record them ("front_end"), without the camera height
   /// that the sequence gives (extraction adds it).
   virtual Json options_json(const ExtractOptions& o) const = 0;
@@ -55,6 +55,6 @@ const FrontEnd& front_end_named(const std::string& name, const std::string& fiel
 void check_motion_name(const std::string& name, const std::string& field);
 /// The front end that options.motion chooses for this sequence ("auto": the one that is default for its
 /// kind).
-const FrontEnd& front_end_for(const Sequence& seq, const ExtractOptions& options);
+const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -27,7 +27,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct PlaneSweepOptions {
   double max_step_px = 1.5;     ///< largest image motion between consecutive planes (sets their number)
@@ -45,18 +45,18 @@ struct PlaneSweepOptions {
 /// A neighbour: its grey image (CV_8UC1, the reference's size) and camera-to-world pose.
 struct SweepView {
   cv::Mat gray;
-  Pose pose;
+  sequence::Pose pose;
 };
 
 /// The number of planes the sweep uses for these neighbours (see the header comment).
-int sweep_plane_count(const Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
+int sweep_plane_count(const sequence::Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
                       const PlaneSweepOptions& options);
 
 /// Depth (CV_32FC1, metres along the optical axis, 0 where invalid) of the reference frame. Needs at
 /// least two neighbours for the consistency check (fewer: every pixel invalid). `camera` (fx, fy,
 /// cx, cy) is shared by all the frames: for an SfM run, sfm_camera (sfm.hpp). Error without fx.
-cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const Calibration& camera,
+cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
                           const PlaneSweepOptions& options = {});
 
 struct SweepNeighbourOptions {
@@ -71,7 +71,7 @@ struct SweepNeighbourOptions {
 /// ends of a sequence, the one side's choice and the next qualifying frame beyond it (else the
 /// nearest one short of it). Empty when f is not usable or
 /// fewer than two qualify.
-std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<Pose>& poses,
+std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<sequence::Pose>& poses,
                                   const SweepNeighbourOptions& options = {});
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

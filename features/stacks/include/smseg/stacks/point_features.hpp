@@ -31,7 +31,7 @@ template <class S>
 class Table;  // smseg/common/options.hpp
 }
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 /// One tracked point seen in one frame.
 struct Observation {
@@ -42,7 +42,7 @@ struct Observation {
 
 /// What the features are computed from: the camera path and the points seen in each frame.
 struct PointCloudVideo {
-  std::vector<Pose> poses;                             ///< camera-to-world, one per frame
+  std::vector<sequence::Pose> poses;                             ///< camera-to-world, one per frame
   std::vector<std::vector<Observation>> observations;  ///< per frame
   int frame_count() const { return static_cast<int>(poses.size()); }
 };
@@ -89,10 +89,10 @@ struct PointAttributes {
 
 PointAttributes compute_point_attributes(const PointCloudVideo& video, const FeatureOptions& opt);
 
-std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<Pose>& poses);
+std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<sequence::Pose>& poses);
 /// What heights seen from `pose` gain over world Y: camera_height minus the camera's own world Y (the
 /// ground under the camera), 0 without a reference height (the ground plane). fH and fZH both add it.
-double height_shift(std::optional<double> camera_height, const Pose& pose);
+double height_shift(std::optional<double> camera_height, const sequence::Pose& pose);
 
 /// One frame's share of PointAttributes.
 struct FrameAttributes {
@@ -110,7 +110,7 @@ class CausalPointAttributes {
   /// (HeightReference::Camera) instead of world Y.
   explicit CausalPointAttributes(std::optional<double> camera_height) : camera_height_(camera_height) {}
   /// The next frame's attributes (frames are counted from 0 in the order they are added).
-  void add_frame(const Pose& pose, const std::vector<Observation>& observations, FrameAttributes& out);
+  void add_frame(const sequence::Pose& pose, const std::vector<Observation>& observations, FrameAttributes& out);
   /// Forgets the tracks not in `live_tracks` (ascending ids): a stream's tracks that have ended.
   void keep_only(const std::vector<int>& live_tracks);
 
@@ -142,4 +142,4 @@ void summed_area_table(const cv::Mat& raster, cv::Mat& sat);  ///< into sat, reu
 /// Sum of the raster over the rectangle [x0, x1) x [y0, y1), clipped to the image, from its SAT.
 double rect_sum(const cv::Mat& sat, int x0, int y0, int x1, int y1);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

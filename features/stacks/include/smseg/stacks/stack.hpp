@@ -19,7 +19,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/forest/data.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 inline constexpr const char* kStacksFormat = "smseg-stacks";
 inline constexpr int kStacksVersion = 1;
@@ -117,4 +117,4 @@ std::vector<std::pair<int, int>> frames_without_points(const StackSet& set);
 /// folder that has such frames (at most a few frame numbers each).
 std::string frames_without_points_message(const StackSet& set, const std::vector<std::pair<int, int>>& empty);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -10,7 +10,7 @@
 #include "smseg/frontend/stream.hpp"
 #include "smseg/stacks/point_features.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 class FeatureStream {
  public:
@@ -19,7 +19,7 @@ class FeatureStream {
 
   /// The frame's six summed-area tables (structure_feature_names() order; CV_64FC1, (H+1) x (W+1)),
   /// valid until the next push.
-  const std::vector<cv::Mat>& push(const StreamFrame& frame);
+  const std::vector<cv::Mat>& push(const frontend::StreamFrame& frame);
 
  private:
   cv::Size size_;
@@ -30,4 +30,4 @@ class FeatureStream {
   std::vector<cv::Mat> rasters_, sats_;
 };
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -15,7 +15,7 @@
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/sequence/sequence.hpp"
 
-namespace smseg::features {
+namespace smseg::stacks {
 
 struct CloudPoint {
   Eigen::Vector3f position{0, 0, 0};  ///< world, metres
@@ -24,13 +24,13 @@ struct CloudPoint {
 };
 
 /// One point per track of the front end, placed with its observations' world positions.
-std::vector<CloudPoint> track_cloud(const FrontEndResult& front_end, const PointCloudVideo& video,
+std::vector<CloudPoint> track_cloud(const frontend::FrontEndResult& front_end, const PointCloudVideo& video,
                                     const PointAttributes& attrs);
 
 /// Top-down (world X right, world Z up the picture) plot: the cloud's points in their class colours
 /// (grey: unlabelled), the estimated camera path in black with its start marked, and the ground-truth
 /// path in red when given. Includes a 1 m scale bar.
-cv::Mat plot_top_down(const std::vector<Pose>& path, const std::vector<Pose>* ground_truth,
-                      const std::vector<CloudPoint>& cloud, const Sequence& seq, int size = 800);
+cv::Mat plot_top_down(const std::vector<sequence::Pose>& path, const std::vector<sequence::Pose>* ground_truth,
+                      const std::vector<CloudPoint>& cloud, const sequence::Sequence& seq, int size = 800);
 
-}  // namespace smseg::features
+}  // namespace smseg::stacks

@@ -66,15 +66,15 @@ template <class S>
 class Table;  // smseg/common/options.hpp
 }
 
-namespace smseg::features::synth {
+namespace smseg::synth {
 
 /// The classes, in this order (their positions in Sequence::classes). The tabletop scene has the first
 /// five, with furniture named "table" (kTable) and obstacle named "object" (kObject), and no person.
 enum Class : std::uint8_t { kFloor = 0, kWall, kCeiling, kFurniture, kObstacle, kPerson, kClassCount };
 inline constexpr std::uint8_t kTable = kFurniture, kObject = kObstacle;
-std::vector<ClassInfo> classes();  ///< corridor and lab: names and display colours, RGB label encoding
-std::vector<ClassInfo> classes(const std::string& scene);  ///< the class list of a scene
-ClassInfo void_class();            ///< black (0, 0, 0), value 255
+std::vector<sequence::ClassInfo> classes();  ///< corridor and lab: names and display colours, RGB label encoding
+std::vector<sequence::ClassInfo> classes(const std::string& scene);  ///< the class list of a scene
+sequence::ClassInfo void_class();            ///< black (0, 0, 0), value 255
 inline bool has_instances(const std::string& scene) { return scene == "tabletop"; }
 
 struct SynthOptions {
@@ -189,7 +189,7 @@ Scene build_scene(const SynthOptions& opts);
 double frame_time(const SynthOptions& opts, int frame);  ///< seconds, frame / fps
 
 /// Left-camera pose at a frame (camera-to-world; see the header comment). Right camera: t + baseline*R.col(0).
-Pose camera_pose(const Scene& scene, const SynthOptions& opts, int frame);
+sequence::Pose camera_pose(const Scene& scene, const SynthOptions& opts, int frame);
 
 /// Static quads plus the people's body parts at the given time.
 std::vector<Quad> quads_at(const Scene& scene, double time);
@@ -199,21 +199,21 @@ struct RayHit {
   double lambda = 0;  ///< hit point = origin + lambda * dir (dir need not be unit length)
   Eigen::Vector3d point{0, 0, 0};
   int quad = -1;  ///< index into the quad list
-  std::uint8_t cls = kVoid;
+  std::uint8_t cls = sequence::kVoid;
 };
 
 /// Brute force: the nearest front-facing quad hit with lambda > 0 (ties: lowest index).
 RayHit cast_ray(const std::vector<Quad>& quads, const Eigen::Vector3d& origin, const Eigen::Vector3d& dir);
 
 /// The world ray through pixel (x, y) of a camera with the given pose; lambda along it is z-depth.
-Eigen::Vector3d pixel_ray(const SynthOptions& opts, const Pose& pose, double x, double y);
+Eigen::Vector3d pixel_ray(const SynthOptions& opts, const sequence::Pose& pose, double x, double y);
 
 struct Frame {
   cv::Mat left, right;  ///< CV_8UC3 BGR
   cv::Mat labels;       ///< CV_8UC1 class positions, kVoid where nothing was hit
   cv::Mat depth;        ///< CV_32FC1 z-depth of the left camera in metres, 0 where nothing was hit
   cv::Mat instances;    ///< CV_8UC1 object id of the hit quad (1..K), 0 for non-objects and void
-  Pose pose;            ///< left camera
+  sequence::Pose pose;            ///< left camera
 };
 
 /// Renders one frame (single-threaded; make_sequence parallelises over frames).
@@ -223,11 +223,11 @@ Frame render_frame(const Scene& scene, const SynthOptions& opts, int frame);
 /// right/NNNNNN.png, labels/NNNNNN.png (RGB class colours, every frame), depth/NNNNNN.npy, for scenes
 /// with objects (tabletop) instances/NNNNNN.png (8-bit, object id 1..K, 0 = no object; labelled frames
 /// only), and last the manifest sequence.json. Returns the sequence as load_sequence would read it.
-Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir);
+sequence::Sequence make_sequence(const SynthOptions& opts, const fs::path& out_dir);
 
 /// A montage for the docs: one row per frame, columns left image | colour labels | false-colour depth
 /// (turbo, near = red, 0..max_depth metres), from the files of a sequence, each panel scaled by scale.
-cv::Mat make_montage(const Sequence& seq, const std::vector<int>& frames, double max_depth = 10.0,
+cv::Mat make_montage(const sequence::Sequence& seq, const std::vector<int>& frames, double max_depth = 10.0,
                      double scale = 1.0);
 
-}  // namespace smseg::features::synth
+}  // namespace smseg::synth
