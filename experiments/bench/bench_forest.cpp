@@ -313,8 +313,8 @@ void BM_Simd(benchmark::State& state, bool camvid, bool grid, const std::string&
   if (!camvid) return time_target(state, forest_k(400, false, 320), test_frame().data.frames[0], target, grid, threads);
   if (!camvid_available(state)) return;
   static const Forest f = camvid_bench::val_forest();
-  static const stacks::StackSet set =
-      stacks::open_stacks({camvid_bench::val_work()}, stacks::FrameRange{50, 51}, false, false, f.features);
+  static const smseg::stacks::StackSet set =
+      smseg::stacks::open_stacks({camvid_bench::val_work()}, smseg::stacks::FrameRange{50, 51}, false, false, f.features);
   time_target(state, f, set.dataset.frames.front(), target, grid, threads);
 }
 
