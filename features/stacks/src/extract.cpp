@@ -355,7 +355,7 @@ class ImageRasters {
 // Writes the stacks of `todo` in parallel; returns the seconds spent computing features, summed.
 double write_stacks(const Sequence& seq, const fs::path& work, const std::vector<int>& todo,
                     const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
-                    bool progress_on) {
+                    const std::vector<std::string>& channels, bool progress_on) {
   Progress progress("extract-features", static_cast<long>(todo.size()), progress_on);
   struct Buffers {
     std::vector<cv::Mat> rasters;
@@ -373,7 +373,8 @@ double write_stacks(const Sequence& seq, const fs::path& work, const std::vector
     }
     const cv::Mat gray = seq.load_left_gray(f);
     const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
-    write_frame_values(work, f, seq.size, b.rasters, gray, labels);
+    const bool appearance = std::any_of(channels.begin(), channels.end(), is_appearance_feature);
+    write_frame_values(work, f, seq.size, b.rasters, gray, labels, channels, appearance ? seq.load_left(f) : cv::Mat());
     progress.tick();
   });
   progress.finish();
@@ -468,7 +469,7 @@ ExtractReport extract_features(const Sequence& seq, const fs::path& work, const 
   plan_frames(seq, work, opt, m, resume_from_files, todo, kept);
   report.frames_skipped = static_cast<int>(kept.size());
   const ImageRasters image_rasters(seq, fe, video, camera_height, opt, monocular);
-  const double feature_seconds = write_stacks(seq, work, todo, video, attrs, image_rasters, opt.progress);
+  const double feature_seconds = write_stacks(seq, work, todo, video, attrs, image_rasters, m.features, opt.progress);
   write_previews(seq, work, opt.preview, video, attrs, image_rasters, m.features);
   report.frames_written = static_cast<int>(todo.size());
   report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds / double(todo.size());

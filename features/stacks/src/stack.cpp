@@ -69,8 +69,9 @@ fs::path StackManifest::labels_file(int f) const {
 }
 
 std::uintmax_t write_frame_values(const fs::path& work, int frame, cv::Size size, const std::vector<cv::Mat>& rasters,
-                                  const cv::Mat& gray, const cv::Mat& labels) {
-  const std::string bytes = values::encode(rasters, gray, labels, size);
+                                  const cv::Mat& gray, const cv::Mat& labels, const std::vector<std::string>& names,
+                                  const cv::Mat& colour) {
+  const std::string bytes = values::encode(rasters, names, gray, labels, colour, size);
   write_file_atomic(values_path(work, frame), bytes);
   return bytes.size();
 }
@@ -113,8 +114,8 @@ void save_stack_manifest(const StackManifest& m) {
                   {"gray", "stacks/NNNNNN.gray.npy (uint8, H x W)"},
                   {"labels", "stacks/NNNNNN.labels.npy (uint8, H x W, 255 = void)"}};
   else
-    j["files"] = {{"values", "stacks/NNNNNN.values.bin (per channel: smallest exact type, deflated; then gray, "
-                             "labels; summed-area tables built on reading; docs/formats.md)"}};
+    j["files"] = {{"values", "stacks/NNNNNN.values.bin (per channel: smallest exact type, zstd, or made from the "
+                             "colour image; then gray, labels; summed-area tables built on reading; docs/formats.md)"}};
   if (m.base)
     j["base"] = {{"work", m.base->work.string()},
                  {"stacks_json_fnv1a64", m.base->stacks_json_fnv1a64},
@@ -359,6 +360,7 @@ void FrameStack::open_values(const StackManifest& m, int frame, bool with_labels
   values::Expected ex;
   ex.size = m.size;
   ex.channels = m.own_features();
+  ex.names.assign(m.features.end() - static_cast<std::ptrdiff_t>(ex.channels), m.features.end());
   if (!m.base_manifest) ex.images = values::kGrayImage | (m.is_labelled(frame) ? values::kLabelsImage : 0u);
   const std::size_t H = m.size.height, W = m.size.width, table = (H + 1) * (W + 1) * sizeof(double);
   const std::size_t images = ((ex.images & values::kGrayImage) ? H * W : 0) + ((ex.images & values::kLabelsImage) ? H * W : 0);

@@ -3,8 +3,9 @@
 //   stacks.json                   format "smseg-stacks" version 2: the sequence, image size, feature
 //                                 names, class names, the frames written, the options used, and for a
 //                                 folder that extends another (add-context) its "base"
-//   stacks/NNNNNN.values.bin      the frame's feature rasters (each in the smallest exact type, deflated),
-//                                 its greyscale image and its labels (labelled frames; 255 = void)
+//   stacks/NNNNNN.values.bin      the frame's feature rasters (each in the smallest exact type, packed;
+//                                 appearance channels as the colour image they are made from), its
+//                                 greyscale image and its labels (labelled frames; 255 = void)
 // The summed-area tables the forest reads are built in memory when a frame is opened, by the same
 // cv::integral over the same doubles as extraction: bit for bit the tables version 1 stored.
 // A folder with a base stores only its own channels (after the base's) and reads the rest, the
@@ -68,9 +69,12 @@ fs::path labels_path(const fs::path& work, int frame);
 
 /// Writes one frame's values file atomically (version 2) and returns its size in bytes. rasters: the
 /// channels the folder stores itself (CV_64FC1 of `size`); gray and labels may be empty (not stored:
-/// an unlabelled frame, or a folder with a base).
+/// an unlabelled frame, or a folder with a base). With the rasters' names and the frame's colour (BGR)
+/// image, the appearance channels that append_appearance_rasters(colour) gives back bit for bit are
+/// stored as the colour image and a digest each (made again on reading).
 std::uintmax_t write_frame_values(const fs::path& work, int frame, cv::Size size, const std::vector<cv::Mat>& rasters,
-                                  const cv::Mat& gray, const cv::Mat& labels);
+                                  const cv::Mat& gray, const cv::Mat& labels, const std::vector<std::string>& names = {},
+                                  const cv::Mat& colour = cv::Mat());
 
 /// Writes one frame's files in the version 1 layout (summed-area tables as .npy, labels may be empty
 /// for an unlabelled frame): what older work folders hold, kept for the tests that check they load.
