@@ -1,5 +1,5 @@
 // Fuzzes the .npy readers: read_npy_f32 (a sequence's float disparity and ground-truth depth) and the
-// memory-mapped stack files, FrameStack::open of a work folder whose SAT file (float64,
+// memory-mapped stack files of version 1 work folders, FrameStack::open of a work folder whose SAT file (float64,
 // F x (H+1) x (W+1)) is the input, as train-forest and eval-forest open each frame.
 #include "fuzz_support.hpp"
 #include "smseg/sequence/npy.hpp"
@@ -18,6 +18,7 @@ const smseg::stacks::StackManifest& work_folder() {
     m.features = {"height", "depth"};
     m.classes = {"floor", "wall"};
     m.frames = {0};
+    m.version = 1;
     const std::string gray = make_npy_header("|u1", {3, 4}) + std::string(12, '\x7f');
     smseg::fuzz::write_temp(gray_path(m.work, 0).lexically_relative(smseg::fuzz::temp_dir()).string(), gray);
     return m;

@@ -6,6 +6,7 @@
 #include <map>
 #include <utility>
 
+#include "smseg/common/digest.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/common/progress.hpp"
 #include "smseg/stacks/point_features.hpp"
@@ -104,16 +105,6 @@ OutOfFold train_fold_forests(const forest::Forest& forest, const std::vector<fs:
   return oof;
 }
 
-/// One frame of the output: the kept features' tables as they are, then the context channels' tables.
-std::vector<cv::Mat> output_tables(const stacks::FrameStack& stack, const std::vector<int>& keep,
-                                   const forest::Classifier& classifier, const forest::FrameData& input, int trees) {
-  std::vector<cv::Mat> sats;
-  for (int f : keep)  // borrowed: write_frame_stack only reads them
-    sats.emplace_back(input.height + 1, input.width + 1, CV_64FC1, const_cast<double*>(stack.sat(f)));
-  for (const cv::Mat& r : posterior_rasters(classifier, input, trees)) sats.push_back(stacks::summed_area_table(r));
-  return sats;
-}
-
 /// stacks.json's record of how the context was made (the source, the forest, the folds).
 Json context_record(const fs::path& forest_file, const fs::path& source, const ContextOptions& options,
                     const std::vector<std::string>& keep) {
@@ -125,11 +116,11 @@ Json context_record(const fs::path& forest_file, const fs::path& source, const C
           {"channels", "per class, the mean over the trees of the leaf distributions (posterior), as a SAT"}};
 }
 
-/// A work folder to write: its manifest and where the forest's and the kept features are in its tables.
+/// A work folder to write: its manifest and where the forest's features are in its tables.
 struct Source {
   fs::path work;
   stacks::StackManifest manifest;
-  std::vector<int> reads, kept;
+  std::vector<int> reads;
 };
 
 /// Every check before any work: the forest fits each folder, each has the features read and kept, and a
@@ -138,10 +129,10 @@ std::vector<Source> open_sources(const forest::Forest& forest, const std::vector
                                  const std::vector<std::string>& keep, const stacks::FrameRange& frames) {
   std::vector<Source> sources;
   for (const auto& w : works) {
-    Source s{w, stacks::load_stack_manifest(w), {}, {}};
+    Source s{w, stacks::load_stack_manifest(w), {}};
     check_forest_fits(forest, s.manifest);
     s.reads = feature_indices(s.manifest, forest.features, "the forest reads it");
-    s.kept = feature_indices(s.manifest, keep, "--features keeps it");
+    feature_indices(s.manifest, keep, "--features keeps it");
     if (std::none_of(s.manifest.frames.begin(), s.manifest.frames.end(), [&](int f) { return frames.contains(f); }))
       throw Error(w.string(), "frames", "no frame with a feature stack in " + frames.str());
     sources.push_back(std::move(s));
@@ -179,6 +170,10 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
     const stacks::StackManifest& m = src.manifest;
     stacks::StackManifest out = m;
     out.work = outs[w];
+    out.version = stacks::kStacksVersion;
+    out.base = stacks::StackBase{fs::absolute(src.work).lexically_normal(),
+                                   fnv1a64_hex(read_file(m.manifest_path())), keep};
+    out.base_manifest.reset();
     out.features = keep;
     out.features.insert(out.features.end(), context.begin(), context.end());
     out.frames.clear();
@@ -197,9 +192,7 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
       const auto fold = oof.fold_of.find({static_cast<int>(w), f});
       const bool out_of_fold = fold != oof.fold_of.end();
       const forest::Classifier& classifier = out_of_fold ? by_fold[fold->second] : whole;
-      const cv::Mat gray(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.gray()));
-      const cv::Mat labels = labelled ? cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(stack.labels())) : cv::Mat();
-      stacks::write_frame_stack(out.work, f, output_tables(stack, src.kept, classifier, input, trees), gray, labels);
+      stacks::write_frame_values(out.work, f, m.size, posterior_rasters(classifier, input, trees), cv::Mat(), cv::Mat());
       out.frames.push_back(f);
       if (labelled) out.labelled_frames.push_back(f);
       ++report.frames_written;

@@ -49,7 +49,9 @@ int main(int argc, char** argv) {
   CLI::App app{
       "Auto-context: write, for each work folder, a work folder OUT/<its name> whose stacks hold the\n"
       "forest's features (or --features) and one channel per class, fCtx:<class>, the forest's posterior\n"
-      "of that class at each pixel, as summed-area tables; train-forest and eval-forest on those folders\n"
+      "of that class at each pixel. OUT stores only the new channels: it reads the others, the greyscale\n"
+      "and the labels from WORK, which its stacks.json names with a digest (WORK moved or extracted again\n"
+      "makes OUT refused: run add-context again). train-forest and eval-forest on those folders\n"
       "give a second forest whose windows read the first one's output around each pixel.\n"
       "Training folders need --folds K: their labelled frames are cut into K contiguous folds and each\n"
       "fold gets the posteriors of a forest trained, with FOREST's parameters and features, on the other\n"

@@ -1,10 +1,13 @@
 // Rasterising the six structure-and-motion features and building their summed-area tables for a
 // 320x240 frame with ~500 tracked points (issue target: 300 frames/s or more on one core); the plane
 // sweep of extract-features --dense on monocular runs and the dense channels made from its depth, on
-// CamVid val frames (480x360) with its SfM poses.
+// CamVid val frames (480x360) with its SfM poses; loading one frame's stack as training and evaluation
+// do (open it, read every table once, release it) from the work folder named by SMSEG_BENCH_STACKS
+// (either stacks format; skipped without it).
 // Run: build/bin/bench_features --benchmark_out=bench_features.json --benchmark_out_format=json
 #include <benchmark/benchmark.h>
 
+#include <cstdlib>
 #include <random>
 
 #include <opencv2/imgproc.hpp>
@@ -15,6 +18,7 @@
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"
+#include "smseg/stacks/stack.hpp"
 
 using namespace smseg::sequence;
 using namespace smseg::frontend;
@@ -133,6 +137,31 @@ void BM_DenseRastersCamVid(benchmark::State& state) {
   }
 }
 BENCHMARK(BM_DenseRastersCamVid)->Arg(0)->Arg(1)->Unit(benchmark::kMillisecond);
+
+// One frame's stack loaded and read whole, frame after frame of the folder's (the files in the page
+// cache after the first round, as in training, which reads every frame many times).
+void BM_LoadFrameStack(benchmark::State& state) {
+  const char* work = std::getenv("SMSEG_BENCH_STACKS");
+  if (!work) return state.SkipWithError("set SMSEG_BENCH_STACKS to a work folder");
+  const StackManifest m = load_stack_manifest(work);
+  const std::size_t cells = std::size_t(m.size.width + 1) * std::size_t(m.size.height + 1);
+  cv::setNumThreads(0);
+  std::size_t next = 0;
+  double sum = 0;
+  for (auto _ : state) {
+    const int frame = m.frames[next++ % m.frames.size()];
+    const FrameStack stack = FrameStack::open(m, frame, m.is_labelled(frame));
+    const smseg::forest::FrameData d = stack.view();
+    for (const double* sat : d.sats)
+      for (std::size_t i = 0; i < cells; ++i) sum += sat[i];
+    d.release();
+  }
+  benchmark::DoNotOptimize(sum);
+  state.counters["version"] = m.version;
+  state.counters["features"] = static_cast<double>(m.features.size());
+  state.counters["frames_per_s"] = benchmark::Counter(static_cast<double>(state.iterations()), benchmark::Counter::kIsRate);
+}
+BENCHMARK(BM_LoadFrameStack)->Unit(benchmark::kMillisecond);
 
 }  // namespace
 

@@ -8,7 +8,10 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <utility>
+#include <vector>
 
 #include "run_tool.hpp"
 #include "temp_dir.hpp"
@@ -135,6 +138,44 @@ TEST(HostileFiles, AWorkFolderOfAnotherSequenceIsRefused) {
     EXPECT_NE(r.out.find(tracks + ": sequence: is for sequence \"synth-corridor-seed1\", not \"synth-lab-seed2\""),
               std::string::npos)
         << command << "\n" << r.out;
+  }
+  fs::remove_all(dir);
+}
+
+// Damaged stack files of a real extraction (version 2 values files, with the colour image of
+// --appearance): train-forest refuses each in one line naming the file, exit status 1, before it
+// allocates from what the file says (a packed size of 2^63 bytes, a header for another image size).
+TEST(HostileFiles, DamagedStackValuesFilesAreRefusedInOneLine) {
+  const fs::path dir = smseg::test::temp_dir("hostile-values");
+  const std::string seq = (dir / "corridor").string(), work = (dir / "work").string();
+  Outcome r = run(tool("make-sequence") + " --scene corridor --frames 8 --size 96x72 -q -o " + seq);
+  ASSERT_EQ(r.status, 0) << r.out;
+  r = run(tool("extract-features") + " -q --appearance " + seq + " -o " + work);
+  ASSERT_EQ(r.status, 0) << r.out;
+  const fs::path file = dir / "work" / "stacks" / "000000.values.bin";  // the labelled frame training reads
+  std::string good;
+  {
+    std::ifstream in(file, std::ios::binary);
+    good.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_GT(good.size(), 64u);
+  std::string huge = good, wide = good, garbage = good;
+  for (int b = 0; b < 8; ++b) huge[24 + 8 + b] = b == 7 ? '\x7f' : '\xff';  // the first block's packed size
+  wide[12] = '\x61';                                                       // width 96 + 1
+  for (std::size_t i = 40; i < garbage.size(); i += 3) garbage[i] = static_cast<char>(i * 7);
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      {good.substr(0, good.size() / 2), "the file ends before (truncated?)"},
+      {huge, "the file ends before (truncated?)"},
+      {wide, "holds 97x72 images, the work folder's stacks.json says 96x72"},
+      {garbage, "damaged file"},
+      {"", "is not a stack values file"}};
+  for (const auto& [bytes, reason] : cases) {
+    { std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes; }
+    r = run(tool("train-forest") + " " + work + " -M 1 -K 5 -q -o " + (dir / "forest.json").string());
+    EXPECT_EQ(r.status, 1) << r.out;
+    EXPECT_EQ(std::count(r.out.begin(), r.out.end(), '\n'), 1) << r.out;
+    EXPECT_EQ(r.out.rfind("train-forest: error: " + file.string() + ": ", 0), 0u) << r.out;
+    EXPECT_NE(r.out.find(reason), std::string::npos) << reason << "\n" << r.out;
   }
   fs::remove_all(dir);
 }

@@ -17,8 +17,9 @@ namespace fs = std::filesystem;
 // A W x H "scene" (default 64x48): class 0 (floor) below a boundary row near 30, class 1 (wall)
 // above; sparse points carry fH = 0 on the floor and 1.5 on the wall, fD marks them. Row 0 is void.
 // The greyscale image is dark on the floor, bright on the wall, with noise (for superpixels).
+// version 1 writes the tables themselves (an older work folder), version 2 the rasters.
 inline fs::path make_work(const std::string& name, int frames, std::vector<std::string> classes = {"floor", "wall"},
-                          cv::Size size = cv::Size(64, 48)) {
+                          cv::Size size = cv::Size(64, 48), int version = smseg::stacks::kStacksVersion) {
   using namespace smseg;
   const fs::path work = fs::temp_directory_path() / ("smseg_eval_" + name + "_" + std::to_string(::getpid()));
   fs::remove_all(work);
@@ -28,6 +29,7 @@ inline fs::path make_work(const std::string& name, int frames, std::vector<std::
   m.size = size;
   m.features = {"fH", "fD"};
   m.classes = classes;
+  m.version = version;
   cv::RNG rng(3);
   const int W = size.width, H = size.height;
   for (int f = 0; f < frames; ++f) {
@@ -44,8 +46,11 @@ inline fs::path make_work(const std::string& name, int frames, std::vector<std::
           fh.at<double>(y, x) = floor ? 0.0 : 1.5;
         }
       }
-    stacks::write_frame_stack(work, f, {stacks::summed_area_table(fh), stacks::summed_area_table(fd)}, gray,
-                                labels);
+    if (version == 1)
+      stacks::write_frame_stack(work, f, {stacks::summed_area_table(fh), stacks::summed_area_table(fd)}, gray,
+                                  labels);
+    else
+      stacks::write_frame_values(work, f, size, {fh, fd}, gray, labels);
     m.frames.push_back(f);
     m.labelled_frames.push_back(f);
   }

@@ -8,6 +8,7 @@
 #include "eval_fixture.hpp"
 #include "error_text.hpp"
 #include "run_tool.hpp"
+#include "smseg/common/digest.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg/eval/context.hpp"
 #include "temp_dir.hpp"
@@ -30,24 +31,30 @@ TEST(Context, ChannelNames) {
   EXPECT_FALSE(eval::is_context_feature("fH"));
 }
 
-/// Every byte of one frame's table file in an output work folder.
-std::string sat_bytes(const fs::path& work, int frame) { return read_file(stacks::sat_path(work, frame)); }
+/// Every byte of one frame's values file (its context channels) in an output work folder.
+std::string sat_bytes(const fs::path& work, int frame) { return read_file(stacks::values_path(work, frame)); }
 
-/// Rewrites frame `f` of `work` with every label swapped (floor <-> wall), the rest unchanged.
+/// Rewrites frame `f` of `work` with every label swapped (floor <-> wall), the rest unchanged. The
+/// fixture's values (0, 1, 1.5) make every table difference exact, so the rasters come back whole.
 void swap_labels(const fs::path& work, int f) {
   const stacks::StackManifest m = stacks::load_stack_manifest(work);
-  std::vector<cv::Mat> sats;
+  const int W = m.size.width, H = m.size.height;
+  std::vector<cv::Mat> rasters;
   cv::Mat gray, labels;
   {
     const auto s = stacks::FrameStack::open(m, f, true);
-    for (std::size_t k = 0; k < m.features.size(); ++k)
-      sats.push_back(cv::Mat(m.size.height + 1, m.size.width + 1, CV_64FC1, const_cast<double*>(s.sat(k))).clone());
+    for (std::size_t k = 0; k < m.features.size(); ++k) {
+      const cv::Mat sat(H + 1, W + 1, CV_64FC1, const_cast<double*>(s.sat(static_cast<int>(k))));
+      cv::Mat r = sat(cv::Rect(1, 1, W, H)) - sat(cv::Rect(0, 1, W, H)) - sat(cv::Rect(1, 0, W, H)) + sat(cv::Rect(0, 0, W, H));
+      ASSERT_EQ(cv::norm(stacks::summed_area_table(r), sat, cv::NORM_INF), 0.0);
+      rasters.push_back(r);
+    }
     gray = cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(s.gray())).clone();
     labels = cv::Mat(m.size, CV_8UC1, const_cast<std::uint8_t*>(s.labels())).clone();
   }
   for (auto it = labels.begin<std::uint8_t>(); it != labels.end<std::uint8_t>(); ++it)
     if (*it != forest::kVoidLabel) *it = static_cast<std::uint8_t>(1 - *it);
-  stacks::write_frame_stack(work, f, sats, gray, labels);
+  stacks::write_frame_values(work, f, m.size, rasters, gray, labels);
 }
 
 class AddContext : public ::testing::Test {
@@ -129,6 +136,67 @@ TEST_F(AddContext, OutOfFoldChannelsNeverReadTheirOwnLabels) {
   run(forest, dir / "leaky-before", 0);
   run(retrained, dir / "leaky-after", 0);
   EXPECT_NE(sat_bytes(dir / "leaky-before", 0), sat_bytes(dir / "leaky-after", 0));
+}
+
+TEST_F(AddContext, WritesOnlyItsChannelsBesideItsBase) {
+  run(forest, dir / "test", 0);
+  const Json j = read_json(dir / "test" / "stacks.json");
+  EXPECT_EQ(j["base"]["work"], fs::absolute(work).lexically_normal().string());
+  EXPECT_EQ(j["base"]["features"], Json({"fH", "fD"}));
+  EXPECT_EQ(j["base"]["stacks_json_fnv1a64"], fnv1a64_hex(read_file(work / "stacks.json")));
+  for (const auto& e : fs::directory_iterator(dir / "test" / "stacks"))
+    EXPECT_EQ(e.path().extension(), ".bin") << e.path();  // one values file a frame, nothing else
+  const auto one_line = [](const std::string& e) { return e.find('\n') == std::string::npos; };
+  // The base written again (here: another option recorded) is refused, so is the base moved away.
+  const std::string manifest = read_file(work / "stacks.json");
+  Json changed = read_json(work / "stacks.json");
+  changed["options"]["changed"] = true;
+  write_json_atomic(work / "stacks.json", changed);
+  const std::string e1 = test::error_of([&] { stacks::load_stack_manifest(dir / "test"); });
+  EXPECT_NE(e1.find("whose stacks.json has changed since this folder was written; run add-context again"), std::string::npos) << e1;
+  EXPECT_TRUE(one_line(e1)) << e1;
+  write_file_atomic(work / "stacks.json", manifest);
+  EXPECT_NO_THROW(stacks::open_stacks({dir / "test"}, {}, true, true, {}));
+  const fs::path moved = work.string() + "_moved";
+  fs::rename(work, moved);
+  const std::string e2 = test::error_of([&] { stacks::load_stack_manifest(dir / "test"); });
+  fs::rename(moved, work);
+  EXPECT_NE(e2.find((dir / "test" / "stacks.json").string()), std::string::npos) << e2;
+  EXPECT_NE(e2.find("no longer a work folder (moved or deleted?)"), std::string::npos) << e2;
+  EXPECT_TRUE(one_line(e2)) << e2;
+}
+
+// Old work folders (version 1: the tables themselves on disk) and new ones (version 2: the rasters,
+// tables built on reading) of the same frames give the same forest, the same labels and posteriors,
+// and the same context channels, bit for bit.
+TEST_F(AddContext, OldAndNewWorkFoldersTrainAndLabelTheSame) {
+  const fs::path old_work = eval_test::make_work("context_v1", 6, {"floor", "wall"}, cv::Size(64, 48), 1);
+  EXPECT_EQ(stacks::load_stack_manifest(old_work).version, 1);
+  EXPECT_EQ(stacks::load_stack_manifest(work).version, 2);
+  // Every byte of the forest files but the timings.
+  const auto untimed = [](const forest::Forest& f) {
+    Json j = forest::forest_to_json(f);
+    j["stats"].erase("seconds");
+    for (Json& t : j["stats"]["trees"]) t.erase("seconds");
+    return j.dump();
+  };
+  EXPECT_EQ(untimed(eval_test::train(old_work, 6, 3)), untimed(forest));
+  const auto a = stacks::open_stacks({old_work}, {}, false, false, {});
+  const auto b = stacks::open_stacks({work}, {}, false, false, {});
+  const forest::Classifier classifier(forest);
+  const std::size_t pixels = 64 * 48;
+  for (std::size_t i = 0; i < a.dataset.frames.size(); ++i) {
+    std::vector<std::uint8_t> la(pixels), lb(pixels);
+    std::vector<float> da(pixels * 2), db(pixels * 2);
+    classifier.classify_frame(a.dataset.frames[i], la, da);
+    classifier.classify_frame(b.dataset.frames[i], lb, db);
+    EXPECT_EQ(la, lb) << i;
+    EXPECT_EQ(0, std::memcmp(da.data(), db.data(), da.size() * sizeof(float))) << i;
+  }
+  eval::add_context(forest, forest_file, {old_work}, {dir / "from_old"}, eval::ContextOptions{{}, {}, 3});
+  run(forest, dir / "from_new", 3);
+  for (int f = 0; f < 6; ++f) EXPECT_EQ(sat_bytes(dir / "from_old", f), sat_bytes(dir / "from_new", f)) << f;
+  fs::remove_all(old_work);
 }
 
 TEST_F(AddContext, RefusesWhatDoesNotFit) {

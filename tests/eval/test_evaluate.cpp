@@ -111,7 +111,7 @@ TEST(Evaluate, BadInputsGiveOneClearErrorEach) {
   eval::EvalOptions none = opt;
   none.frames = stacks::FrameRange{40, 50};
   expect_error([&] { eval::evaluate(f, {work}, none); }, "frames");
-  fs::remove(stacks::sat_path(work, 3));
+  fs::remove(stacks::values_path(work, 3));
   expect_error([&] { eval::evaluate(f, {work}, opt); }, "000003");
   // A cost matrix made for other classes.
   eval::EvalOptions costs = opt;

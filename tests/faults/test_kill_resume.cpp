@@ -35,19 +35,10 @@ int frames_already_done(const std::string& out) {
   return std::stoi(m[2]);
 }
 
-/// The frames of a work folder whose stack files are all there (sat, gray, and labels when the
-/// uninterrupted run has them).
+/// The frames of a work folder whose stack file (one values file a frame) is there.
 int complete_stacks(const Files& now, const Files& fresh) {
   int n = 0;
-  for (const auto& [name, bytes] : fresh) {
-    const auto at = name.find(".sat.npy");
-    if (at == std::string::npos) continue;
-    const std::string stem = name.substr(0, at);
-    bool all = true;
-    for (const char* kind : {".sat.npy", ".gray.npy", ".labels.npy"})
-      if (fresh.count(stem + kind) && !now.count(stem + kind)) all = false;
-    n += all;
-  }
+  for (const auto& [name, bytes] : fresh) n += name.ends_with(".values.bin") && now.count(name);
   return n;
 }
 

@@ -8,27 +8,27 @@ import numpy as np
 from . import _smseg
 from ._smseg import Error
 
-_STACK_FILE = re.compile(r"^(\d+)(\.sat\.npy|\.gray\.npy|\.labels\.npy)?$")
+_STACK_FILE = re.compile(r"^(\d+)(\.values\.bin|\.sat\.npy|\.gray\.npy|\.labels\.npy)?$")
 
 
 def _work_and_frame(path, frame):
     """(work folder, frame) from load_stack's arguments: a work folder and a frame, or a stack file
-    (WORK/stacks/000160.sat.npy, or WORK/stacks/000160)."""
+    (WORK/stacks/000160.values.bin, a version 1 folder's 000160.sat.npy, or WORK/stacks/000160)."""
     path = os.fspath(path)
     if frame is not None:
         return path, int(frame)
     folder, name = os.path.split(os.path.normpath(path))
     match = _STACK_FILE.match(name)
     if not match or os.path.basename(folder) != "stacks":
-        raise Error(f"{path}: expected a work folder and a frame, or a stack file WORK/stacks/NNNNNN.sat.npy")
+        raise Error(f"{path}: expected a work folder and a frame, or a stack file WORK/stacks/NNNNNN.values.bin")
     return os.path.dirname(folder), int(match.group(1))
 
 
 def load_stack(path, frame=None):
-    """One frame's feature stack: load_stack(WORK, 160) or load_stack("WORK/stacks/000160.sat.npy").
+    """One frame's feature stack: load_stack(WORK, 160) or load_stack("WORK/stacks/000160.values.bin").
 
     Returns a dict: sat (F, H+1, W+1) float64 summed-area tables and gray (H, W) uint8, read-only views
-    of the memory-mapped files (no copy); channels (F, H, W) float64, the per-pixel feature values the
+    of the mapped tables (no copy); channels (F, H, W) float64, the per-pixel feature values the
     tables sum; labels (H, W) uint8 class positions (255 = void) or None for an unlabelled frame; valid
     (H, W) bool, the pixels with a class (None without labels); features, classes (names), work, frame.
     """

@@ -1,5 +1,7 @@
-// Stacks and sequences as numpy arrays and dicts. A stack's arrays are views of its memory-mapped
-// .npy files (read-only; the mapping lives as long as any of them).
+// Stacks and sequences as numpy arrays and dicts. A stack's arrays are views of its mapped tables
+// (read-only; the mapping lives as long as any of them); the tables of a folder with a base lie in two
+// mappings and are copied into one array.
+#include <algorithm>
 #include <memory>
 #include <string>
 
@@ -25,7 +27,17 @@ py::dict load_stack(const fs::path& work, int frame) {
   d["frame"] = frame;
   d["features"] = m.features;
   d["classes"] = m.classes;
-  d["sat"] = view_array<double>({F, H + 1, W + 1}, s->sat(0), owner);
+  const std::size_t cells = std::size_t(H + 1) * std::size_t(W + 1);
+  bool contiguous = true;
+  for (py::ssize_t f = 1; f < F; ++f) contiguous = contiguous && s->sat(int(f)) == s->sat(0) + std::size_t(f) * cells;
+  if (contiguous) {
+    d["sat"] = view_array<double>({F, H + 1, W + 1}, s->sat(0), owner);
+  } else {
+    py::array_t<double> sat({F, H + 1, W + 1});
+    for (py::ssize_t f = 0; f < F; ++f)
+      std::copy_n(s->sat(int(f)), cells, sat.mutable_data() + std::size_t(f) * cells);
+    d["sat"] = sat;
+  }
   d["gray"] = view_array<std::uint8_t>({H, W}, s->gray(), owner);
   d["labels"] = s->labels() ? py::object(view_array<std::uint8_t>({H, W}, s->labels(), owner)) : py::none();
   return d;

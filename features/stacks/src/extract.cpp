@@ -66,6 +66,7 @@ bool same_stacks(const StackManifest& old, const sequence::Sequence& seq, const 
   Json old_options = old.options, new_options = options;
   if (!old_options.contains("input")) new_options.erase("input");
   if (old_options != new_options || old.size != seq.size || old.features != channels) return false;
+  if (old.version != kStacksVersion || old.base) return false;  // an older layout: rebuilt (--force)
   // An old manifest may name a folder that can no longer be resolved (too long, a loop of links):
   // then it is not this sequence.
   std::error_code ec_old, ec_new;
@@ -85,12 +86,11 @@ void remove_foreign_stacks(const fs::path& work) {
   if (ec) throw Error((work / "stacks").string(), "", "cannot remove the stacks of other options: " + ec.message());
 }
 
-// The frames whose three files are on disk. Each file is written whole (temporary, then rename), so a
-// file that is there is complete; a frame killed between its files lacks one and is redone.
-bool frame_files_present(const fs::path& work, const sequence::Sequence& seq, int f) {
+// Whether the frame's values file is on disk. It is written whole (temporary, then rename), so a file
+// that is there is complete.
+bool frame_files_present(const fs::path& work, int f) {
   std::error_code ec;
-  return fs::exists(sat_path(work, f), ec) && fs::exists(gray_path(work, f), ec) &&
-         (!seq.is_labelled(f) || fs::exists(labels_path(work, f), ec));
+  return fs::exists(values_path(work, f), ec);
 }
 
 // False colour over the raster's range. A sparse feature is shown only where there are points (`points`,
@@ -306,7 +306,7 @@ void plan_frames(const sequence::Sequence& seq, const fs::path& work, const Extr
                  bool resume_from_files, std::vector<int>& todo, std::vector<int>& kept) {
   for (int f = 0; f < seq.frame_count(); ++f) {
     if (!opt.frames.contains(f)) continue;
-    const bool done = (m.has_frame(f) || resume_from_files) && frame_files_present(work, seq, f);
+    const bool done = (m.has_frame(f) || resume_from_files) && frame_files_present(work, f);
     if (done && !opt.force) {
       kept.push_back(f);
       continue;
@@ -355,10 +355,10 @@ class ImageRasters {
 // Writes the stacks of `todo` in parallel; returns the seconds spent computing features, summed.
 double write_stacks(const sequence::Sequence& seq, const fs::path& work, const std::vector<int>& todo,
                     const PointCloudVideo& video, const PointAttributes& attrs, const ImageRasters& image_rasters,
-                    bool progress_on) {
+                    const std::vector<std::string>& channels, bool progress_on) {
   Progress progress("extract-features", static_cast<long>(todo.size()), progress_on);
   struct Buffers {
-    std::vector<cv::Mat> rasters, sats;
+    std::vector<cv::Mat> rasters;
   };
   tbb::enumerable_thread_specific<Buffers> buffers;
   std::atomic<double> feature_seconds{0};
@@ -367,19 +367,29 @@ double write_stacks(const sequence::Sequence& seq, const fs::path& work, const s
     const auto tf = std::chrono::steady_clock::now();
     rasterise_features(video, attrs, f, seq.size, b.rasters);
     image_rasters.append(f, b.rasters);
-    b.sats.resize(b.rasters.size());
-    for (std::size_t k = 0; k < b.rasters.size(); ++k) summed_area_table(b.rasters[k], b.sats[k]);
     double s = feature_seconds.load();
     const double dt = seconds_since(tf);
     while (!feature_seconds.compare_exchange_weak(s, s + dt)) {
     }
     const cv::Mat gray = seq.load_left_gray(f);
     const cv::Mat labels = seq.is_labelled(f) ? seq.load_labels(f) : cv::Mat();
-    write_frame_stack(work, f, b.sats, gray, labels);
+    const bool appearance = std::any_of(channels.begin(), channels.end(), is_appearance_feature);
+    write_frame_values(work, f, seq.size, b.rasters, gray, labels, channels, appearance ? seq.load_left(f) : cv::Mat());
     progress.tick();
   });
   progress.finish();
   return feature_seconds.load();
+}
+
+// The mean size of the frames' values files.
+std::size_t mean_frame_bytes(const StackManifest& m) {
+  std::uintmax_t total = 0;
+  std::error_code ec;
+  for (int f : m.frames) {
+    const auto n = fs::file_size(values_path(m.work, f), ec);
+    total += ec ? 0 : n;
+  }
+  return m.frames.empty() ? 0 : static_cast<std::size_t>(total / m.frames.size());
 }
 
 // Previews of the frames asked for, whether their stacks were written now or earlier.
@@ -459,13 +469,12 @@ ExtractReport extract_features(const sequence::Sequence& seq, const fs::path& wo
   plan_frames(seq, work, opt, m, resume_from_files, todo, kept);
   report.frames_skipped = static_cast<int>(kept.size());
   const ImageRasters image_rasters(seq, fe, video, camera_height, opt, monocular);
-  const double feature_seconds = write_stacks(seq, work, todo, video, attrs, image_rasters, opt.progress);
+  const double feature_seconds = write_stacks(seq, work, todo, video, attrs, image_rasters, m.features, opt.progress);
   write_previews(seq, work, opt.preview, video, attrs, image_rasters, m.features);
   report.frames_written = static_cast<int>(todo.size());
   report.features_seconds_per_frame = todo.empty() ? 0.0 : feature_seconds / double(todo.size());
   record_frames(seq, m, todo, kept);
-  report.bytes_per_frame = std::size_t(m.features.size()) * (seq.size.height + 1) * (seq.size.width + 1) * 8 +
-                           std::size_t(seq.size.area());
+  report.bytes_per_frame = mean_frame_bytes(m);
   return report;
 }
 

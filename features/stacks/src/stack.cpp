@@ -12,6 +12,7 @@
 #include <cstring>
 #include <limits>
 
+#include "frame_values.hpp"
 #include "smseg/common/digest.hpp"
 
 namespace smseg::stacks {
@@ -49,6 +50,9 @@ void check_finite_sats(const fs::path& path, const double* sat, std::size_t feat
 
 }  // namespace
 
+fs::path values_path(const fs::path& work, int frame) {
+  return work / "stacks" / (frame_stem(frame) + ".values.bin");
+}
 fs::path sat_path(const fs::path& work, int frame) { return work / "stacks" / (frame_stem(frame) + ".sat.npy"); }
 fs::path gray_path(const fs::path& work, int frame) { return work / "stacks" / (frame_stem(frame) + ".gray.npy"); }
 fs::path labels_path(const fs::path& work, int frame) {
@@ -58,6 +62,18 @@ fs::path labels_path(const fs::path& work, int frame) {
 bool StackManifest::has_frame(int f) const { return std::binary_search(frames.begin(), frames.end(), f); }
 bool StackManifest::is_labelled(int f) const {
   return std::binary_search(labelled_frames.begin(), labelled_frames.end(), f);
+}
+fs::path StackManifest::labels_file(int f) const {
+  if (base_manifest) return base_manifest->labels_file(f);
+  return version == 1 ? labels_path(work, f) : values_path(work, f);
+}
+
+std::uintmax_t write_frame_values(const fs::path& work, int frame, cv::Size size, const std::vector<cv::Mat>& rasters,
+                                  const cv::Mat& gray, const cv::Mat& labels, const std::vector<std::string>& names,
+                                  const cv::Mat& colour) {
+  const std::string bytes = values::encode(rasters, names, gray, labels, colour, size);
+  write_file_atomic(values_path(work, frame), bytes);
+  return bytes.size();
 }
 
 void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Mat>& sats, const cv::Mat& gray,
@@ -84,7 +100,7 @@ void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Ma
 
 void save_stack_manifest(const StackManifest& m) {
   Json j = {{"format", kStacksFormat},
-            {"version", kStacksVersion},
+            {"version", m.version},
             {"sequence", m.sequence.string()},
             {"sequence_name", m.sequence_name},
             {"image_size", {{"width", m.size.width}, {"height", m.size.height}}},
@@ -92,14 +108,65 @@ void save_stack_manifest(const StackManifest& m) {
             {"classes", m.classes},
             {"frames", m.frames},
             {"labelled_frames", m.labelled_frames},
-            {"options", m.options},
-            {"files", {{"sat", "stacks/NNNNNN.sat.npy (float64, F x (H+1) x (W+1))"},
-                       {"gray", "stacks/NNNNNN.gray.npy (uint8, H x W)"},
-                       {"labels", "stacks/NNNNNN.labels.npy (uint8, H x W, 255 = void)"}}}};
+            {"options", m.options}};
+  if (m.version == 1)
+    j["files"] = {{"sat", "stacks/NNNNNN.sat.npy (float64, F x (H+1) x (W+1))"},
+                  {"gray", "stacks/NNNNNN.gray.npy (uint8, H x W)"},
+                  {"labels", "stacks/NNNNNN.labels.npy (uint8, H x W, 255 = void)"}};
+  else
+    j["files"] = {{"values", "stacks/NNNNNN.values.bin (per channel: smallest exact type, zstd, or made from the "
+                             "colour image; then gray, labels; summed-area tables built on reading; docs/formats.md)"}};
+  if (m.base)
+    j["base"] = {{"work", m.base->work.string()},
+                 {"stacks_json_fnv1a64", m.base->stacks_json_fnv1a64},
+                 {"features", m.base->features}};
   write_json_atomic(m.manifest_path(), j);
 }
 
-StackManifest load_stack_manifest(const fs::path& work) {
+namespace {
+
+/// A chain of bases longer than this is refused (a loop of folders naming each other).
+constexpr int kMaxBaseDepth = 8;
+
+StackManifest load_manifest(const fs::path& work, int depth);
+
+std::vector<std::string> string_list(const JsonView& a) {
+  std::vector<std::string> out;
+  for (std::size_t i = 0; i < a.size(); ++i) out.push_back(a.at(i).as_str());
+  if (out.empty()) a.fail("must not be empty");
+  return out;
+}
+
+template <class T>
+bool is_subset(const std::vector<T>& part, const std::vector<T>& whole) {
+  return std::all_of(part.begin(), part.end(), [&](const T& x) { return std::find(whole.begin(), whole.end(), x) != whole.end(); });
+}
+
+/// The base a folder names: it must still be there, unchanged (its stacks.json's digest), and hold what
+/// the folder reads from it.
+void load_base(StackManifest& m, const JsonView& j, int depth) {
+  const JsonView b = j.at("base");
+  StackBase base{b.str("work"), b.str("stacks_json_fnv1a64"), string_list(b.at("features"))};
+  const std::string again = "; run add-context again to write this folder";
+  if (depth >= kMaxBaseDepth) b.fail("more than " + std::to_string(kMaxBaseDepth) + " work folders deep (a loop?)");
+  std::error_code ec;
+  if (!fs::is_regular_file(base.work / "stacks.json", ec))
+    b.fail("names " + base.work.string() + ", which is no longer a work folder (moved or deleted?)" + again);
+  if (fnv1a64_hex(read_file(base.work / "stacks.json")) != base.stacks_json_fnv1a64)
+    b.fail("names " + base.work.string() + ", whose stacks.json has changed since this folder was written" + again);
+  auto bm = std::make_shared<StackManifest>(load_manifest(base.work, depth + 1));
+  if (!is_subset(base.features, bm->features)) b.fail("features are not all in " + bm->manifest_path().string());
+  if (m.features.size() <= base.features.size() ||
+      !std::equal(base.features.begin(), base.features.end(), m.features.begin()))
+    j.fail("must start with base.features and add at least one", "features");
+  if (bm->size != m.size || bm->classes != m.classes) j.fail("image size or classes differ from the base's", "base");
+  if (!is_subset(m.frames, bm->frames) || !is_subset(m.labelled_frames, bm->labelled_frames))
+    j.fail("names frames (or labelled frames) its base does not have", "frames");
+  m.base = std::move(base);
+  m.base_manifest = std::move(bm);
+}
+
+StackManifest load_manifest(const fs::path& work, int depth) {
   StackManifest m;
   m.work = work;
   std::error_code ec;
@@ -110,22 +177,16 @@ StackManifest load_stack_manifest(const fs::path& work) {
   }
   const Json doc = read_json(m.manifest_path());
   const JsonView j(doc, m.manifest_path());
-  check_format(j, kStacksFormat, {kStacksVersion});
+  check_format(j, kStacksFormat, {1, kStacksVersion});
+  m.version = static_cast<int>(j.integer("version"));
   m.sequence = j.str("sequence");
   m.sequence_name = j.has("sequence_name") ? j.str("sequence_name") : std::string();
   const JsonView size = j.at("image_size");
   const auto w = size.integer("width"), h = size.integer("height");
   if (w <= 0 || h <= 0 || w > 20000 || h > 20000) size.fail("width and height must be in 1..20000 (as a sequence's)");
   m.size = cv::Size(static_cast<int>(w), static_cast<int>(h));
-  const auto strings = [&](const char* key) {
-    std::vector<std::string> out;
-    const JsonView a = j.at(key);
-    for (std::size_t i = 0; i < a.size(); ++i) out.push_back(a.at(i).as_str());
-    if (out.empty()) a.fail("must not be empty");
-    return out;
-  };
-  m.features = strings("features");
-  m.classes = strings("classes");
+  m.features = string_list(j.at("features"));
+  m.classes = string_list(j.at("classes"));
   const auto ints = [&](const char* key) {
     std::vector<int> out;
     const JsonView a = j.at(key);
@@ -142,14 +203,49 @@ StackManifest load_stack_manifest(const fs::path& work) {
   for (int f : m.labelled_frames)
     if (!m.has_frame(f)) j.fail("labelled frame " + std::to_string(f) + " has no stack", "labelled_frames");
   if (j.has("options")) m.options = j.at("options").json();
+  if (j.has("base")) {
+    if (m.version == 1) j.fail("a version 1 work folder has no base", "base");
+    load_base(m, j, depth);
+  }
   return m;
 }
+
+}  // namespace
+
+StackManifest load_stack_manifest(const fs::path& work) { return load_manifest(work, 0); }
 
 // A read-only memory mapping of one .npy file, checked against the expected dtype and shape.
 struct FrameStack::Mapping {
   void* base = MAP_FAILED;
   std::size_t length = 0;
   const char* data = nullptr;
+
+  /// A writable mapping of `bytes` in an unlinked temporary file (TMPDIR): the tables built on
+  /// reading live in the page cache, so that drop_pages frees their memory as it does a .npy file's.
+  static std::unique_ptr<Mapping> scratch(std::size_t bytes) {
+    const fs::path dir = fs::temp_directory_path();
+    int fd = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+    if (fd < 0) {  // a file system without O_TMPFILE: a named file, unlinked at once
+      std::string name = (dir / "smseg-stack-XXXXXX").string();
+      fd = ::mkstemp(name.data());
+      if (fd >= 0) ::unlink(name.c_str());
+    }
+    if (fd < 0) throw Error(dir.string(), "", std::string("cannot hold a temporary file for stack tables: ") + std::strerror(errno));
+    auto m = std::make_unique<Mapping>();
+    m->length = std::max<std::size_t>(bytes, 1);
+    const bool sized = ::ftruncate(fd, static_cast<off_t>(m->length)) == 0;
+    const int err = errno;
+    if (sized) m->base = ::mmap(nullptr, m->length, PROT_READ | PROT_WRITE, MAP_SHARED, fd, 0);
+    ::close(fd);
+    if (!sized || m->base == MAP_FAILED)
+      throw Error(dir.string(), "", "cannot map " + std::to_string(m->length >> 20) + " MiB of stack tables: " +
+                                         std::strerror(sized ? errno : err));
+    m->data = static_cast<const char*>(m->base);
+    return m;
+  }
+  char* writable() const { return static_cast<char*>(base); }
+
+  Mapping() = default;
 
   // The file is checked (kind, header, size against its shape) before it is mapped: a FIFO is refused
   // without waiting for a writer, and a file of the wrong size is named as such even where the process
@@ -227,37 +323,80 @@ FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels)
   FrameStack s;
   s.frame_ = frame;
   s.size_ = m.size;
-  s.features_ = static_cast<int>(m.features.size());
+  if (m.version != 1) {
+    s.open_values(m, frame, with_labels);
+    return s;
+  }
   const std::size_t H = m.size.height, W = m.size.width;
-  s.sat_ = std::make_unique<Mapping>(sat_path(m.work, frame), "<f8",
-                                     std::vector<std::size_t>{m.features.size(), H + 1, W + 1});
-  check_finite_sats(sat_path(m.work, frame), reinterpret_cast<const double*>(s.sat_->data), m.features.size(), H + 1,
+  auto sat = std::make_unique<Mapping>(sat_path(m.work, frame), "<f8", std::vector<std::size_t>{m.features.size(), H + 1, W + 1});
+  check_finite_sats(sat_path(m.work, frame), reinterpret_cast<const double*>(sat->data), m.features.size(), H + 1,
                     W + 1);
-  s.sat_->drop_pages();  // the check read every page; training and evaluation map back what they use
-  s.gray_ = std::make_unique<Mapping>(gray_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
-  if (with_labels) s.labels_ = std::make_unique<Mapping>(labels_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W});
+  sat->drop_pages();  // the check read every page; training and evaluation map back what they use
+  for (std::size_t f = 0; f < m.features.size(); ++f)
+    s.sats_.push_back(reinterpret_cast<const double*>(sat->data) + f * (H + 1) * (W + 1));
+  s.mappings_.push_back(std::move(sat));
+  s.mappings_.push_back(std::make_unique<Mapping>(gray_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W}));
+  s.gray_ = reinterpret_cast<const std::uint8_t*>(s.mappings_.back()->data);
+  if (with_labels) {
+    s.mappings_.push_back(std::make_unique<Mapping>(labels_path(m.work, frame), "|u1", std::vector<std::size_t>{H, W}));
+    s.labels_ = reinterpret_cast<const std::uint8_t*>(s.mappings_.back()->data);
+  }
   return s;
 }
 
-const double* FrameStack::sat(int feature) const {
-  return reinterpret_cast<const double*>(sat_->data) + std::size_t(feature) * (size_.height + 1) * (size_.width + 1);
+// Version 2: the base's tables and images first (if any), then this folder's own channels, decoded
+// into one scratch mapping: tables, then greyscale, then labels.
+void FrameStack::open_values(const StackManifest& m, int frame, bool with_labels) {
+  if (m.base_manifest) {
+    FrameStack base = open(*m.base_manifest, frame, with_labels);
+    for (const std::string& name : m.base->features) {
+      const auto& bf = m.base_manifest->features;
+      sats_.push_back(base.sat(static_cast<int>(std::find(bf.begin(), bf.end(), name) - bf.begin())));
+    }
+    gray_ = base.gray_;
+    labels_ = base.labels_;
+    for (auto& mapping : base.mappings_) mappings_.push_back(std::move(mapping));
+  }
+  values::Expected ex;
+  ex.size = m.size;
+  ex.channels = m.own_features();
+  ex.names.assign(m.features.end() - static_cast<std::ptrdiff_t>(ex.channels), m.features.end());
+  if (!m.base_manifest) ex.images = values::kGrayImage | (m.is_labelled(frame) ? values::kLabelsImage : 0u);
+  const std::size_t H = m.size.height, W = m.size.width, table = (H + 1) * (W + 1) * sizeof(double);
+  const std::size_t images = ((ex.images & values::kGrayImage) ? H * W : 0) + ((ex.images & values::kLabelsImage) ? H * W : 0);
+  const fs::path file = values_path(m.work, frame);
+  const std::string bytes = read_file(file, values::max_file_bytes(ex));
+  auto scratch = Mapping::scratch(ex.channels * table + images);
+  values::Output out;
+  for (std::size_t k = 0; k < ex.channels; ++k) out.sats.push_back(reinterpret_cast<double*>(scratch->writable() + k * table));
+  if (ex.images & values::kGrayImage) out.gray = reinterpret_cast<std::uint8_t*>(scratch->writable() + ex.channels * table);
+  if (ex.images & values::kLabelsImage) out.labels = out.gray + H * W;
+  values::decode(bytes, file, ex, out);
+  sats_.insert(sats_.end(), out.sats.begin(), out.sats.end());
+  if (!m.base_manifest) {
+    gray_ = out.gray;
+    labels_ = with_labels ? out.labels : nullptr;
+  }
+  scratch->drop_pages();  // written back to the temporary file; read again when touched
+  mappings_.push_back(std::move(scratch));
 }
-const std::uint8_t* FrameStack::gray() const { return reinterpret_cast<const std::uint8_t*>(gray_->data); }
-const std::uint8_t* FrameStack::labels() const {
-  return labels_ ? reinterpret_cast<const std::uint8_t*>(labels_->data) : nullptr;
-}
+
+const double* FrameStack::sat(int feature) const { return sats_[static_cast<std::size_t>(feature)]; }
+const std::uint8_t* FrameStack::gray() const { return gray_; }
+const std::uint8_t* FrameStack::labels() const { return labels_; }
 
 forest::FrameData FrameStack::view() const {
   forest::FrameData d;
   d.width = size_.width;
   d.height = size_.height;
-  for (int f = 0; f < features_; ++f) d.sats.push_back(sat(f));
-  d.gray = gray();
-  d.labels = labels();
+  d.sats = sats_;
+  d.gray = gray_;
+  d.labels = labels_;
   // The mappings live on the heap, so the pointers survive moves of this FrameStack.
-  d.release = [sat = sat_.get(), gray = gray_.get(), labels = labels_.get()] {
-    for (const Mapping* m : {sat, gray, labels})
-      if (m) m->drop_pages();
+  std::vector<const Mapping*> mappings;
+  for (const auto& m : mappings_) mappings.push_back(m.get());
+  d.release = [mappings] {
+    for (const Mapping* m : mappings) m->drop_pages();
   };
   return d;
 }
@@ -359,7 +498,7 @@ StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range
     d.sats.clear();
     for (int fi : feature_index[set.origin[i].first]) d.sats.push_back(full.sats[fi]);
     if (d.labels)
-      check_labels(d, labels_path(set.manifests[set.origin[i].first].work, set.origin[i].second),
+      check_labels(d, set.manifests[set.origin[i].first].labels_file(set.origin[i].second),
                    set.dataset.classes.size());
     set.dataset.frames.push_back(d);
   }

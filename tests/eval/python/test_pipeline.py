@@ -14,8 +14,9 @@ def test_extract_features_writes_the_tools_stacks(corridor, tmp_path):
     summary = smseg.extract_features(seq, tmp_path / "work", future_frames=10)  # the fixture's options
     assert summary["frames_written"] == 24 and summary["frames_skipped"] == 0
     for frame in (0, 20):
-        name = f"{frame:06d}.sat.npy"
-        np.testing.assert_array_equal(np.load(tmp_path / "work" / "stacks" / name), np.load(work / "stacks" / name))
+        np.testing.assert_array_equal(smseg.load_stack(tmp_path / "work", frame)["sat"], smseg.load_stack(work, frame)["sat"])
+        name = f"{frame:06d}.values.bin"
+        assert (tmp_path / "work" / "stacks" / name).read_bytes() == (work / "stacks" / name).read_bytes()
     again = smseg.extract_features(seq, tmp_path / "work", future_frames=10)
     assert again["frames_skipped"] == 24
     with pytest.raises(smseg.Error, match="motion"):

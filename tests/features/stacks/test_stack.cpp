@@ -1,4 +1,5 @@
-// Feature stacks: write, memory-map, read back exactly; corrupt or foreign files are refused.
+// Feature stacks of version 1 (tables as .npy files, as older work folders hold them): write,
+// memory-map, read back exactly; corrupt or foreign files are refused. Version 2: test_stack_values.cpp.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -33,6 +34,7 @@ struct StackFixture : ::testing::Test {
     m.classes = {"floor", "wall"};
     m.frames = {0, 3};
     m.labelled_frames = {3};
+    m.version = 1;
     cv::RNG rng(7);
     for (int k = 0; k < 2; ++k) {
       cv::Mat r(7, 9, CV_64FC1);

@@ -3,7 +3,9 @@
 // first forest's class posteriors. `add-context` writes, for each work folder, a new work folder whose
 // stacks hold the first forest's features and, per class c, a channel "fCtx:<class c>": the first
 // forest's posterior of c at each pixel (the mean over its trees of the leaf distributions, in [0, 1]),
-// as a summed-area table like every other feature. The second forest is an ordinary train-forest /
+// read as a summed-area table like every other feature. The new folder stores only the context
+// channels; its stacks.json names the source folder as its base (with its stacks.json's digest), from
+// which readers take the kept features, the greyscale and the labels (stack.hpp). The second forest is an ordinary train-forest /
 // eval-forest run on those folders: its windows average the posteriors around the pixel (context: "sky
 // above, road below") as they average the structure-and-motion features.
 //
@@ -66,7 +68,7 @@ struct ContextReport {
 /// the features options.keep (or the forest's) then the context channels of `forest`'s classes; labels and
 /// greyscale as in works[i]. With options.folds >= 2 the labelled frames get out-of-fold posteriors (see
 /// the header comment); otherwise every frame gets `forest`'s. stacks.json records the forest, the folds
-/// and the source work folder under options.context. Errors name the file: a forest that does not fit the
+/// and the source work folder under options.context, and the source as its base. Errors name the file: a forest that does not fit the
 /// stacks, fewer labelled frames than folds, a kept feature the stacks lack.
 ContextReport add_context(const forest::Forest& forest, const fs::path& forest_file, const std::vector<fs::path>& works,
                           const std::vector<fs::path>& outs, const ContextOptions& options);

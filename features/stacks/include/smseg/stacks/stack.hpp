@@ -1,16 +1,23 @@
 #pragma once
-// Feature stacks on disk (docs/design.md section 3.3). A work folder holds
-//   stacks.json                   format "smseg-stacks" version 1: the sequence, image size, feature
-//                                 names, class names, the frames written, and the options used
+// Feature stacks on disk (docs/design.md section 3.3, docs/formats.md). A work folder holds
+//   stacks.json                   format "smseg-stacks" version 2: the sequence, image size, feature
+//                                 names, class names, the frames written, the options used, and for a
+//                                 folder that extends another (add-context) its "base"
+//   stacks/NNNNNN.values.bin      the frame's feature rasters (each in the smallest exact type, packed;
+//                                 appearance channels as the colour image they are made from), its
+//                                 greyscale image and its labels (labelled frames; 255 = void)
+// The summed-area tables the forest reads are built in memory when a frame is opened, by the same
+// cv::integral over the same doubles as extraction: bit for bit the tables version 1 stored.
+// A folder with a base stores only its own channels (after the base's) and reads the rest, the
+// greyscale and the labels from the base, whose stacks.json must be the one it was made from.
+// Version 1 folders (still read) stored the tables themselves as plain .npy files:
 //   stacks/NNNNNN.sat.npy         float64, shape (F, H+1, W+1): one summed-area table per feature
 //   stacks/NNNNNN.gray.npy        uint8, shape (H, W): the greyscale image (texton tests)
 //   stacks/NNNNNN.labels.npy      uint8, shape (H, W): class positions, 255 = void (labelled frames only)
-// Every file is a plain .npy that numpy reads (and memory-maps) without our code:
-//   sat = numpy.load("work/stacks/000010.sat.npy", mmap_mode="r")   # sat[f, y, x]
-// In C++ a FrameStack memory-maps the files and hands the forest its FrameData.
 
 #include <limits>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -22,7 +29,14 @@
 namespace smseg::stacks {
 
 inline constexpr const char* kStacksFormat = "smseg-stacks";
-inline constexpr int kStacksVersion = 1;
+inline constexpr int kStacksVersion = 2;
+
+/// What a folder that extends another (add-context's output) reads from it.
+struct StackBase {
+  fs::path work;                      ///< the base work folder (absolute)
+  std::string stacks_json_fnv1a64;    ///< its stacks.json's digest when this folder was written
+  std::vector<std::string> features;  ///< the base's features this folder reads (its first features)
+};
 
 struct StackManifest {
   fs::path work;                      ///< the work folder
@@ -34,26 +48,47 @@ struct StackManifest {
   std::vector<int> frames;            ///< frames with a stack, ascending
   std::vector<int> labelled_frames;   ///< frames whose stack carries labels, ascending
   Json options = Json::object();      ///< how the stacks were made (front end, feature options)
+  int version = kStacksVersion;       ///< 1: .npy tables per frame; 2: values files
+  std::optional<StackBase> base;      ///< version 2: the folder this one extends
+  std::shared_ptr<const StackManifest> base_manifest;  ///< loaded and checked with it
 
   fs::path manifest_path() const { return work / "stacks.json"; }
   bool has_frame(int f) const;
   bool is_labelled(int f) const;
+  /// The features this folder's own files hold: all, or those after the base's.
+  std::size_t own_features() const { return features.size() - (base ? base->features.size() : 0); }
+  /// The file that holds frame f's labels (through the base, if any).
+  fs::path labels_file(int f) const;
 };
 
-/// Paths of one frame's files.
+/// Paths of one frame's files: the values file (version 2), the .npy files (version 1).
+fs::path values_path(const fs::path& work, int frame);
 fs::path sat_path(const fs::path& work, int frame);
 fs::path gray_path(const fs::path& work, int frame);
 fs::path labels_path(const fs::path& work, int frame);
 
-/// Writes one frame's files atomically (labels may be empty for an unlabelled frame).
+/// Writes one frame's values file atomically (version 2) and returns its size in bytes. rasters: the
+/// channels the folder stores itself (CV_64FC1 of `size`); gray and labels may be empty (not stored:
+/// an unlabelled frame, or a folder with a base). With the rasters' names and the frame's colour (BGR)
+/// image, the appearance channels that append_appearance_rasters(colour) gives back bit for bit are
+/// stored as the colour image and a digest each (made again on reading).
+std::uintmax_t write_frame_values(const fs::path& work, int frame, cv::Size size, const std::vector<cv::Mat>& rasters,
+                                  const cv::Mat& gray, const cv::Mat& labels, const std::vector<std::string>& names = {},
+                                  const cv::Mat& colour = cv::Mat());
+
+/// Writes one frame's files in the version 1 layout (summed-area tables as .npy, labels may be empty
+/// for an unlabelled frame): what older work folders hold, kept for the tests that check they load.
 void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Mat>& sats, const cv::Mat& gray,
                        const cv::Mat& labels);
 
 void save_stack_manifest(const StackManifest& m);
-/// Reads and validates work/stacks.json; Error naming the file and field.
+/// Reads and validates work/stacks.json (and its base's, which must be the one it was made from: a
+/// base moved or written again is refused); Error naming the file and field.
 StackManifest load_stack_manifest(const fs::path& work);
 
-/// One frame's stack, memory-mapped, validated against the manifest (shape, dtype) on open.
+/// One frame's stack, validated against the manifest on open: version 1 memory-maps the tables; version 2
+/// decodes the values file and builds the tables into an unlinked temporary file (in TMPDIR) that it
+/// maps, so that `release` can drop them from memory as it does version 1's.
 class FrameStack {
  public:
   static FrameStack open(const StackManifest& m, int frame, bool with_labels);
@@ -72,10 +107,13 @@ class FrameStack {
  private:
   struct Mapping;
   FrameStack() = default;
+  void open_values(const StackManifest& m, int frame, bool with_labels);
   int frame_ = -1;
   cv::Size size_;
-  int features_ = 0;
-  std::unique_ptr<Mapping> sat_, gray_, labels_;
+  std::vector<const double*> sats_;
+  const std::uint8_t* gray_ = nullptr;
+  const std::uint8_t* labels_ = nullptr;
+  std::vector<std::unique_ptr<Mapping>> mappings_;  ///< what the pointers point into
 };
 
 /// A half-open frame range "A:B" (Python style: A included, B excluded; "A:" to the end, ":B" from 0,
