@@ -69,7 +69,9 @@ void SaliencyParams::validate() const {
   if (blur < 0 || blur > 50) throw Error("", "--saliency-blur", "must be in 0..50 pixels");
   if (!(scale >= 0.05 && scale <= 1)) throw Error("", "--saliency-scale", "must be in [0.05, 1]");
   if (!(max_area > min_area && max_area <= 1)) throw Error("", "--max-area", "must be in (--min-area, 1]");
-  if (!(step > 0 && step < 1)) throw Error("", "--saliency-step", "must be in (0, 1)");
+  // Each step is one level of split()'s recursion: 1/200 keeps it shallow (and finer than the map's
+  // 8-bit precision is never needed); 1e-6 overflowed the stack.
+  if (!(step >= 0.005 && step < 1)) throw Error("", "--saliency-step", "must be in [0.005, 1)");
 }
 
 namespace {

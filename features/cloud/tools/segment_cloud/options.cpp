@@ -49,7 +49,7 @@ void add_mrf_options(CLI::App& app, SegmentCloudOptions& o) {
       ->check(options::in_range(0.000001, 1.0));
   app.add_option("--saliency-step", o.sal.saliency.step, "mrf saliency seeds: threshold step of those splits")
       ->capture_default_str()
-      ->check(options::in_range(0.000001, 0.999999));
+      ->check(options::in_range(0.005, 0.999999));
   app.add_option("--saliency-blur", o.sal.saliency.blur, "mrf saliency seeds: box-filter radius on the map (pixels)")
       ->capture_default_str()
       ->check(options::in_range(0, 50));
