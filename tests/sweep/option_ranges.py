@@ -180,7 +180,7 @@ def tool_base(tool, option_help):
             return ["--method", "grabcut-sfm", "--sequence", "table", "--work", "tw", "--frame", "5", "-o", "{out}.png"]
         if "mrf" in option_help or option_help.startswith("RANSAC"):
             return ["cloud.pcd", "--method", "mrf", "--seeds", "plane", "-o", "{out}.pcd"]
-        return ["cloud.pcd", "--method", "centroid-mincut", "--radius", "0.1", "-o", "{out}.pcd"]
+        return ["cloud.pcd", "--method", "centroid-mincut", "--radius", "0.3", "-o", "{out}.pcd"]
     return {
         "add-context": ["forest.json", "w", "-o", "{out}", "-q"],
         "check-sequence": ["seq"],

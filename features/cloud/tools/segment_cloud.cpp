@@ -44,5 +44,6 @@ int main(int argc, char** argv) {
   segment_cloud::add_grabcut_sfm_options(app, o);
   segment_cloud::add_grabcut_sfm_overrides(app, o);
   segment_cloud::add_grabcut_sfm_ranges(app);
+  segment_cloud::add_choices(app);
   return smseg::run_tool(app, argc, argv, o.threads, [&] { return segment_cloud::run_method(app, o); });
 }

@@ -2,6 +2,8 @@
 #include <initializer_list>
 #include <iostream>
 #include <tuple>
+#include <utility>
+#include <vector>
 
 #include "runs.hpp"
 #include "smseg/common/options.hpp"
@@ -258,6 +260,19 @@ void add_grabcut_sfm_ranges(CLI::App& app) {
            {"--tolerance-share", 0.000001, 1000}, {"--min-cluster-share", 0, 1}, {"--edge-margin", 0, 1000},
            {"--min-rise", 0, 1000}})
     check(name, options::in_range(lo, hi));
+}
+
+void add_choices(CLI::App& app) {
+  // Checked by the parser (exit status 2, as every option's bad value); the methods' own checks stay
+  // for callers of the library.
+  const std::initializer_list<std::pair<const char*, std::vector<std::string>>> choices = {
+      {"--method", {"centroid-mincut", "mrf", "grabcut-sfm"}}, {"--solver", {"maxflow", "pcl"}},
+      {"--up", {"x", "y", "z"}}, {"--saliency", {"colour", "fine-grained", "spectral-residual"}},
+      {"--support", {"table", "plane"}}, {"--plane-up", {"auto", "camera", "world", "estimate"}},
+      {"--cluster", {"auto", "kmeans", "euclidean"}}, {"--nearest", {"auto", "centre", "median", "depth"}},
+      {"--truth-region", {"largest", "all"}}};
+  for (const auto& [name, names] : choices)
+    if (CLI::Option* option = app.get_option_no_throw(name)) option->check(CLI::IsMember(names));
 }
 
 int run_method(const CLI::App& app, SegmentCloudOptions& o) {

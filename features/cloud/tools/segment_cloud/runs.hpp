@@ -101,6 +101,8 @@ void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o);  ///< --met
 void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o);  ///< grabcut-sfm's tuning options
 /// The ranges of grabcut-sfm's numeric options (after add_grabcut_sfm_options and its overrides).
 void add_grabcut_sfm_ranges(CLI::App& app);
+/// The names each naming option takes (--method, --solver, --cluster, ...), checked by the parser.
+void add_choices(CLI::App& app);
 /// Runs the method the options ask for (or writes a synthetic tabletop cloud); the exit status.
 int run_method(const CLI::App& app, SegmentCloudOptions& o);
 
