@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <pcl/ModelCoefficients.h>
 #include <pcl/PointIndices.h>
+#include <pcl/console/print.h>
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
 #include <pcl/sample_consensus/method_types.h>
@@ -163,7 +164,12 @@ MrfSeeds plane_seeds(const ColouredCloud& cloud, const PlaneSeedParams& params) 
   sac.setInputCloud(xyz);
   pcl::PointIndices inliers;
   pcl::ModelCoefficients coeffs;
+  // PCL prints a line per rejected sample (a thousand for a cloud along a line); what matters, no plane,
+  // is said below in one line.
+  const auto pcl_level = pcl::console::getVerbosityLevel();
+  pcl::console::setVerbosityLevel(pcl::console::L_ALWAYS);  // its "sample not good" lines are errors too
   sac.segment(inliers, coeffs);
+  pcl::console::setVerbosityLevel(pcl_level);
   if (inliers.indices.size() < 3 || coeffs.values.size() != 4)
     throw Error("", "seeds", "RANSAC found no supporting plane");
   const Eigen::Vector4d plane(coeffs.values[0], coeffs.values[1], coeffs.values[2], coeffs.values[3]);
