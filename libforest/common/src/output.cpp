@@ -220,11 +220,12 @@ OutputLock::OutputLock(const fs::path& output, const std::vector<fs::path>& inpu
   path_ = lock_file_of(output);
   std::error_code ec;
   fs::create_directories(path_.parent_path(), ec);
+  if (ec) throw Error(output.string(), "", "cannot be written: its folder cannot be created (" + ec.message() + ")");
   // The holder removes the lock file when it is done; a process that opened the file before that must
   // not hold a lock on a removed file while a third creates a new one: it retries on the name's file.
   for (;;) {
     fd_ = ::open(path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC, 0644);
-    if (fd_ < 0) throw Error(path_.string(), "", std::string("cannot open the output's lock file: ") + std::strerror(errno));
+    if (fd_ < 0) throw Error(output.string(), "", std::string("cannot be written there (") + std::strerror(errno) + ")");
     if (::flock(fd_, LOCK_EX | LOCK_NB) != 0) {
       const std::string holder = holder_of(fd_);
       ::close(fd_);
