@@ -60,7 +60,8 @@ TEST(SegmentCloudTool, TabletopCentroidMinCutAndMrf) {
   EXPECT_EQ(r.status, 1);
   EXPECT_NE(r.out.find("noseeds.json"), std::string::npos) << r.out;
   r = run(kTool + " " + cloud + " --method watershed -o " + (dir / "x.pcd").string());
-  EXPECT_EQ(r.status, 1);
+  EXPECT_EQ(r.status, 2) << r.out;  // bad usage, found by the parser
+  EXPECT_NE(r.out.find("--method"), std::string::npos) << r.out;
   fs::remove_all(dir);
 }
 
