@@ -16,12 +16,14 @@ int run_centroid_mincut(const CentroidRun& run) {
   const std::string method = "centroid-mincut";
   const int truth_object = run.truth_object;
   cloud::CentroidMinCutParams mc = run.mc;
-  if (solver == "maxflow") mc.solver = cloud::MinCutSolver::MaxFlow;
-  else if (solver == "pcl") mc.solver = cloud::MinCutSolver::Pcl;
-  else throw Error("", "--solver", "\"" + solver + "\" is not a solver (maxflow or pcl)");
-  if (up == "x" || up == "y" || up == "z") mc.up = up[0] - 'x';
-  else throw Error("", "--up", "must be x, y or z");
-  mc.validate();
+  as_usage([&] {  // the options alone, before anything is read: bad usage (exit status 2)
+    if (solver == "maxflow") mc.solver = cloud::MinCutSolver::MaxFlow;
+    else if (solver == "pcl") mc.solver = cloud::MinCutSolver::Pcl;
+    else throw Error("", "--solver", "\"" + solver + "\" is not a solver (maxflow or pcl)");
+    if (up == "x" || up == "y" || up == "z") mc.up = up[0] - 'x';
+    else throw Error("", "--up", "must be x, y or z");
+    mc.validate();
+  });
   const cloud::ColouredCloud cloud = cloud::read_coloured_cloud(input);
   cloud::CentroidMinCutReport rep;
   std::vector<int> labels;

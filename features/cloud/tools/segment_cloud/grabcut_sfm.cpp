@@ -364,8 +364,10 @@ std::string summary_line(int frame, const smseg::cloud::GrabCutSfmReport& rep) {
 /// writes the mask (out), OUT-stem.overlay.png, the baselines' masks and out + ".json".
 int run_grabcut_sfm(const GrabCutSfmCli& cli) {
   GrabCutSfmCli o = cli;
-  resolve_choices(o);
-  check_options(o);
+  smseg::as_usage([&] {  // the options alone, before anything is read: bad usage (exit status 2)
+    resolve_choices(o);
+    check_options(o);
+  });
   const Frame f = load_frame(o);
   resolve_scene_defaults(o, f);
   std::string cloud_path;

@@ -49,8 +49,10 @@ int run_mrf_on_cloud(const MrfCloudRun& run) {
   const std::string method = "mrf";
   const cloud::MrfParams& mrf = run.mrf;
   const cloud::PlaneSeedParams& plane = run.plane;
-  mrf.validate();
-  plane.validate();
+  as_usage([&] {  // the options alone, before anything is read: bad usage (exit status 2)
+    mrf.validate();
+    plane.validate();
+  });
   const cloud::ColouredCloud cloud = cloud::read_coloured_cloud(input);
   const auto t0 = std::chrono::steady_clock::now();
   cloud::MrfSeeds sd;

@@ -288,7 +288,7 @@ int run_method(const CLI::App& app, SegmentCloudOptions& o) {
   if (o.method == "mrf" && o.seeds == "saliency") {
     o.mrf.lambda = o.mrf_lambda;
     o.mrf.neighbours = 4;
-    o.mrf.validate();
+    as_usage([&] { o.mrf.validate(); });
     o.sal.input = o.input;
     o.sal.out = o.out;
     return run_saliency_mrf(o.sal, o.mrf);

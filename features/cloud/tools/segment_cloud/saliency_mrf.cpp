@@ -28,14 +28,16 @@ struct SaliencyInput {
 };
 
 SaliencyInput load_saliency_input(const SaliencyRun& run) {
-  if (run.sequence.empty() || run.work.empty() || run.frame < 0)
-    throw Error("", run.sequence.empty() ? "--sequence" : run.work.empty() ? "--work" : "--frame",
-                "--seeds saliency needs --sequence SEQ, --work WORK and --frame N (N >= 0)");
-  run.saliency.validate();
-  run.projection.validate();
-  if (run.min_seed_points < 1) throw Error("", "--min-seed-points", "must be at least 1");
-  if (!(run.split_distance >= 0)) throw Error("", "--seed-split", "must be >= 0 metres (0: no split)");
-  if (!(run.split_colour > 0)) throw Error("", "--seed-split-colour", "must be positive");
+  as_usage([&] {  // the options alone, before anything is read: bad usage (exit status 2)
+    if (run.sequence.empty() || run.work.empty() || run.frame < 0)
+      throw Error("", run.sequence.empty() ? "--sequence" : run.work.empty() ? "--work" : "--frame",
+                  "--seeds saliency needs --sequence SEQ, --work WORK and --frame N (N >= 0)");
+    run.saliency.validate();
+    run.projection.validate();
+    if (run.min_seed_points < 1) throw Error("", "--min-seed-points", "must be at least 1");
+    if (!(run.split_distance >= 0)) throw Error("", "--seed-split", "must be >= 0 metres (0: no split)");
+    if (!(run.split_colour > 0)) throw Error("", "--seed-split-colour", "must be positive");
+  });
   SaliencyInput in{load_sequence(run.sequence), fs::path(run.work), {}, {}, {}, 0};
   const Sequence& seq = in.seq;
   if (run.frame >= seq.frame_count())
