@@ -9,6 +9,7 @@ SMSEG_PACKAGES=(
   libeigen3-dev libopencv-dev libopencv-contrib-dev libpcl-dev libtbb-dev
   nlohmann-json3-dev libcli11-dev libgtest-dev libgmock-dev libbenchmark-dev libmaxflow-dev
   libhwy-dev   # Google Highway, headers only: the classifier's SIMD kernels (libforest/src/forest_simd.cpp)
+  libzstd-dev  # the stacks' values files (features/stacks/src/frame_values.cpp)
   python3-matplotlib python3-numpy jupyter-nbconvert python3-nbformat python3-ipykernel
   libceres-dev libgoogle-glog-dev libsuitesparse-dev
   python3-dev python3-pybind11 python3-pytest python3-sklearn python3-pandas  # pandas: the DataFrame checks of check_estimator
