@@ -208,3 +208,25 @@ TEST_F(LabelStream, RefusesForestsItCannotFeed) {
 }
 
 }  // namespace
+
+// Black (featureless) frames: nothing to track, every frame labelled from the class prior alone. That
+// is said (a warning, and summary.json's frames_without_points), not passed over with exit 0 alone.
+TEST_F(LabelStream, FramesWithoutATrackedPointAreSaid) {
+  const StreamCase c{"black", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt};
+  const fs::path forest_file = dir / "forest-black.json";
+  forest::save_forest(causal_forest(c, dir / "work-black"), forest_file);
+  fs::create_directories(dir / "black");
+  const cv::Mat black = cv::Mat::zeros(seq->size, CV_8UC1);
+  for (int f = 0; f < 5; ++f) {
+    char name[16];
+    std::snprintf(name, sizeof name, "%06d.png", f);
+    ASSERT_TRUE(cv::imwrite((dir / "black" / name).string(), black));
+  }
+  const std::string frames = (dir / "black" / "%06d.png").string();
+  const test::Outcome r = test::run(test::tool("label-stream") + " " + (dir / "seq").string() + " " +
+                                    forest_file.string() + " -q --cameras " + frames + "," + frames + " -o " +
+                                    (dir / "black-out").string());
+  ASSERT_EQ(r.status, 0) << r.out;
+  EXPECT_NE(r.out.find("label-stream: warning: 5 of 5 frames had no tracked point"), std::string::npos) << r.out;
+  EXPECT_EQ(read_json(dir / "black-out" / "summary.json")["frames_without_points"].get<int>(), 5);
+}
