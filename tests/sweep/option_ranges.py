@@ -19,7 +19,6 @@ import argparse
 import concurrent.futures
 import functools
 import json
-import math
 import os
 import re
 import resource
@@ -58,11 +57,9 @@ def tool_options(bin_dir, tool):
         if not m or m["name"] in ("-h", "--help"):
             continue
         r = RANGE.search(m["rest"])
-        nonneg = "NONNEGATIVE" in m["rest"] or "POSITIVE" in m["rest"]
         lo, hi = (r["lo"], r["hi"]) if r else (None, None)
         aliases = [m["name"]] + ([m["short"]] if m["short"] else [])
-        options.append({"name": m["name"], "aliases": aliases, "type": m["type"], "lo": lo, "hi": hi,
-                        "nonnegative_only": nonneg})
+        options.append({"name": m["name"], "aliases": aliases, "type": m["type"], "lo": lo, "hi": hi})
     return options
 
 
@@ -75,7 +72,7 @@ def step_outside(text, up, integer):
     return repr(x + d if up else x - d)
 
 
-def cases_of(tool, opt, outside_only):
+def cases_of(opt, outside_only):
     """(kind, value, expectation) for one option: expectation 'refused' or 'runs'."""
     integer = opt["type"] in ("INT", "UINT")
     out = []
@@ -233,7 +230,7 @@ def all_cases(bin_dir, tools, outside_only):
             if opt["lo"] is None:
                 unranged.append({"tool": tool, "option": opt["name"], "type": opt["type"]})
             help_text = option_help_text(bin_dir, tool, opt["name"])
-            for kind, value, expect in cases_of(tool, opt, outside_only):
+            for kind, value, expect in cases_of(opt, outside_only):
                 cases.append({"tool": tool, "option": opt, "kind": kind, "value": value, "expect": expect,
                               "base": base_command(tool, help_text, opt["aliases"])})
     return cases, unranged

@@ -144,7 +144,7 @@ void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o) {
   app.add_option("--dense-cloud", o.gc.dense_cloud,
                  "grabcut-sfm, stereo sequences: cluster the frame's own dense depth (eight-path SGBM, as extract-features "
                  "--dense), one point every this many pixels, instead of the tracked cloud")
-      ->check(CLI::Range(1, 64));
+      ->check(options::in_range(1, 64));
   app.add_option("--window", o.gc.window,
                  "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
                  "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "
