@@ -49,7 +49,7 @@ int main(int argc, char** argv) {
     option_of["width"] = "--size (width)";
     option_of["height"] = "--size (height)";
     smseg::validate_options(option_of, [&] { o.validate(); });
-    const smseg::OutputLock one_writer(out, {montage});
+    const smseg::OutputLock one_writer(out);  // no inputs (--montage is a second output, often inside OUT)
     const Sequence seq = smseg::synth::make_sequence(o, out);
     if (!montage.empty()) {
       std::vector<int> frames;
