@@ -37,6 +37,12 @@ void declare_voting(options::Table<O>& t) {
   t.number("trees", "--trees", "use only the first m trees of the forest (0: all)", +[](O& o) -> int& { return o.trees; },
            0, 100000)
       .checked_as("--trees");
+  t.number("prior_power", "--prior-power",
+           "class prior correction: each class's posterior divided by its training prior (the forest's leaf "
+           "class frequencies) to this power: 0 none, 1 a flat prior; trades global accuracy for class average",
+           +[](O& o) -> double& { return o.prior_power; }, 0.0, 4.0)
+      .checked_as("--prior-power")
+      .recorded_unless_default();
   t.number("tolerance", "--tolerance",
            "T of the boundary-tolerant accuracy: a wrong pixel within T px (Euclidean) of a true region of its "
            "output class counts as a near miss; also the match distance of the boundary F1",

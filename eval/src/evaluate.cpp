@@ -137,8 +137,15 @@ void EvalOptions::validate() const {
   if (votes < 1) throw Error("", "--votes", "must be at least 1 (the region's size or more: every pixel votes)");
   if (trees < 0) throw Error("", "--trees", "must be 0 (every tree) or a number of trees");
   if (tolerance < 0 || tolerance > 1000) throw Error("", "--tolerance", "must be 0..1000 pixels");
+  if (!(prior_power >= 0 && prior_power <= 4)) throw Error("", "--prior-power", "must be 0..4");
   smooth.validate();
   if (smooth.enabled() && voting()) throw Error("", "--smooth", "smooths the per-pixel output: no --grid or --superpixels");
+}
+
+forest::Classifier make_classifier(const forest::Forest& forest, const EvalOptions& opt) {
+  if (opt.prior_power == 0) return forest::Classifier(opt.trees > 0 ? first_trees(forest, opt.trees) : forest);
+  const std::vector<double> weights = forest::prior_correction(forest, opt.prior_power);
+  return forest::Classifier(opt.trees > 0 ? first_trees(forest, opt.trees) : forest, weights);
 }
 
 forest::Forest first_trees(const forest::Forest& forest, int m, const std::string& option) {
@@ -326,7 +333,7 @@ EvalResult evaluate(const forest::Forest& forest, const stacks::StackSet& set, c
   const std::string without_points = check_points(set);
   if (opt.costs && opt.costs->classes != forest.classes)
     throw Error(opt.costs_file, "classes", "the cost matrix was not made for this forest's classes");
-  const forest::Classifier classifier(opt.trees > 0 ? first_trees(forest, opt.trees) : forest);
+  const forest::Classifier classifier = make_classifier(forest, opt);
   const int C = static_cast<int>(forest.classes.size());
 
   // Pictures need the sequences (input images, class colours).
@@ -451,18 +458,20 @@ json per_class_json(const Confusion& confusion, const std::vector<std::string>& 
 
 // How the evaluation ran.
 json params_json(const forest::Forest& forest, const EvalOptions& opt, const std::vector<std::string>& works) {
-  return {{"works", works},
-          {"test_frames", opt.frames.str()},
-          {"mode", opt.mode()},
-          {"grid", opt.grid},
-          {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
-          {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
-          {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
-          {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
-          {"tolerance", opt.tolerance},
-          {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
-          {"smooth", opt.smooth.to_json()},
-          {"seed", opt.seed}};
+  json params = {{"works", works},
+                 {"test_frames", opt.frames.str()},
+                 {"mode", opt.mode()},
+                 {"grid", opt.grid},
+                 {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
+                 {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
+                 {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
+                 {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
+                 {"tolerance", opt.tolerance},
+                 {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
+                 {"smooth", opt.smooth.to_json()},
+                 {"seed", opt.seed}};
+  if (opt.prior_power != 0) params["prior_power"] = opt.prior_power;  // absent: none (as older results)
+  return params;
 }
 
 json forest_json(const forest::Forest& forest) {

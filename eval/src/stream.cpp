@@ -52,7 +52,7 @@ StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& 
                                const sequence::Calibration& calibration, std::optional<double> camera_height,
                                cv::Size size, const StreamOptions& options, const std::string& source)
     : table_of_feature_(checked_feature_tables(forest, forest_file, size, options, source)),
-      classifier_(options.eval.trees > 0 ? first_trees(forest, options.eval.trees) : forest),
+      classifier_(make_classifier(forest, options.eval)),
       eval_(options.eval),
       size_(size),
       front_end_(calibration, camera_height, options.front_end, source),

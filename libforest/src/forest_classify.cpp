@@ -86,6 +86,18 @@ Classifier::Classifier(const Forest& forest)
   simd_ = detail::default_simd_kernels();
 }
 
+Classifier::Classifier(const Forest& forest, const std::vector<double>& class_weights) : Classifier(forest) {
+  if (class_weights.size() != static_cast<std::size_t>(num_classes_))
+    throw Error("", "class_weights", "expected one weight per class (" + std::to_string(num_classes_) + ")");
+  for (double w : class_weights)
+    if (!(w >= 0.0) || !std::isfinite(w)) throw Error("", "class_weights", "expected finite weights >= 0");
+  // Each leaf row scaled: the trees' sum is then the weighted sum, on every path (scalar, tiles, SIMD).
+  for (std::size_t row = 0; row < leaf_probs_.size(); row += static_cast<std::size_t>(padded_classes_))
+    for (int c = 0; c < num_classes_; ++c)
+      leaf_probs_[row + static_cast<std::size_t>(c)] =
+          static_cast<float>(leaf_probs_[row + static_cast<std::size_t>(c)] * class_weights[static_cast<std::size_t>(c)]);
+}
+
 void Classifier::check_frame(const FrameData& frame) const {
   validate_frame(frame, width_, height_, static_cast<std::size_t>(num_features_), textons_, "frame", "frame");
 }

@@ -206,6 +206,31 @@ void check_compatible(const Forest& forest, const std::vector<std::string>& clas
                 "the forest uses features " + join(forest.features) + " but the data has " + join(features));
 }
 
+std::vector<double> class_prior(const Forest& forest) {
+  std::vector<double> prior(forest.classes.size(), 0.0);
+  for (const Tree& tree : forest.trees)
+    for (const Node& node : tree.nodes)
+      if (node.is_leaf())
+        for (std::size_t c = 0; c < node.counts.size() && c < prior.size(); ++c) prior[c] += node.counts[c];
+  double total = 0.0;
+  for (double n : prior) total += n;
+  if (total > 0.0)
+    for (double& p : prior) p /= total;
+  return prior;
+}
+
+std::vector<double> prior_correction(const Forest& forest, double power) {
+  if (!(power >= 0.0) || !std::isfinite(power)) throw Error("", "prior_power", "expected a finite power >= 0");
+  const std::vector<double> prior = class_prior(forest);
+  double smallest = 0.0;
+  for (double p : prior)
+    if (p > 0.0 && (smallest == 0.0 || p < smallest)) smallest = p;
+  std::vector<double> weights(prior.size(), 1.0);
+  for (std::size_t c = 0; c < prior.size(); ++c)
+    if (prior[c] > 0.0) weights[c] = std::pow(smallest / prior[c], power);
+  return weights;
+}
+
 WindowHistograms learned_windows(const std::vector<Forest>& forests) {
   if (forests.empty()) throw Error("", "forests", "no forest to learn windows from");
   WindowHistograms h = WindowHistograms::zeros(forests.front().stats.windows.bounds);

@@ -323,3 +323,68 @@ TEST(Classifier, FramesThatDoNotFitAreRefused) {
   std::vector<std::uint8_t> l1(1);
   EXPECT_THROW(clf.classify_pixels(s.data.frames[0], outside, l1), smseg::Error);
 }
+
+TEST(Classifier, ClassPriorIsTheLeavesShareOfTrainingTests) {
+  Forest f;
+  f.width = f.height = 4;
+  f.classes = {"a", "b", "c"};
+  Tree t;
+  t.nodes.resize(3);
+  t.nodes[0].feature = 0;
+  t.nodes[0].left = 1;
+  t.nodes[0].right = 2;
+  t.nodes[1].counts = {6, 2, 0};
+  t.nodes[2].counts = {0, 2, 0};
+  f.trees = {t};
+  const std::vector<double> prior = class_prior(f);
+  EXPECT_EQ(prior, (std::vector<double>{0.6, 0.4, 0.0}));
+  EXPECT_EQ(prior_correction(f, 0.0), (std::vector<double>{1.0, 1.0, 1.0}));
+  // Power 1: posterior / prior, scaled so that the largest weight is 1; a class never seen keeps 1.
+  const std::vector<double> w = prior_correction(f, 1.0);
+  EXPECT_DOUBLE_EQ(w[0], 0.4 / 0.6);
+  EXPECT_DOUBLE_EQ(w[1], 1.0);
+  EXPECT_DOUBLE_EQ(w[2], 1.0);
+  EXPECT_THROW(prior_correction(f, -1.0), smseg::Error);
+  EXPECT_THROW(prior_correction(f, std::nan("")), smseg::Error);
+}
+
+TEST(Classifier, WeightedClassesGiveTheWeightedPosteriorOnEveryPath) {
+  const SyntheticData s = frames(2, 5, false);
+  const Forest f = random_forest(s, 7, false);
+  const std::size_t C = f.classes.size();
+  std::vector<double> w(C, 1.0);
+  w[0] = 0.25;  // the first class four times less likely: it must lose pixels, and only it
+  const Classifier plain(f);
+  const std::size_t W = static_cast<std::size_t>(s.data.width), H = static_cast<std::size_t>(s.data.height);
+  std::vector<std::uint8_t> plain_labels(W * H);
+  std::vector<float> plain_dists(W * H * C);
+  plain.classify_frame(s.data.frames[0], plain_labels, plain_dists);
+  for (const std::string& target : Classifier::simd_targets()) {
+    SCOPED_TRACE("SIMD target " + target);
+    Classifier weighted(f, w);
+    weighted.set_simd_target(target);
+    std::vector<std::uint8_t> labels(W * H);
+    std::vector<float> dists(W * H * C);
+    weighted.classify_frame(s.data.frames[0], labels, dists);
+    std::size_t mismatches = 0, lost = 0, gained = 0;
+    std::vector<float> ref(C);
+    for (std::size_t y = 0; y < H; ++y)
+      for (std::size_t x = 0; x < W; ++x) {
+        const std::size_t i = y * W + x;
+        mismatches += labels[i] != weighted.posterior(s.data.frames[0], static_cast<int>(x), static_cast<int>(y), ref.data());
+        for (std::size_t c = 0; c < C; ++c) {
+          mismatches += dists[i * C + c] != ref[c];
+          // Class 0's sums are a quarter of the unweighted ones (to float rounding); the others unchanged.
+          const float expected = c == 0 ? plain_dists[i * C] * 0.25f : plain_dists[i * C + c];
+          mismatches += std::abs(dists[i * C + c] - expected) > 1e-5f * (1 + expected);
+        }
+        lost += plain_labels[i] == 0 && labels[i] != 0;
+        gained += plain_labels[i] != 0 && labels[i] == 0;
+      }
+    EXPECT_EQ(mismatches, 0u);
+    EXPECT_GT(lost, 0u);
+    EXPECT_EQ(gained, 0u);
+  }
+  EXPECT_THROW(Classifier(f, std::vector<double>(C + 1, 1.0)), smseg::Error);
+  EXPECT_THROW(Classifier(f, std::vector<double>(C, -1.0)), smseg::Error);
+}

@@ -54,6 +54,7 @@ struct EvalOptions {
   int votes = 6;                ///< V: distinct random pixels per region that vote (>= region size: all)
   VoteRule vote = VoteRule::Sum;
   int trees = 0;                ///< 0: every tree; m: only the first m trees of the forest
+  double prior_power = 0;       ///< posterior / prior^power (forest::prior_correction); 0: none
   int tolerance = 3;            ///< T of the boundary-tolerant accuracy, pixels (Euclidean), >= 0
   std::optional<CostMatrix> costs;  ///< class-to-class costs: the mean cost per pixel is reported
   std::string costs_file;       ///< where the costs came from (reported only)
@@ -114,6 +115,10 @@ struct EvalResult {
   nlohmann::json to_json(const forest::Forest& forest, const EvalOptions& opt,
                          const std::vector<std::string>& works) const;
 };
+
+/// The classifier an evaluation with `opt` uses: the first opt.trees trees, the class prior corrected by
+/// opt.prior_power (from the whole forest's leaves).
+forest::Classifier make_classifier(const forest::Forest& forest, const EvalOptions& opt);
 
 /// The forest restricted to its first m trees (1 <= m <= trees; Error naming `option` otherwise).
 forest::Forest first_trees(const forest::Forest& forest, int m, const std::string& option = "--trees");

@@ -49,6 +49,9 @@ struct WindowCorners {
 class Classifier {
  public:
   explicit Classifier(const Forest& forest);
+  /// With each class's leaf probability multiplied by class_weights[c] (one per class, >= 0): labels
+  /// and distributions are then those of the weighted posterior (prior_correction in forest.hpp).
+  Classifier(const Forest& forest, const std::vector<double>& class_weights);
 
   int num_classes() const { return num_classes_; }
   int width() const { return width_; }

@@ -78,6 +78,16 @@ Forest load_forest(const std::filesystem::path& path);
 void check_compatible(const Forest& forest, const std::vector<std::string>& classes,
                       const std::vector<std::string>& features, const std::filesystem::path& file);
 
+/// The class frequencies the trees were grown from: each class's share of the training tests that
+/// reached the leaves, over all trees (sums to 1; a class no test had gets 0). With balanced training
+/// (TrainParams::balance) it is the balanced sample's prior, the one the leaf distributions carry.
+std::vector<double> class_prior(const Forest& forest);
+
+/// Weights that correct the forest's class prior at test time: w[c] = (prior_min / prior[c])^power,
+/// so that argmax_c w[c] p(c|x) is argmax_c p(c|x) / prior[c]^power (0: w = 1, no correction; 1: the
+/// posterior under a flat prior). The largest weight is 1; a class with no training test gets 1.
+std::vector<double> prior_correction(const Forest& forest, double power);
+
 /// The learned window law: the sum of the forests' chosen-window histograms (all must share the
 /// same window bounds, else Error). Use as TrainParams::windows.learned with mode Learned.
 WindowHistograms learned_windows(const std::vector<Forest>& forests);
