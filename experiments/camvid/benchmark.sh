@@ -35,7 +35,9 @@
 # Training frames are extracted with --require-label (the training filters); test frames without it,
 # so no test label reaches the test features.
 # Environment: SMSEG_BIN (the tools; default build/bin, built with CMake when a tool is missing there),
-# SMSEG_KT, SMSEG_M (smaller values for a quick check), SMSEG_JOBS (extractions at once; default: cores).
+# SMSEG_KT, SMSEG_M (smaller values for a quick check), SMSEG_JOBS (extractions at once; default: cores),
+# SMSEG_CROSS_VALIDATION (a cross-validate.sh record, OUT/cross-validation.json: each run's fold means are
+# printed beside its figures and kept in summary.json as "fold_means").
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
 
@@ -175,4 +177,6 @@ echo "== 5/5 eval-forest on $test_split"
 "$bin/eval-forest" "$out/forests/combined_context.json" "${combined_context_test[@]}" --smooth graphcut --no-pictures \
   -q -o "$out/eval/combined"
 
-python3 "$summary_py" summary "$out" --train "$train_splits" --test "$test_split" --kt "$kt" --trees "$trees"
+cv=()
+[[ -n "${SMSEG_CROSS_VALIDATION:-}" ]] && cv=(--cross-validation "$SMSEG_CROSS_VALIDATION")
+python3 "$summary_py" summary "$out" --train "$train_splits" --test "$test_split" --kt "$kt" --trees "$trees" "${cv[@]}"

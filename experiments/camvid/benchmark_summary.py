@@ -5,9 +5,11 @@
                                                           runs the commands one after the other (each
                                                           must succeed), writes their wall seconds and
                                                           peak resident set (MB) to RECORD.json
-  benchmark_summary.py summary OUT --train S --test S --kt N --trees M
+  benchmark_summary.py summary OUT --train S --test S --kt N --trees M [--cross-validation CV.json]
                                                           prints the table of OUT/eval/*/results.json
-                                                          and writes OUT/summary.json
+                                                          and writes OUT/summary.json; with a
+                                                          cross_validate.py record, each run's fold
+                                                          means (prior power 0) beside its figures
 """
 import argparse
 import json
@@ -58,7 +60,26 @@ def load(path):
         sys.exit(f"benchmark.sh: {path}: {e}")
 
 
-def summary(out, train, test, kt, trees):
+def fold_means(path):
+    """Each run's fold means and spreads at prior power 0 from a cross_validate.py record ({} without)."""
+    if not path:
+        return {}
+    record = load(path)
+    return {name: per_power["0"] for name, per_power in record.get("summary", {}).items() if "0" in per_power}
+
+
+def print_fold_means(runs, folds, test):
+    """The protocol's fold means beside the figures of this run's test split."""
+    cell = lambda e, m: f"{100 * e[m]['mean']:.1f} ± {100 * e[m]['spread']:.1f}"
+    print(f"Leave-one-run-out fold means ± spread (train and val runs, each held out at 1 Hz) beside {test}:")
+    for name, run in runs.items():
+        e = folds.get(name)
+        cv = (f"{cell(e, 'global')} / {cell(e, 'class_average')} / {cell(e, 'mean_iou')}" if e else "not cross-validated")
+        print(f"  {name:17s} folds {cv:40s}  {test} {100 * run['global_accuracy']:.1f} / "
+              f"{100 * run['class_average_accuracy']:.1f} / {100 * run['mean_iou']:.1f}")
+
+
+def summary(out, train, test, kt, trees, cross_validation=None):
     runs = {}
     for name, folder, trainings, title in RUNS:
         r = load(os.path.join(out, "eval", folder, "results.json"))
@@ -89,6 +110,12 @@ def summary(out, train, test, kt, trees):
           " accuracies in %, per-class columns are per-class accuracy")
     for row in [head] + rows:
         print("  ".join(str(v).rjust(w) if i else str(v).ljust(w) for i, (v, w) in enumerate(zip(row, widths))))
+    folds = fold_means(cross_validation)
+    if folds:
+        print_fold_means(runs, folds, test)
+        for name, e in folds.items():
+            if name in runs:
+                runs[name]["fold_means"] = {m: e[m] for m in ("global", "class_average", "mean_iou")}
     write_json_atomic(os.path.join(out, "summary.json"),
                       {"format": "smseg-camvid-benchmark", "version": 1, "train": train.split(","), "test": test,
                        "Kt": kt, "M": trees, "runs": runs})
@@ -117,8 +144,9 @@ def main():
     s.add_argument("--test", required=True)
     s.add_argument("--kt", type=int, required=True)
     s.add_argument("--trees", type=int, required=True)
+    s.add_argument("--cross-validation", help="a cross_validate.py record (cross-validation.json)")
     a = p.parse_args()
-    summary(a.out, a.train, a.test, a.kt, a.trees)
+    summary(a.out, a.train, a.test, a.kt, a.trees, a.cross_validation)
 
 
 if __name__ == "__main__":

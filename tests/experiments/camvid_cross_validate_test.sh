@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# experiments/camvid/cross-validate.sh end to end on a small CamVid folder cut from ../shared/data/camvid:
+# two 1 Hz train runs of 16 frames and val frames 0-29 (15 Hz, so held out it is cut into 15 phases of
+# 1 Hz); tiny forests (Kt = 1000, M = 2), two prior powers, one run with auto-context. Checks every fold,
+# the fold means, that the faster run is scored at 1 Hz with its whole self beside, that a held-out run
+# was extracted without its labels' filters, and that a bad config is one line and exit 1.
+# Usage: camvid_cross_validate_test.sh SOURCE_DIR BIN_DIR SHARED_DIR     (exit 77: no CamVid, skipped)
+set -euo pipefail
+src=$1 bin=$2 shared=$3
+camvid="$shared/data/camvid"
+[[ -f "$camvid/frames.csv" ]] || { echo "no CamVid under $shared/data: skipped"; exit 77; }
+tmp="$(mktemp -d)"
+trap 'rm -rf "$tmp"' EXIT
+
+mini="$tmp/camvid"
+mkdir -p "$mini"
+for d in train trainannot val valannot; do ln -s "$camvid/$d" "$mini/$d"; done
+cp "$camvid/classes.csv" "$mini/"
+{
+  head -1 "$camvid/frames.csv"
+  awk -F, '$1 == "0016E5" && $3 == "train" && $2 >= 8190 && $2 <= 8640' "$camvid/frames.csv"
+  awk -F, '$1 == "0001TP" && $3 == "train" { n++; if (n <= 16) print }' "$camvid/frames.csv"
+  awk -F, '$3 == "val" { n++; if (n <= 30) print }' "$camvid/frames.csv"
+} >"$mini/frames.csv"
+
+cat >"$tmp/config.json" <<'JSON'
+{"forest": ["-K", "100", "--Kt", "1000", "-M", "2", "--seed", "1"],
+ "prior_power": [0, 1],
+ "runs": {"six": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR"]},
+          "six_context": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR"], "context": [], "eval": ["--smooth", "graphcut"]}}}
+JSON
+SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/config.json" --jobs 2 \
+  >"$tmp/stdout.txt"
+cat "$tmp/stdout.txt"
+/usr/bin/python3 - "$tmp/out" <<'PY'
+import glob, json, os, sys
+out = sys.argv[1]
+r = json.load(open(os.path.join(out, "cross-validation.json")))
+runs = ["0001TP_006690-007140", "0016E5_07959-08017", "0016E5_08190-08640"]
+assert sorted(r["folds"]) == ["six", "six_context"], r["folds"].keys()
+for name, folds in r["folds"].items():
+    assert sorted(folds) == runs, (name, sorted(folds))
+    for held, f in folds.items():
+        fast = held == "0016E5_07959-08017"
+        assert sorted(f) == sorted(["fold@0", "fold@1"] + (["whole@0", "whole@1"] if fast else [])), (held, f.keys())
+        for key, e in f.items():
+            for m in ("global", "class_average", "mean_iou"):
+                assert 0.0 <= e[m] <= 1.0, (name, held, key, m, e[m])
+        # The prior correction moves pixels to the rarer classes: the figures differ.
+        assert f["fold@0"] != f["fold@1"], (name, held)
+    for power, s in r["summary"][name].items():
+        values = [folds[h][f"fold@{power}"]["global"] for h in runs]
+        assert abs(s["global"]["mean"] - sum(values) / 3) < 1e-12, (name, power)
+        assert s["global"]["spread"] > 0, (name, power)
+        assert list(s["whole"]) == ["0016E5_07959-08017"], s["whole"].keys()
+# The 15 Hz run held out: 15 phases of two frames, scored together (30 frames), at 1 Hz spacing.
+results = json.load(open(os.path.join(out, "folds", "0016E5_07959-08017", "six", "eval-fold-p0", "results.json")))
+assert len(results["per_frame"]) == 30 and len(results["params"]["works"]) == 15, len(results["per_frame"])
+# Held-out runs are extracted without --require-label, training runs with it.
+for side, wanted in (("train", True), ("test", False)):
+    for stacks in glob.glob(os.path.join(out, "work", side, "*", "stacks.json")):
+        filters = json.load(open(stacks))["options"]["front_end"]["sfm"]["filters"]
+        assert bool(filters.get("require_label")) == wanted, (stacks, filters)
+print("cross-validation.json: ok")
+PY
+grep -q "| six | 1 |" "$tmp/out/cross-validation.md" || { echo "FAIL: no table row for six at power 1"; exit 1; }
+
+# A config naming an unknown key is one line naming the file and key, exit 1.
+echo '{"runs": {"a": {"train": []}}, "folds": 3}' >"$tmp/bad.json"
+set +e
+SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/bad.json" 2>"$tmp/err.txt"
+code=$?
+set -e
+[[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "bad.json: folds: unknown key" "$tmp/err.txt" ||
+  { echo "FAIL: bad config gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
+echo "bad config: ok"
