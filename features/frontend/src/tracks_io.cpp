@@ -121,6 +121,19 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
   return j;
 }
 
+namespace {
+
+Json offset_estimate_json(const OffsetEstimate& e) {
+  return {{"kept", e.kept},
+          {"best_px", e.best},
+          {"extra_px", e.extra},
+          {"pairs", e.pairs},
+          {"median_error_none_px", e.error_none_px},
+          {"median_error_best_px", e.error_best_px}};
+}
+
+}  // namespace
+
 Json summary_to_json(const FrontEndSummary& s) {
   const FilterCounts& c = s.filters;
   auto share = [](long part, long whole) { return whole > 0 ? static_cast<double>(part) / whole : 0.0; };
@@ -182,15 +195,7 @@ Json summary_to_json(const FrontEndSummary& s) {
                   {"seconds_per_frame", {{"sfm", m.seconds_sfm}, {"bundle_adjustment", m.seconds_ba}}}};
   }
   if (!s.sfm) out["disparity_offset_px"] = s.disparity_offset;
-  if (s.offset_estimate) {
-    const OffsetEstimate& e = *s.offset_estimate;
-    out["disparity_offset_estimate"] = {{"kept", e.kept},
-                                        {"best_px", e.best},
-                                        {"extra_px", e.extra},
-                                        {"pairs", e.pairs},
-                                        {"median_error_none_px", e.error_none_px},
-                                        {"median_error_best_px", e.error_best_px}};
-  }
+  if (s.offset_estimate) out["disparity_offset_estimate"] = offset_estimate_json(*s.offset_estimate);
   if (s.gravity) {
     const GravityEstimate& g = *s.gravity;
     out["gravity"] = {{"up_before_levelling", {g.up.x(), g.up.y(), g.up.z()}},

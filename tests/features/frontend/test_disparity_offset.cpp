@@ -55,23 +55,21 @@ void driving_pairs(double offset, const StereoCamera& cam, std::vector<FrameObse
   }
 }
 
-StereoCamera kitti_like_camera() {
-  StereoCamera cam;
-  cam.fx = cam.fy = 707;
-  cam.cx = 610;
-  cam.cy = 185;
-  cam.baseline = 0.537;
-  return cam;
+// The estimate from the first `frames` of those pairs, with a KITTI-like rig.
+OffsetEstimate estimate_driving(double offset, std::size_t frames = 11) {
+  const StereoCamera cam{707, 707, 610, 185, 0.537};
+  std::vector<FrameObservations> obs;
+  std::vector<std::vector<cv::DMatch>> matches;
+  driving_pairs(offset, cam, obs, matches);
+  obs.resize(frames);
+  matches.resize(frames - 1);
+  return estimate_disparity_offset(obs, matches, cam);
 }
 
 }  // namespace
 
 TEST(DisparityOffset, GivesBackTheOffsetTakenOffTheDisparities) {
-  const StereoCamera cam = kitti_like_camera();
-  std::vector<FrameObservations> frames;
-  std::vector<std::vector<cv::DMatch>> matches;
-  driving_pairs(0.8, cam, frames, matches);
-  const OffsetEstimate est = estimate_disparity_offset(frames, matches, cam);
+  const OffsetEstimate est = estimate_driving(0.8);
   EXPECT_TRUE(est.kept) << est.best << " " << est.error_none_px << " " << est.error_best_px;
   EXPECT_EQ(est.pairs, 10);
   EXPECT_NEAR(est.extra, 0.8, 0.15);
@@ -79,17 +77,11 @@ TEST(DisparityOffset, GivesBackTheOffsetTakenOffTheDisparities) {
 }
 
 TEST(DisparityOffset, KeepsNothingForRightDisparitiesOrTooFewPairs) {
-  const StereoCamera cam = kitti_like_camera();
-  std::vector<FrameObservations> frames;
-  std::vector<std::vector<cv::DMatch>> matches;
-  driving_pairs(0.0, cam, frames, matches);
-  const OffsetEstimate est = estimate_disparity_offset(frames, matches, cam);
+  const OffsetEstimate est = estimate_driving(0.0);
   EXPECT_FALSE(est.kept);
   EXPECT_EQ(est.extra, 0.0);
   EXPECT_NEAR(est.best, 0.0, 0.15);
-  frames.resize(1);
-  matches.clear();
-  EXPECT_FALSE(estimate_disparity_offset(frames, matches, cam).kept);
+  EXPECT_FALSE(estimate_driving(0.8, 2).kept);  // one pair
 }
 
 TEST(DisparityOffset, ChoicesAreReadAndWrittenAndBadOnesNamed) {
