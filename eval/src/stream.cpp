@@ -4,6 +4,7 @@
 #include <chrono>
 #include <memory>
 
+#include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
 #include <tbb/task_arena.h>
 
@@ -71,6 +72,27 @@ cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, i
                 "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream is " +
                     std::to_string(size_.width) + "x" + std::to_string(size_.height));
   frame_ = front_end_.advance(std::move(pair));
+  return label_frame_(left, frame_index, times);
+}
+
+void StreamLabeller::calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first,
+                               const std::vector<int>& frame_indices, const Labelled& labelled) {
+  std::vector<cv::Mat> lefts;
+  for (const auto& p : first) {
+    if (p.left.size() != size_)
+      throw Error("", "frame " + std::to_string(frame_indices[lefts.size()]), "is not of the stream's size");
+    lefts.push_back(p.left);
+  }
+  std::vector<frontend::StreamFrame> frames = front_end_.calibrate(std::move(first));
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    frame_ = std::move(frames[i]);
+    StreamStageTimes times;
+    const cv::Mat labels = label_frame_(lefts[i], frame_indices[i], &times);
+    labelled(i, labels, times);
+  }
+}
+
+cv::Mat StreamLabeller::label_frame_(const cv::Mat& left, int frame_index, StreamStageTimes* times) {
   auto t0 = Clock::now();
   const std::vector<cv::Mat>& sats = features_.push(frame_);
   const double features_ms = ms_since(t0);
@@ -90,14 +112,51 @@ cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, i
   return labels;
 }
 
+namespace {
+
+struct StreamItem {
+  StreamInput input;
+  double read_ms = 0;
+  frontend::StereoFrontEndStream::Prepared prepared;
+};
+
+// A labeller that needs its calibration: the first frames read, prepared in parallel, calibrated on,
+// labelled and handed to the sink. False when the source ended among them.
+bool calibrate_on_first_frames(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, int& frames) {
+  std::vector<StreamItem> items;
+  bool more = true;
+  while (more && items.size() < static_cast<std::size_t>(frontend::kOffsetFrames)) {
+    StreamItem item;
+    item.input.arrived = Clock::now();
+    more = source(item.input);
+    item.read_ms = ms_since(item.input.arrived);
+    if (more) items.push_back(std::move(item));
+  }
+  tbb::parallel_for(std::size_t{0}, items.size(), [&](std::size_t i) {
+    tbb::this_task_arena::isolate([&] { items[i].prepared = labeller.prepare(items[i].input.left, items[i].input.right); });
+  });
+  std::vector<frontend::StereoFrontEndStream::Prepared> prepared;
+  std::vector<int> indices;
+  for (auto& item : items) {
+    prepared.push_back(std::move(item.prepared));
+    indices.push_back(item.input.index);
+  }
+  labeller.calibrate(std::move(prepared), indices, [&](std::size_t i, const cv::Mat& labels, const StreamStageTimes& t) {
+    StreamStageTimes times = t;
+    times.read = items[i].read_ms;
+    sink(items[i].input, labels, times);
+    ++frames;
+  });
+  return more;
+}
+
+}  // namespace
+
 int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight) {
-  struct Item {
-    StreamInput input;
-    double read_ms = 0;
-    frontend::StereoFrontEndStream::Prepared prepared;
-  };
+  using Item = StreamItem;
   using ItemPtr = std::shared_ptr<Item>;
   int frames = 0;
+  if (labeller.needs_calibration() && !calibrate_on_first_frames(labeller, source, sink, frames)) return frames;
   tbb::parallel_pipeline(
       std::max<std::size_t>(1, in_flight),
       tbb::make_filter<void, ItemPtr>(tbb::filter_mode::serial_in_order,

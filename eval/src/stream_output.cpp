@@ -172,6 +172,7 @@ Json stream_summary(const StreamRun& run, const StreamOptions& options, const St
           {"threads", run.threads},
           {"in_flight", run.in_flight},
           {"front_end", frontend::front_end_options_to_json(options.front_end)},
+          {"disparity_offset_px", run.disparity_offset},
           {"seconds", run.seconds},
           {"frames_per_second", n / run.seconds},
           {"latency_ms_median", log.latency_quantile(0.5)},

@@ -56,8 +56,9 @@ void add_options(CLI::App& app, Args& a) {
       ->check(options::in_range(1, 16));
   eval::eval_options_table().add_to(app, a.opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
   stacks::extract_options_table().add_to(app, a.front_end,
-                                           {"stereo", "num_disparities", "block_size", "keypoints", "max_keypoints",
-                                            "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height"});
+                                           {"stereo", "num_disparities", "block_size", "lr_check", "keypoints", "max_keypoints",
+                                            "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height",
+                                            "disparity_offset"});
   app.add_flag("--no-labels", a.no_labels, "do not write OUT/labels/ (timing the rest alone)");
   app.add_flag("--overlays", a.output.overlays, "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)");
   app.add_option("--overlay-video", a.output.video, "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)");
@@ -140,6 +141,7 @@ int label_stream(Args& a) {
       },
       static_cast<std::size_t>(a.in_flight));
   run.seconds = ms_since(wall0) / 1000;
+  run.disparity_offset = labeller.disparity_offset();
   writer.close();
   if (log.latency.empty()) throw Error(a.live() ? a.live_source() : a.seq_dir, "", "gave no frame");
   run.stopped_by_user = g_stop != 0;

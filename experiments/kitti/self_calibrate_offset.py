@@ -12,10 +12,13 @@ So, for a trial offset added to every disparity, each consecutive pair of frames
 that best reprojects its tracked points (pixel and disparity in the second frame; Gauss-Newton on a
 Huber loss, from the previous trial's motion), and the trial scores the median reprojection error over
 all pairs. The offset of least error (a parabola through the best trial and its neighbours, after a
-coarse and a fine pass) is printed, on top of the calibration's own disparity_offset (the tracks were
-made with it). Put the total into the sequence with `import-kitti --disparity-offset`. Needs numpy
-(Debian python3-numpy). The last line of the output is the estimate:
-  disparity offset: +0.80 px (calibration +0.00, extra +0.80)
+coarse and a fine pass) is printed, on top of the offset the tracks were made with (tracks.json's
+summary.disparity_offset_px, else the calibration's disparity_offset). Put the total into the
+sequence with `import-kitti --disparity-offset`. The stereo front end does the same from its first
+11 frames by default (`extract-features --disparity-offset auto`, docs/real-scale.md "KITTI front
+end"); this script uses all of a work folder's pairs. Needs numpy (Debian python3-numpy). The last
+line of the output is the estimate:
+  disparity offset: +0.80 px (tracks made with +0.00, extra +0.80)
 """
 import json
 import sys
@@ -134,7 +137,10 @@ def main(argv):
     except (OSError, ValueError, KeyError, TypeError) as e:
         sys.exit(f"self_calibrate_offset.py: error: {seq_file}: {e}")
     try:
-        pairs = consecutive_observations(json.load(open(tracks_file))["tracks"])
+        doc = json.load(open(tracks_file))
+        pairs = consecutive_observations(doc["tracks"])
+        summary = doc.get("summary") if isinstance(doc.get("summary"), dict) else {}
+        base = float(summary.get("disparity_offset_px", cal.get("disparity_offset", 0.0)))
     except (OSError, ValueError, KeyError, TypeError, IndexError) as e:
         sys.exit(f"self_calibrate_offset.py: error: {tracks_file}: not readable as tracks ({type(e).__name__}: {e})")
     if len(pairs) < 2:
@@ -142,8 +148,7 @@ def main(argv):
     table, extra = search(pairs, cal)
     for x in sorted(table):
         print(f"  extra {x:+.3f} px: median reprojection error {table[x]:.4f} px")
-    base = float(cal.get("disparity_offset", 0.0))
-    print(f"disparity offset: {base + extra:+.2f} px (calibration {base:+.2f}, extra {extra:+.2f})")
+    print(f"disparity offset: {base + extra:+.2f} px (tracks made with {base:+.2f}, extra {extra:+.2f})")
     return 0
 
 

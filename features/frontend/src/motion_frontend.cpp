@@ -134,8 +134,8 @@ struct FrameStage {
       in.disparity = frame_disparity(seq, f, o.stereo);
     } else {
       try {
+        // As computed: the offset is added to the observations once it is known (apply_offset).
         in.disparity = compute_disparity(in.left, seq.load_right_gray(f), o.stereo);
-        apply_disparity_offset(in.disparity, seq.calibration.disparity_offset);
       } catch (const Error& e) {
         if (!e.file().empty()) throw;
         throw Error(seq.manifest.string(), "frames[" + std::to_string(f) + "]", e.what());
@@ -246,6 +246,33 @@ void estimate_path(FrontEndResult& res, const std::vector<Track>& for_motion, co
   }
 }
 
+/// Observations of the first frames (at most kOffsetFrames) with the calibration's offset, and the
+/// matches between them: what the streamed front end sees before it holds its offset.
+OffsetEstimate self_calibrate(const FrameStage& st) {
+  const std::size_t m = std::min<std::size_t>(kOffsetFrames, st.obs.size());
+  std::vector<FrameObservations> first(st.obs.begin(), st.obs.begin() + static_cast<std::ptrdiff_t>(m));
+  for (auto& f : first) offset_observations(f, st.seq.calibration.disparity_offset, st.seq.calibration);
+  const std::vector<std::vector<cv::DMatch>> matches(st.matches.begin(),
+                                                     st.matches.begin() + static_cast<std::ptrdiff_t>(m > 0 ? m - 1 : 0));
+  return estimate_disparity_offset(first, matches, StereoCamera::from(st.seq.calibration));
+}
+
+/// Adds the run's disparity offset (disparity_offset.hpp) to every observation, as the calibration's
+/// offset added to the disparity maps would; computed disparities only (given ones are true already).
+void apply_offset(FrameStage& st, FrontEndSummary& s) {
+  if (st.o.stereo.method == StereoMethod::Given) return;
+  const sequence::Calibration& calib = st.seq.calibration;
+  switch (st.o.disparity_offset.mode) {
+    case DisparityOffsetChoice::Mode::Calibration: s.disparity_offset = calib.disparity_offset; break;
+    case DisparityOffsetChoice::Mode::Pixels: s.disparity_offset = st.o.disparity_offset.pixels; break;
+    case DisparityOffsetChoice::Mode::Auto:
+      s.offset_estimate = self_calibrate(st);
+      s.disparity_offset = calib.disparity_offset + s.offset_estimate->extra;
+      break;
+  }
+  for (auto& f : st.obs) offset_observations(f, s.disparity_offset, calib);
+}
+
 double mean_over(const std::vector<double>& v, int denom) {
   double a = 0;
   for (double x : v) a += x;
@@ -264,10 +291,11 @@ FrontEndResult run_stereo_front_end(const sequence::Sequence& seq, const FrontEn
   if (o.tracker == FrameTracker::Klt) track_klt(st);
   if (o.tracker == FrameTracker::Descriptors) track_descriptors(st);
   st.progress.finish();
+  FrontEndResult res;
+  apply_offset(st, res.summary);
   long keypoints = 0;
   for (const auto& f : st.obs) keypoints += static_cast<long>(f.pixels.size());
 
-  FrontEndResult res;
   res.first_frame = first;
   auto t0 = Clock::now();
   std::vector<Track> for_motion;

@@ -2,6 +2,7 @@
 
 #include "smseg/common/names.hpp"
 
+#include <array>
 #include <cmath>
 #include <string>
 
@@ -40,7 +41,8 @@ cv::Ptr<cv::StereoMatcher> make_matcher(const StereoOptions& o) {
     bm->setPreFilterCap(o.prefilter_cap);
     bm->setSpeckleWindowSize(o.speckle_window);
     bm->setSpeckleRange(o.speckle_range);
-    bm->setDisp12MaxDiff(-1);  // the explicit left-right check below does this job
+    // The mirrored check is made below (compute_disparity); the matcher's own from its costs.
+    bm->setDisp12MaxDiff(o.lr_check == LeftRightCheck::Matcher && o.lr_max_diff >= 0 ? o.lr_max_diff : -1);
     return bm;
   }
   const int cn = 1;
@@ -69,6 +71,16 @@ namespace {
 constexpr std::array<EnumName<StereoMethod>, 3> kStereoMethodNames{
     {{StereoMethod::BM, "bm"}, {StereoMethod::SGBM, "sgbm"}, {StereoMethod::Given, "given"}}};
 }  // namespace
+
+namespace {
+constexpr std::array<EnumName<LeftRightCheck>, 2> kLeftRightCheckNames{
+    {{LeftRightCheck::Mirrored, "mirrored"}, {LeftRightCheck::Matcher, "matcher"}}};
+}  // namespace
+
+LeftRightCheck parse_left_right_check(const std::string& name, const std::string& field) {
+  return value_named(kLeftRightCheckNames, name, field);
+}
+const char* left_right_check_name(LeftRightCheck c) { return name_of(kLeftRightCheckNames, c); }
 
 StereoMethod parse_stereo_method(const std::string& name, const std::string& field) {
   return value_named(kStereoMethodNames, name, field);
@@ -137,7 +149,7 @@ cv::Mat compute_disparity(const cv::Mat& left_in, const cv::Mat& right_in, const
     return fixed_to_float(raw(cv::Rect(pad, 0, a.cols, a.rows)));
   };
   cv::Mat dl = match(left, right);
-  if (o.method == StereoMethod::BM && o.lr_max_diff >= 0) {
+  if (o.method == StereoMethod::BM && o.lr_check == LeftRightCheck::Mirrored && o.lr_max_diff >= 0) {
     // Right-image disparity: the same matcher on the mirrored pair (right mirrored as the left image).
     cv::Mat lf, rf, dr;
     cv::flip(right, lf, 1);

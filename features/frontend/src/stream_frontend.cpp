@@ -7,6 +7,8 @@
 #include <chrono>
 #include <numeric>
 
+#include "smseg/frontend/disparity_offset.hpp"
+
 #include "pair_motion.hpp"
 
 namespace smseg::frontend {
@@ -40,6 +42,8 @@ StereoFrontEndStream::StereoFrontEndStream(const sequence::Calibration& calibrat
   camera_height_ = *height;
   camera_ = StereoCamera::from(calib_);
   path_ = std::make_shared<Path>(camera_height_);
+  if (opt_.disparity_offset.mode == DisparityOffsetChoice::Mode::Calibration) offset_ = calib_.disparity_offset;
+  if (opt_.disparity_offset.mode == DisparityOffsetChoice::Mode::Pixels) offset_ = opt_.disparity_offset.pixels;
 }
 
 StereoFrontEndStream::Prepared StereoFrontEndStream::prepare(const cv::Mat& left, const cv::Mat& right) const {
@@ -48,8 +52,7 @@ StereoFrontEndStream::Prepared StereoFrontEndStream::prepare(const cv::Mat& left
   Prepared p;
   p.left = left.clone();  // kept as the previous image (klt): the caller may reuse its buffer
   auto t0 = Clock::now();
-  p.disparity = compute_disparity(left, right, opt_.stereo);
-  apply_disparity_offset(p.disparity, calib_.disparity_offset);
+  p.disparity = compute_disparity(left, right, opt_.stereo);  // the offset is added to the observations (emit)
   p.ms.disparity = ms_since(t0);
   t0 = Clock::now();
   p.keypoints = detect_keypoints(left, opt_.tracking);
@@ -66,14 +69,15 @@ FrameObservations StereoFrontEndStream::observe(const Prepared& in, std::vector<
     prev_px_ = klt_step(prev_img_, prev_px_, in.left, detected, opt_.tracking.max_keypoints, opt_.klt, matches);
     obs = observe_points(prev_px_, in.disparity, cv::Mat(), calib_);
     prev_img_ = in.left;
-    if (index_ == 0) matches.clear();
+    if (tracked_ == 0) matches.clear();
   } else {
     obs = observe_keypoints(in.keypoints.keypoints, in.disparity, cv::Mat(), calib_);
-    if (index_ > 0) {
+    if (tracked_ > 0) {
       matches = match_symmetric(prev_desc_, in.keypoints.descriptors, descriptor_norm(opt_.tracking.detector));
-      drop_far_matches(matches, prev_obs_.pixels, obs.pixels, opt_.tracking);
+      drop_far_matches(matches, prev_px_, obs.pixels, opt_.tracking);
     }
     prev_desc_ = in.keypoints.descriptors;
+    prev_px_ = obs.pixels;
   }
   return obs;
 }
@@ -87,19 +91,55 @@ std::vector<int> StereoFrontEndStream::chain(const FrameObservations& obs, const
   return ids;
 }
 
-StreamFrame StereoFrontEndStream::advance(Prepared&& in) {
+StereoFrontEndStream::Tracked StereoFrontEndStream::track(Prepared&& in) {
   const cv::Mat& left = in.left;
-  if (index_ > 0 && left.size() != size_)
-      throw Error("", "frame " + std::to_string(index_),
+  if (tracked_ > 0 && left.size() != size_)
+      throw Error("", "frame " + std::to_string(tracked_),
                   "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream started at " +
                       std::to_string(size_.width) + "x" + std::to_string(size_.height));
   size_ = left.size();
+  Tracked t;
+  t.ms = in.ms;
+  const auto t0 = Clock::now();
+  t.obs = observe(in, t.matches);
+  t.ms.tracking = ms_since(t0);
+  ++tracked_;
+  return t;
+}
+
+StreamFrame StereoFrontEndStream::advance(Prepared&& in) {
+  if (needs_calibration())
+    throw Error("", "disparity_offset", "auto: the stream estimates it from its first frames (calibrate) before any other");
+  return emit(track(std::move(in)));
+}
+
+std::vector<StreamFrame> StereoFrontEndStream::calibrate(std::vector<Prepared>&& first) {
+  if (!needs_calibration()) throw Error("", "disparity_offset", "the stream holds its offset already");
+  std::vector<Tracked> tracked;
+  for (auto& p : first) tracked.push_back(track(std::move(p)));
+  // What the whole-sequence front end estimates from: the calibration's offset added, the matches of each pair.
+  std::vector<FrameObservations> obs;
+  std::vector<std::vector<cv::DMatch>> matches;
+  for (const Tracked& t : tracked) {
+    obs.push_back(t.obs);
+    offset_observations(obs.back(), calib_.disparity_offset, calib_);
+    if (obs.size() > 1) matches.push_back(t.matches);
+  }
+  estimate_ = estimate_disparity_offset(obs, matches, camera_);
+  offset_ = calib_.disparity_offset + estimate_->extra;
+  std::vector<StreamFrame> out;
+  for (auto& t : tracked) out.push_back(emit(std::move(t)));
+  return out;
+}
+
+StreamFrame StereoFrontEndStream::emit(Tracked&& in) {
   StreamFrame out;
   out.index = index_;
   out.ms = in.ms;
   auto t0 = Clock::now();
-  std::vector<cv::DMatch> matches;
-  const FrameObservations obs = observe(in, matches);
+  FrameObservations& obs = in.obs;
+  offset_observations(obs, offset_, calib_);
+  const std::vector<cv::DMatch>& matches = in.matches;
   const std::vector<int> ids = chain(obs, matches);
   const std::size_t n = obs.pixels.size();
   std::vector<int> from(n, -1);  // the matched keypoint of the previous frame
@@ -114,7 +154,7 @@ StreamFrame StereoFrontEndStream::advance(Prepared&& in) {
     out.live_tracks.push_back(ids[i]);
     if (obs.disparities[i] > 0) out.observations.push_back({ids[i], obs.pixels[i], obs.disparities[i], obs.points[i], seen[i]});
   }
-  out.ms.tracking = ms_since(t0);
+  out.ms.tracking += ms_since(t0);
 
   // The pair's motion from the tracks with valid observations in both frames, in track order.
   t0 = Clock::now();

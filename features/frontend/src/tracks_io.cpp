@@ -77,7 +77,9 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                  {"speckle_window", o.stereo.speckle_window},
                  {"speckle_range", o.stereo.speckle_range},
                  {"prefilter_cap", o.stereo.prefilter_cap}};
-  if (o.stereo.sgbm_full_paths) j["stereo"]["sgbm_full_paths"] = true;  // only when on: older folders keep their options
+  if (o.stereo.sgbm_full_paths) j["stereo"]["sgbm_full_paths"] = true;
+  if (o.stereo.lr_check != LeftRightCheck::Mirrored)  // only when not the default: older folders keep their options
+    j["stereo"]["lr_check"] = left_right_check_name(o.stereo.lr_check);  // only when on: older folders keep their options
   j["tracking"] = {{"detector", keypoint_method_name(o.tracking.detector)},
                    {"max_keypoints", o.tracking.max_keypoints},
                    {"sift_contrast_threshold", o.tracking.sift_contrast_threshold},
@@ -113,10 +115,24 @@ Json front_end_options_to_json(const FrontEndOptions& o) {
                     {"iterations", o.gravity.iterations},
                     {"seed", o.gravity.seed}};
   if (o.camera_height) j["camera_height"] = *o.camera_height;
+  if (o.stereo.method != StereoMethod::Given) j["disparity_offset"] = disparity_offset_name(o.disparity_offset);
   j["first_frame"] = o.first_frame;
   j["last_frame"] = o.last_frame;
   return j;
 }
+
+namespace {
+
+Json offset_estimate_json(const OffsetEstimate& e) {
+  return {{"kept", e.kept},
+          {"best_px", e.best},
+          {"extra_px", e.extra},
+          {"pairs", e.pairs},
+          {"median_error_none_px", e.error_none_px},
+          {"median_error_best_px", e.error_best_px}};
+}
+
+}  // namespace
 
 Json summary_to_json(const FrontEndSummary& s) {
   const FilterCounts& c = s.filters;
@@ -178,6 +194,8 @@ Json summary_to_json(const FrontEndSummary& s) {
                   {"ground_candidates", m.ground_candidates},
                   {"seconds_per_frame", {{"sfm", m.seconds_sfm}, {"bundle_adjustment", m.seconds_ba}}}};
   }
+  if (!s.sfm) out["disparity_offset_px"] = s.disparity_offset;
+  if (s.offset_estimate) out["disparity_offset_estimate"] = offset_estimate_json(*s.offset_estimate);
   if (s.gravity) {
     const GravityEstimate& g = *s.gravity;
     out["gravity"] = {{"up_before_levelling", {g.up.x(), g.up.y(), g.up.z()}},
@@ -283,6 +301,11 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   s.seconds.total_wall = j.num("seconds_total_wall");
   if (const auto sfm = j.maybe("sfm")) s.sfm = sfm_summary_from_json(*sfm);
   if (const auto g = j.maybe("gravity")) s.gravity = gravity_from_json(*g);
+  if (const auto d = j.maybe("disparity_offset_px")) s.disparity_offset = d->as_num();
+  if (const auto e = j.maybe("disparity_offset_estimate"))
+    s.offset_estimate = OffsetEstimate{e->num("extra_px"), e->num("best_px"), e->boolean("kept"),
+                                       static_cast<int>(e->integer("pairs")), e->num("median_error_none_px"),
+                                       e->num("median_error_best_px")};
   return s;
 }
 

@@ -317,11 +317,22 @@ void plan_frames(const sequence::Sequence& seq, const fs::path& work, const Extr
 
 // The channels after the six, in stacks.json's order: appearance, then dense geometry (stereo
 // matching, or a plane sweep over the SfM's posed neighbours).
+// The sequence as the dense matcher reads it: with the disparity offset the stereo front end added
+// (its self-calibrated one with --disparity-offset auto, or the one given), not only the calibration's.
+sequence::Sequence with_front_end_offset(const sequence::Sequence& seq, const frontend::FrontEndResult& fe,
+                                         const ExtractOptions& opt, bool monocular) {
+  sequence::Sequence s = seq;
+  if (!monocular && opt.front_end.disparity_offset.mode != frontend::DisparityOffsetChoice::Mode::Calibration)
+    s.calibration.disparity_offset = fe.summary.disparity_offset;
+  return s;
+}
+
 class ImageRasters {
  public:
   ImageRasters(const sequence::Sequence& seq, const frontend::FrontEndResult& fe, const PointCloudVideo& video,
                std::optional<double> camera_height, const ExtractOptions& opt, bool monocular)
-      : seq_(seq), video_(video), camera_height_(camera_height), opt_(opt), monocular_(monocular),
+      : seq_(seq), dense_seq_(with_front_end_offset(seq, fe, opt, monocular)), video_(video),
+        camera_height_(camera_height), opt_(opt), monocular_(monocular),
         dense_stereo_(dense_stereo_options(opt.front_end.stereo)),
         sweep_(monocular && opt.features.dense ? sweep_inputs(seq, fe) : SweepInputs{}) {}
 
@@ -335,7 +346,7 @@ class ImageRasters {
 
  private:
   cv::Mat depth(int f) const {
-    if (!monocular_) return dense_depth(seq_, f, dense_stereo_);
+    if (!monocular_) return dense_depth(dense_seq_, f, dense_stereo_);
     std::vector<SweepView> views;
     const SweepNeighbourOptions choice{opt_.features.sweep_reach, opt_.features.sweep_baseline};
     for (int g : sweep_neighbours(f, sweep_.usable, video_.poses, choice))
@@ -344,6 +355,7 @@ class ImageRasters {
   }
 
   const sequence::Sequence& seq_;
+  const sequence::Sequence dense_seq_;
   const PointCloudVideo& video_;
   std::optional<double> camera_height_;
   const ExtractOptions& opt_;

@@ -48,6 +48,16 @@ class StreamLabeller {
   /// frame number, as eval-forest uses it). Returns the class positions (CV_8UC1).
   cv::Mat label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
 
+  /// With the front end's disparity_offset auto, the stream first estimates its offset from its
+  /// first frames (frontend::kOffsetFrames, or all of a shorter video): calibrate() takes them prepared,
+  /// in order, with their frame indices, and hands each one's labels to `labelled` in order (as label()
+  /// would: last_frame() is that frame's meanwhile); label() follows from the next one.
+  bool needs_calibration() const { return front_end_.needs_calibration(); }
+  using Labelled = std::function<void(std::size_t i, const cv::Mat& labels, const StreamStageTimes& times)>;
+  void calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first, const std::vector<int>& frame_indices,
+                 const Labelled& labelled);
+  double disparity_offset() const { return front_end_.disparity_offset(); }  ///< pixels, once calibrated
+
   /// prepare() then label().
   cv::Mat push(const cv::Mat& left_gray, const cv::Mat& right_gray, int frame_index, StreamStageTimes* times = nullptr) {
     return label(prepare(left_gray, right_gray), frame_index, times);
@@ -57,6 +67,9 @@ class StreamLabeller {
   const frontend::StreamFrame& last_frame() const { return frame_; }
 
  private:
+  // Features and classification of the front end's frame_ (whose left image is `left`).
+  cv::Mat label_frame_(const cv::Mat& left, int frame_index, StreamStageTimes* times);
+
   std::vector<int> table_of_feature_;  // per forest feature: its index in structure_feature_names()
   forest::Classifier classifier_;
   EvalOptions eval_;
@@ -80,7 +93,8 @@ using StreamSink = std::function<void(const StreamInput&, const cv::Mat& labels,
 
 /// Runs a stream through the labeller as a pipeline: pairs are read in order, up to `in_flight` of
 /// them prepared (disparity, keypoints) in parallel, then labelled and handed to the sink in order.
-/// The labels are those of labeller.push() frame after frame, whatever the thread count. Returns the
+/// The labels are those of labeller.push() frame after frame, whatever the thread count. A labeller that
+/// needs its calibration gets the first frames first (read, then prepared in parallel). Returns the
 /// number of frames.
 int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight = 3);
 

@@ -108,6 +108,7 @@ struct StreamRun {
   /// Frames whose front end tracked no point (black, blank or featureless images): labelled from the
   /// class prior alone, which the report says.
   int frames_without_points = 0;
+  double disparity_offset = 0;  ///< pixels the front end added to every disparity (self-calibrated with auto)
 };
 
 /// label-stream's summary.json ("smseg-label-stream", version 1).

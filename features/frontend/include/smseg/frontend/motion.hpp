@@ -51,6 +51,7 @@
 #include <Eigen/Core>
 
 #include "smseg/sequence/sequence.hpp"
+#include "smseg/frontend/disparity_offset.hpp"
 #include "smseg/frontend/gravity.hpp"
 #include "smseg/frontend/stereo.hpp"
 #include "smseg/frontend/tracking.hpp"
@@ -179,6 +180,9 @@ struct FrontEndOptions {
   RefineOptions refine;                 ///< motion refinement by reprojection error (enabled by default)
   GravityOptions gravity;               ///< level first camera (default) or gravity from path and ground (gravity.hpp)
   std::optional<double> camera_height;  ///< overrides the sequence's; one of them is required
+  /// Pixels added to every computed disparity: auto (the calibration's plus the self-calibrated extra
+  /// from the first frames, disparity_offset.hpp), the calibration's as it is, or a number of pixels
+  DisparityOffsetChoice disparity_offset;
   int first_frame = 0;                   ///< frames [first_frame, last_frame) are processed
   int last_frame = -1;                   ///< -1: to the end
   bool progress = true;                  ///< smseg::Progress on stderr
@@ -228,6 +232,8 @@ struct FrontEndSummary {
   StageSeconds seconds;
   std::optional<SfmSummary> sfm;      ///< monocular SfM runs only
   std::optional<GravityEstimate> gravity;  ///< stereo runs with GravityMethod::Estimate only
+  double disparity_offset = 0;        ///< stereo: pixels added to every computed disparity (the one used)
+  std::optional<OffsetEstimate> offset_estimate;  ///< stereo runs with disparity_offset auto only
 };
 
 struct FrontEndResult {

@@ -31,6 +31,14 @@ enum class StereoMethod { BM, SGBM, Given };
 StereoMethod parse_stereo_method(const std::string& name, const std::string& field = "stereo.method");
 const char* stereo_method_name(StereoMethod m);
 
+/// BM's left-right check: the right-image disparity from the same matcher on the mirrored pair (a
+/// second full match, with its own texture, uniqueness and speckle filtering: the stricter check), or
+/// OpenCV's own check from the left match's costs (disp12MaxDiff: half the matching time, a weaker
+/// check; docs/stereo.md "Matchers").
+enum class LeftRightCheck { Mirrored, Matcher };
+LeftRightCheck parse_left_right_check(const std::string& name, const std::string& field = "stereo.lr_check");
+const char* left_right_check_name(LeftRightCheck c);
+
 struct StereoOptions {
   StereoMethod method = StereoMethod::BM;
   int min_disparity = 0;      ///< smallest disparity searched, pixels
@@ -39,6 +47,7 @@ struct StereoOptions {
   int texture_threshold = 10; ///< BM: windows whose summed |prefiltered| texture is below are invalid (0 = off)
   int uniqueness_ratio = 15;  ///< percent by which the best cost must beat the second best (0 = off)
   int lr_max_diff = 1;        ///< left-right check tolerance in pixels; < 0 disables the check
+  LeftRightCheck lr_check = LeftRightCheck::Mirrored;  ///< BM: how the left-right check is made
   int speckle_window = 50;    ///< connected regions of fewer pixels are invalidated (0 = off)
   int speckle_range = 2;      ///< max disparity step (pixels) inside one speckle region
   int prefilter_cap = 31;     ///< 1..63, clamp of the prefiltered image (BM and SGBM)

@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "smseg/frontend/disparity_offset.hpp"
 #include "smseg/frontend/motion.hpp"
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
@@ -67,13 +68,32 @@ class StereoFrontEndStream {
   Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
 
   /// The next frame, in order: tracking, track ids, motion and pose (Error when its size differs
-  /// from the first frame's).
+  /// from the first frame's, or when the stream still needs its calibration).
   StreamFrame advance(Prepared&& pair);
+
+  /// With disparity_offset auto, the offset is estimated from the first frames (kOffsetFrames, fewer
+  /// when the video is shorter) before any frame is given out, exactly as the whole-sequence front
+  /// end estimates it: calibrate() takes them, prepared and in order, holds the offset and returns
+  /// their frames; advance() then follows from the next one.
+  bool needs_calibration() const { return opt_.disparity_offset.mode == DisparityOffsetChoice::Mode::Auto && !estimate_; }
+  std::vector<StreamFrame> calibrate(std::vector<Prepared>&& first);
+  double disparity_offset() const { return offset_; }  ///< pixels added to every disparity (once calibrated)
+  const std::optional<OffsetEstimate>& offset_estimate() const { return estimate_; }
 
   /// prepare() then advance().
   StreamFrame push(const cv::Mat& left_gray, const cv::Mat& right_gray) { return advance(prepare(left_gray, right_gray)); }
 
  private:
+  // A frame followed from the previous one: its observations before the disparity offset and its
+  // matches to the previous frame. Tracking does not depend on the offset, so calibrate() tracks the
+  // first frames once and gives them out (emit) once their offset is known.
+  struct Tracked {
+    FrameObservations obs;
+    std::vector<cv::DMatch> matches;
+    StreamFrontEndTimes ms;
+  };
+  Tracked track(Prepared&& pair);
+  StreamFrame emit(Tracked&& frame);
   // The frame's observations and its matches to the previous frame (klt or descriptors).
   FrameObservations observe(const Prepared& pair, std::vector<cv::DMatch>& matches);
   // Track ids of the frame's keypoints from the matches (chain_matches, one frame at a time).
@@ -84,9 +104,13 @@ class StereoFrontEndStream {
   StereoCamera camera_;
   double camera_height_ = 0;
   cv::Size size_;  // the first frame's
-  int index_ = 0;
+  int index_ = 0;    // frames given out
+  int tracked_ = 0;  // frames tracked
   int next_track_ = 0;
-  // The previous frame: its image and points (klt) or descriptors, track ids and valid observations.
+  double offset_ = 0;  // pixels added to every disparity
+  std::optional<OffsetEstimate> estimate_;  // disparity_offset auto, once calibrated
+  // The previous frame: its image and points (klt) or keypoint pixels and descriptors (descriptors), its
+  // observations, track ids and valid observations.
   cv::Mat prev_img_, prev_desc_;
   std::vector<cv::Point2f> prev_px_;
   FrameObservations prev_obs_;
