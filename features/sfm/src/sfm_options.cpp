@@ -126,8 +126,8 @@ Json sfm_options_to_json(const SfmOptions& o) {
   return j;
 }
 
-frontend::SfmSummary sfm_summary(const SfmReport& r) {
-  frontend::SfmSummary s;
+SfmSummary sfm_summary(const SfmReport& r) {
+  SfmSummary s;
   s.tracker = sfm_tracker_name(r.tracker);
   s.focal = r.focal;
   s.focal_source = focal_source_name(r.focal_source);

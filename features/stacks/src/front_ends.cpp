@@ -32,6 +32,8 @@ class StereoFrontEnd final : public FrontEnd {
   HeightReference auto_height_reference() const override { return HeightReference::Plane; }
   bool monocular() const override { return false; }
   std::string_view no_tracks_hint() const override { return "blank frames? too few frames?"; }
+  // Its own figures (gravity) are frontend's, which reads them with the shared ones.
+  frontend::SummaryPartReader summary_part_reader() const override { return {}; }
 };
 
 class SfmFrontEnd final : public FrontEnd {
@@ -61,6 +63,7 @@ class SfmFrontEnd final : public FrontEnd {
   HeightReference auto_height_reference() const override { return HeightReference::Camera; }
   bool monocular() const override { return true; }
   std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
+  frontend::SummaryPartReader summary_part_reader() const override { return sfm::sfm_summary_part; }
 
  private:
   // The SfM options as run: the camera height from the extraction options when not set.
@@ -96,6 +99,18 @@ const FrontEnd& front_end_named(const std::string& name, const std::string& fiel
 void check_motion_name(const std::string& name, const std::string& field) {
   if (name != "auto") front_end_named(name, field);
 }
+
+const frontend::SummaryPartReaders& summary_part_readers() {
+  static const frontend::SummaryPartReaders readers = [] {
+    frontend::SummaryPartReaders r;
+    for (const FrontEnd* f : front_ends())
+      if (auto read = f->summary_part_reader()) r.emplace(std::string(f->name()), std::move(read));
+    return r;
+  }();
+  return readers;
+}
+
+frontend::TracksFile read_tracks(const fs::path& path) { return frontend::read_tracks(path, summary_part_readers()); }
 
 const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options) {
   if (options.motion != "auto") return front_end_named(options.motion, "motion");

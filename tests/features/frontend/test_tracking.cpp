@@ -362,7 +362,7 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   // The tracks file round trip.
   const fs::path file = s.dir / "tracks.json";
   write_tracks(file, r, s.seq.name, s.seq.size, front_end_options_to_json(quiet()));
-  const TracksFile back = read_tracks(file);
+  const TracksFile back = read_tracks(file, {});
   EXPECT_EQ(back.sequence_name, "slide");
   EXPECT_EQ(back.image_size, cv::Size(320, 240));
   ASSERT_EQ(back.result.tracks.size(), r.tracks.size());
@@ -386,12 +386,12 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   Json j = read_json(file);
   j["version"] = 7;
   write_json_atomic(s.dir / "bad_version.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_version.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_version.json", {}), Error);
   j = read_json(file);
   j["tracks"][0]["x"].erase(0);
   write_json_atomic(s.dir / "bad_x.json", j);
   try {
-    read_tracks(s.dir / "bad_x.json");
+    read_tracks(s.dir / "bad_x.json", {});
     FAIL() << "a short x array must be an error";
   } catch (const Error& e) {
     EXPECT_NE(e.field().find("tracks[0].x"), std::string::npos) << e.what();
@@ -399,11 +399,11 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   j = read_json(file);
   j["tracks"][0]["frames"][0] = 99;
   write_json_atomic(s.dir / "bad_frames.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_frames.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_frames.json", {}), Error);
   j = read_json(file);
   j["poses"].erase(1);
   write_json_atomic(s.dir / "bad_poses.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_poses.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_poses.json", {}), Error);
   fs::remove_all(s.dir);
 }
 
