@@ -117,7 +117,7 @@ const options::Table<ExtractOptions>& extract_options_table() {
 }
 
 void ExtractOptions::resolve() {
-  front_end.tracker = frontend::parse_stereo_tracker(tracker, "tracker");
+  front_end.tracker = frontend::parse_stereo_tracker(stereo_tracker != "auto" ? stereo_tracker : tracker, "tracker");
   front_end.tracking.detector = frontend::parse_keypoint_method(keypoints, front_end.tracker, "keypoints");
   front_end.refine.enabled = !no_refine;
   sfm.tracker = sfm::parse_sfm_tracker(tracker, "tracker");

@@ -28,6 +28,7 @@ class StereoFrontEnd final : public FrontEnd {
     return frontend::run_stereo_front_end(seq, fe);
   }
   Json options_json(const ExtractOptions& o) const override { return frontend::front_end_options_to_json(o.front_end); }
+  std::optional<Json> own_options_json(const ExtractOptions&) const override { return std::nullopt; }
   int min_track_frames(const ExtractOptions& o) const override { return o.front_end.filters.min_frames; }
   HeightReference auto_height_reference() const override { return HeightReference::Plane; }
   bool monocular() const override { return false; }
@@ -55,6 +56,9 @@ class SfmFrontEnd final : public FrontEnd {
     Json fe = {{"method", "sfm"}, {"sfm", sfm::sfm_options_to_json(s)}};
     if (s.camera_height) fe["camera_height"] = *s.camera_height;
     return fe;
+  }
+  std::optional<Json> own_options_json(const ExtractOptions& o) const override {
+    return sfm::sfm_options_to_json(o.sfm);
   }
   int min_track_frames(const ExtractOptions& o) const override { return as_run(o).filters.min_frames; }
   // A long monocular drive's camera path drifts up and down against its one ground plane: heights are
@@ -108,6 +112,13 @@ const frontend::SummaryPartReaders& summary_part_readers() {
     return r;
   }();
   return readers;
+}
+
+Json run_options_key(const std::string& motion, const ExtractOptions& options) {
+  Json key = {{"front_end", frontend::front_end_options_to_json(options.front_end)}, {"motion", motion}};
+  for (const FrontEnd* f : front_ends())
+    if (auto own = f->own_options_json(options)) key[std::string(f->name())] = f->name() == motion ? *own : Json();
+  return key;
 }
 
 frontend::TracksFile read_tracks(const fs::path& path) { return frontend::read_tracks(path, summary_part_readers()); }

@@ -8,6 +8,7 @@
 // extract_features() all choose one by name through this registry; "auto" picks by the sequence's
 // kind. A new front end is one more implementation in front_ends.cpp.
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -35,6 +36,10 @@ class FrontEnd {
   /// Its options as stacks.json and tracks.json record them ("front_end"), without the camera height
   /// that the sequence gives (extraction adds it).
   virtual Json options_json(const ExtractOptions& o) const = 0;
+  /// Its own options beyond the shared FrontEndOptions, as given (before the camera height is filled
+  /// in), for keys that name a run's options (run-experiment's cache); none when it has no options
+  /// of its own.
+  virtual std::optional<Json> own_options_json(const ExtractOptions& o) const = 0;
   /// The track-length filter it applies (the causal rule uses a track from this many frames on).
   virtual int min_track_frames(const ExtractOptions& o) const = 0;
   /// What HeightReference::Auto means on its output.
@@ -60,6 +65,10 @@ const FrontEnd& front_end_named(const std::string& name, const std::string& fiel
 void check_motion_name(const std::string& name, const std::string& field);
 /// Every front end's reader of its own summary part, by name (frontend::read_tracks takes them).
 const frontend::SummaryPartReaders& summary_part_readers();
+/// The options of a run of the front end `motion` as keys name them: the shared front-end options
+/// ("front_end"), the name ("motion") and, under each front end's name that has options of its own,
+/// those (null for the front ends not chosen).
+Json run_options_key(const std::string& motion, const ExtractOptions& options);
 /// tracks.json read with every front end's summary part (frontend::read_tracks with
 /// summary_part_readers()).
 frontend::TracksFile read_tracks(const fs::path& path);
