@@ -17,7 +17,7 @@ void declare_voting(options::Table<O>& t) {
   t.number("grid", "--grid", "grid voting: cell size B in pixels (0: per pixel)", [](auto& o) -> auto& { return o.grid; },
            0, 10000)
       .checked_as("--grid");
-  // Configs spell it as a name or a number (experiments/src/config.cpp reads it).
+  // Configs spell it as a name or a number; a point records it as its config spelt it (config.cpp).
   t.named("superpixels", "--superpixels",
           "superpixel voting: SLIC region size, small (" + std::to_string(kSmallSuperpixels) + " px), large (" +
               std::to_string(kLargeSuperpixels) + " px) or N px (4..1000); superpixel time is reported apart",
@@ -26,7 +26,7 @@ void declare_voting(options::Table<O>& t) {
             return s == "none" ? 0 : superpixels_from_string(s, field);
           },
           +[](const int& n) { return n > 0 ? std::to_string(n) : std::string("none"); })
-      .only(kCommandLine | kPython)
+      .numbers_as_names()
       .checked_as("--superpixels");
   t.number("votes", "--votes", "V: random voting pixels per region (grid cell or superpixel)",
            [](auto& o) -> auto& { return o.votes; }, 1, 100000000)
