@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "random_texture.hpp"
 #include "smseg/frontend/motion.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/frontend/tracking.hpp"
@@ -23,14 +24,7 @@ using namespace smseg::frontend;
 
 namespace {
 
-cv::Mat texture(int w, int h, std::uint64_t seed) {
-  cv::RNG rng(seed);
-  cv::Mat t(h, w, CV_32FC1);
-  rng.fill(t, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::GaussianBlur(t, t, cv::Size(0, 0), 1.5);
-  cv::normalize(t, t, 0, 255, cv::NORM_MINMAX);
-  return t;
-}
+cv::Mat texture(int w, int h, std::uint64_t seed) { return test::random_texture(w, h, seed, 1.5, 0, 255); }
 
 cv::Mat shifted(const cv::Mat& tex, int W, int H, double sx, double sy) {
   cv::Mat mx(H, W, CV_32FC1), my(H, W, CV_32FC1);
