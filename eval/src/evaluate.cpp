@@ -11,6 +11,7 @@
 #include <tbb/task_arena.h>
 
 #include "smseg/common/names.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/eval/render.hpp"
 #include "smseg/forest/classify.hpp"
 #include "smseg/common/progress.hpp"
@@ -456,22 +457,21 @@ json per_class_json(const Confusion& confusion, const std::vector<std::string>& 
   return per_class;
 }
 
-// How the evaluation ran.
+// How the evaluation ran: the options as declared (eval_options_table) where they ran as given; the
+// voting's only when voting, the trees used, the region size as a number, the smoothing as one object.
 json params_json(const forest::Forest& forest, const EvalOptions& opt, const std::vector<std::string>& works) {
-  json params = {{"works", works},
-                 {"test_frames", opt.frames.str()},
-                 {"mode", opt.mode()},
-                 {"grid", opt.grid},
-                 {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
-                 {"votes", opt.voting() ? json(opt.votes) : json(nullptr)},
-                 {"vote", opt.voting() ? json(to_string(opt.vote)) : json(nullptr)},
-                 {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
-                 {"tolerance", opt.tolerance},
-                 {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
-                 {"smooth", opt.smooth.to_json()},
-                 {"seed", opt.seed}};
-  if (opt.prior_power != 0) params["prior_power"] = opt.prior_power;  // absent: none (as older results)
-  return params;
+  const auto declared = [&opt](const char* key) { return eval_options_table().find(key)->write(opt); };
+  json j = {{"works", works},
+            {"test_frames", opt.frames.str()},
+            {"mode", opt.mode()},
+            {"superpixels", opt.superpixels > 0 ? json(opt.superpixels) : json(nullptr)},
+            {"trees", opt.trees > 0 ? opt.trees : static_cast<int>(forest.trees.size())},
+            {"costs", opt.costs ? json(opt.costs_file) : json(nullptr)},
+            {"smooth", opt.smooth.to_json()}};
+  for (const char* key : {"grid", "tolerance", "seed"}) j[key] = declared(key);
+  for (const char* key : {"votes", "vote"}) j[key] = opt.voting() ? declared(key) : json(nullptr);
+  if (opt.prior_power != 0) j["prior_power"] = declared("prior_power");  // absent: none (as older results)
+  return j;
 }
 
 json forest_json(const forest::Forest& forest) {

@@ -9,12 +9,44 @@
 #include <opencv2/imgproc.hpp>
 
 #include "smseg/common/error.hpp"
+#include "smseg/common/options.hpp"
 #include "smseg/eval/render.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 
 namespace smseg::eval {
 
 namespace fs = std::filesystem;
+
+const options::Table<LabelStreamOptions>& label_stream_options_table() {
+  static const options::Table<LabelStreamOptions> table = [] {
+    options::Table<LabelStreamOptions> t("label_stream", options::kCommandLine);
+    t.text("frames", "--frames", "frames of the sequence folder to stream, A:B half-open (the stream starts at A)",
+           [](auto& o) -> auto& { return o.frames; });
+    t.text("cameras", "--cameras", "two live sources L,R (camera indices or video files / URLs)",
+           [](auto& o) -> auto& { return o.cameras; });
+    t.text("side_by_side", "--side-by-side", "one video (file, URL or camera index) whose frames hold left | right",
+           [](auto& o) -> auto& { return o.side_by_side; });
+    t.number("max_frames", "--max-frames", "stop after this many frames of a live source (0: until it ends)",
+             [](auto& o) -> auto& { return o.max_frames; }, 0, 1000000000);
+    t.number("in_flight", "--in-flight",
+             "frames in the pipeline at once (1: one at a time, the lowest latency; more: higher throughput "
+             "when disparity and keypoints take longer than the rest)",
+             [](auto& o) -> auto& { return o.in_flight; }, 1, 16);
+    t.flag("no_labels", "--no-labels", "do not write OUT/labels/ (timing the rest alone)",
+           [](auto& o) -> auto& { return o.no_labels; });
+    t.flag("overlays", "--overlays", "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)",
+           [](auto& o) -> auto& { return o.output.overlays; });
+    t.text("overlay_video", "--overlay-video",
+           "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)",
+           [](auto& o) -> auto& { return o.output.video; });
+    t.number("video_fps", "--video-fps", "frame rate written in the overlay video",
+             [](auto& o) -> auto& { return o.output.video_fps; }, 0.1, 1000.0);
+    t.flag("show", "--show", "show the overlay in a window as it is made (q or Esc stops)",
+           [](auto& o) -> auto& { return o.output.show; });
+    return t;
+  }();
+  return table;
+}
 
 namespace {
 

@@ -24,15 +24,15 @@ volatile std::sig_atomic_t g_stop = 0;  // SIGINT / SIGTERM: finish the frame, w
 extern "C" void on_stop_signal(int) { g_stop = 1; }
 
 struct Args {
-  std::string seq_dir, forest_file, out, frames = "0:", cameras, side_by_side;
+  std::string seq_dir, forest_file, out;
+  eval::LabelStreamOptions own;      // sources and outputs
   eval::StreamOptions opt;
   stacks::ExtractOptions front_end;  // the stereo front end's part, resolved as extract-features does
-  eval::StreamOutputOptions output;
-  int threads = 0, max_frames = 0, in_flight = 3;
-  bool no_labels = false, quiet = false;
+  int threads = 0;
+  bool quiet = false;
   std::string left_cam, right_cam;  // --cameras split
-  bool live() const { return !cameras.empty() || !side_by_side.empty(); }
-  std::string live_source() const { return side_by_side.empty() ? cameras : side_by_side; }
+  bool live() const { return !own.cameras.empty() || !own.side_by_side.empty(); }
+  std::string live_source() const { return own.side_by_side.empty() ? own.cameras : own.side_by_side; }
 };
 
 void add_options(CLI::App& app, Args& a) {
@@ -42,29 +42,15 @@ void add_options(CLI::App& app, Args& a) {
   app.add_option("FOREST", a.forest_file, "forest file from train-forest (trained on --causal stacks of this size)")
       ->required();
   app.add_option("-o,--out", a.out, "output folder")->required();
-  app.add_option("--frames", a.frames, "frames of the sequence folder to stream, A:B half-open (the stream starts at A)")
-      ->capture_default_str();
-  auto* cams = app.add_option("--cameras", a.cameras, "two live sources L,R (camera indices or video files / URLs)");
-  app.add_option("--side-by-side", a.side_by_side, "one video (file, URL or camera index) whose frames hold left | right")
-      ->excludes(cams);
-  app.add_option("--max-frames", a.max_frames, "stop after this many frames of a live source (0: until it ends)")
-      ->capture_default_str()->check(options::in_range(0, 1000000000));
-  app.add_option("--in-flight", a.in_flight,
-                 "frames in the pipeline at once (1: one at a time, the lowest latency; more: higher throughput "
-                 "when disparity and keypoints take longer than the rest)")
-      ->capture_default_str()
-      ->check(options::in_range(1, 16));
+  const auto& own = eval::label_stream_options_table();
+  own.add_to(app, a.own, {"frames", "cameras", "side_by_side", "max_frames", "in_flight"});
+  app.get_option("--side-by-side")->excludes("--cameras");
   eval::eval_options_table().add_to(app, a.opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
   stacks::extract_options_table().add_to(app, a.front_end,
                                            {"stereo", "num_disparities", "block_size", "lr_check", "keypoints", "max_keypoints",
                                             "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height",
                                             "disparity_offset"});
-  app.add_flag("--no-labels", a.no_labels, "do not write OUT/labels/ (timing the rest alone)");
-  app.add_flag("--overlays", a.output.overlays, "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)");
-  app.add_option("--overlay-video", a.output.video, "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)");
-  app.add_option("--video-fps", a.output.video_fps, "frame rate written in the overlay video")->capture_default_str()
-      ->check(options::in_range(0.1, 1000.0));
-  app.add_flag("--show", a.output.show, "show the overlay in a window as it is made (q or Esc stops)");
+  own.add_to(app, a.own, {"no_labels", "overlays", "overlay_video", "video_fps", "show"});
   add_threads_option(app, a.threads, "the labels do not depend on it");
   app.add_flag("-q,--quiet", a.quiet, "only the summary line");
 }
@@ -79,20 +65,22 @@ stacks::FrameRange validate(Args& a) {
   });
   a.opt.front_end = a.front_end.front_end;
   a.opt.front_end.progress = false;
-  a.output.labels = !a.no_labels;
-  const std::string& video = a.output.video;
-  if (a.max_frames < 0) throw UsageError("", "--max-frames", "must be >= 0");
-  if (!(a.output.video_fps > 0 && a.output.video_fps <= 1000)) throw UsageError("", "--video-fps", "must be in (0, 1000]");
+  a.own.output.labels = !a.own.no_labels;
+  const std::string& video = a.own.output.video;
+  if (a.own.max_frames < 0) throw UsageError("", "--max-frames", "must be >= 0");
+  if (!(a.own.output.video_fps > 0 && a.own.output.video_fps <= 1000))
+    throw UsageError("", "--video-fps", "must be in (0, 1000]");
   if (!video.empty() && fs::path(video).filename() != fs::path(video))
     throw UsageError("", "--overlay-video", "is a file name inside OUT, not a path: '" + video + "'");
   as_usage([&] { a.opt.eval.validate(); });
-  const stacks::FrameRange range = as_usage([&] { return stacks::FrameRange::parse(a.frames, "--frames"); });
-  if (!a.cameras.empty()) {
-    const auto comma = a.cameras.find(',');
-    if (comma == std::string::npos || comma == 0 || comma + 1 == a.cameras.size())
-      throw UsageError("", "--cameras", "expected two sources L,R, got '" + a.cameras + "'");
-    a.left_cam = a.cameras.substr(0, comma);
-    a.right_cam = a.cameras.substr(comma + 1);
+  const stacks::FrameRange range = as_usage([&] { return stacks::FrameRange::parse(a.own.frames, "--frames"); });
+  const std::string& cameras = a.own.cameras;
+  if (!cameras.empty()) {
+    const auto comma = cameras.find(',');
+    if (comma == std::string::npos || comma == 0 || comma + 1 == cameras.size())
+      throw UsageError("", "--cameras", "expected two sources L,R, got '" + cameras + "'");
+    a.left_cam = cameras.substr(0, comma);
+    a.right_cam = cameras.substr(comma + 1);
   }
   return range;
 }
@@ -100,8 +88,8 @@ stacks::FrameRange validate(Args& a) {
 std::unique_ptr<eval::FrameSource> open_source(const Args& a, const sequence::Sequence& seq,
                                                const stacks::FrameRange& range) {
   if (a.live())
-    return std::make_unique<eval::VideoFrames>(a.side_by_side.empty() ? a.left_cam : a.side_by_side, a.right_cam,
-                                               seq.size, a.max_frames);
+    return std::make_unique<eval::VideoFrames>(a.own.side_by_side.empty() ? a.left_cam : a.own.side_by_side,
+                                               a.right_cam, seq.size, a.own.max_frames);
   return std::make_unique<eval::SequenceFrames>(seq, range);
 }
 
@@ -118,16 +106,17 @@ int label_stream(Args& a) {
                                 seq.manifest.string());
   const std::unique_ptr<eval::FrameSource> source = open_source(a, seq, range);
   FolderReplacement replacement(a.out);
-  eval::StreamWriter writer(replacement.staging(), a.out, seq, a.output);
+  eval::StreamWriter writer(replacement.staging(), a.out, seq, a.own.output);
   std::signal(SIGINT, on_stop_signal);
   std::signal(SIGTERM, on_stop_signal);
 
   eval::StageLog log;
-  eval::StreamRun run{a.live() ? (a.side_by_side.empty() ? "cameras " + a.cameras : "side-by-side " + a.side_by_side)
+  eval::StreamRun run{a.live() ? (a.own.side_by_side.empty() ? "cameras " + a.own.cameras
+                                                               : "side-by-side " + a.own.side_by_side)
                                : fs::absolute(seq.root).string(),
                       a.forest_file, seq.size};
   run.threads = a.threads;
-  run.in_flight = a.in_flight;
+  run.in_flight = a.own.in_flight;
   const auto wall0 = Clock::now();
   eval::run_stream(
       labeller, [&](eval::StreamInput& in) { return !g_stop && source->next(in, writer.needs_colour()); },
@@ -139,7 +128,7 @@ int label_stream(Args& a) {
         if (run.first_frame < 0) run.first_frame = in.index;
         run.last_frame = in.index;
       },
-      static_cast<std::size_t>(a.in_flight));
+      static_cast<std::size_t>(a.own.in_flight));
   run.seconds = ms_since(wall0) / 1000;
   run.disparity_offset = labeller.disparity_offset();
   writer.close();

@@ -16,6 +16,7 @@
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/stacks/plane_sweep.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/stacks/stack.hpp"
@@ -100,10 +101,10 @@ BENCHMARK(BM_DelaunayOnly)->Unit(benchmark::kMillisecond);
 void BM_PlaneSweepCamVid(benchmark::State& state) {
   if (camvid_bench::unavailable()) return camvid_bench::skip(state);
   const int f = 60, gap = static_cast<int>(state.range(0));
-  const TracksFile tracks = read_tracks(camvid_bench::val_work() / "tracks.json");
+  const TracksFile tracks = smseg::stacks::read_tracks(camvid_bench::val_work() / "tracks.json");
   const Sequence seq = load_sequence(camvid_bench::kCache / "sequences" / camvid_bench::kValRun);
   const auto pose = [&](int g) { return tracks.result.poses.at(std::size_t(g - tracks.result.first_frame)); };
-  const Calibration camera = sfm_camera(seq, tracks.result.summary.sfm.value().focal);
+  const Calibration camera = sfm_camera(seq, sfm_summary_of(tracks.result.summary)->focal);
   const std::vector<SweepView> views{{seq.load_left_gray(f - gap), pose(f - gap)},
                                      {seq.load_left_gray(f + gap), pose(f + gap)}};
   const cv::Mat reference = seq.load_left_gray(f);
@@ -118,10 +119,10 @@ BENCHMARK(BM_PlaneSweepCamVid)->Arg(2)->Arg(15)->Unit(benchmark::kMillisecond);
 void BM_DenseRastersCamVid(benchmark::State& state) {
   if (camvid_bench::unavailable()) return camvid_bench::skip(state);
   const int f = 60, gap = 15;
-  const TracksFile tracks = read_tracks(camvid_bench::val_work() / "tracks.json");
+  const TracksFile tracks = smseg::stacks::read_tracks(camvid_bench::val_work() / "tracks.json");
   const Sequence seq = load_sequence(camvid_bench::kCache / "sequences" / camvid_bench::kValRun);
   const auto index = [&](int g) { return std::size_t(g - tracks.result.first_frame); };
-  const Calibration camera = sfm_camera(seq, tracks.result.summary.sfm.value().focal);
+  const Calibration camera = sfm_camera(seq, sfm_summary_of(tracks.result.summary)->focal);
   const std::vector<SweepView> views{{seq.load_left_gray(f - gap), tracks.result.poses.at(index(f - gap))},
                                      {seq.load_left_gray(f + gap), tracks.result.poses.at(index(f + gap))}};
   const Pose& pose = tracks.result.poses.at(index(f));

@@ -38,10 +38,7 @@ const std::vector<std::string>& known_params() {
     for (const auto& k : config_keys(stacks::extract_options_table()))
       for (const char* side : {"", "train_", "test_"}) n.push_back(side + k);
     for (const auto& k : config_keys(forest::train_params_table())) n.push_back(k);
-    for (const auto& k : config_keys(eval::eval_options_table())) {
-      n.push_back(k);
-      if (k == "grid") n.push_back("superpixels");  // the config's own: a name or a number
-    }
+    for (const auto& k : config_keys(eval::eval_options_table())) n.push_back(k);
     n.push_back("label");
     return n;
   }();
@@ -293,27 +290,14 @@ json read_eval_options(const Raw& raw, Point& p) {
   auto& eo = p.eval;
   eo.frames = p.test_frames;
   read_fields(eval::eval_options_table(), eo, raw);
-  json superpixels = "none";
   try {
-    if (const json* sp = raw.get("superpixels")) {
-      if (sp->is_string() && sp->get<std::string>() == "none") {
-        eo.superpixels = 0;
-      } else if (sp->is_string()) {
-        eo.superpixels = eval::superpixels_from_string(sp->get<std::string>(), "superpixels");
-        superpixels = *sp;
-      } else if (sp->is_number_integer()) {
-        eo.superpixels = eval::superpixels_from_string(std::to_string(sp->get<std::int64_t>()), "superpixels");
-        superpixels = eo.superpixels;
-      } else {
-        raw.fail("superpixels", "expected \"none\", \"small\", \"large\" or a region size in pixels");
-      }
-    }
     eo.validate();
   } catch (const Error& e) {
     rethrow_as_param(e, raw);
   }
   if (eo.trees > tp.M) raw.fail("trees", std::to_string(eo.trees) + " trees asked, the forest has M = " + std::to_string(tp.M));
-  return superpixels;
+  const json* superpixels = raw.get("superpixels");
+  return superpixels ? *superpixels : json("none");
 }
 
 // Whether any of the named sequences is extracted by the experiment (not a prepared work folder).
@@ -345,10 +329,10 @@ json point_json(const Point& p, const Experiment& ex, const json& superpixels) {
             {"test_causal", side_json(p.test, p.test_front_end, "causal")},
             {"train_tracker", side_json(p.train, p.train_front_end, "tracker")},
             {"test_tracker", side_json(p.test, p.test_front_end, "tracker")},
-            {"superpixels", superpixels},
             {"label", p.label}};
   j.update(forest::train_params_table().to_json(tp, options::kConfig));
   j.update(eval::eval_options_table().to_json(eo, options::kConfig));
+  j["superpixels"] = superpixels;  // as the config spelt it ("small", 12, "none" when unset)
   j["trees"] = eo.trees > 0 ? eo.trees : tp.M;  // the trees used
   // Extraction keys only where a side sets them: points of older configs keep their identity.
   for (const auto& k : config_keys(stacks::extract_options_table())) {

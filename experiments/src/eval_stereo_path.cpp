@@ -8,6 +8,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/sequence/sequence.hpp"
 
 namespace smseg::experiments {
@@ -39,7 +41,7 @@ StereoPathEvaluation evaluate_stereo_path(const std::string& sequence, const std
   StereoPathEvaluation e;
   e.tracks = work;
   if (fs::is_directory(e.tracks)) e.tracks /= "tracks.json";
-  const TracksFile tf = read_tracks(e.tracks);
+  const TracksFile tf = stacks::read_tracks(e.tracks);
   check_made_from(tf, e.tracks, seq);
   const FrontEndResult& r = tf.result;
   if (seq.gt_poses.empty()) throw Error(seq.manifest.string(), "gt_poses", "the sequence has no ground-truth poses");
@@ -79,7 +81,7 @@ std::string stereo_path_report(const StereoPathEvaluation& e) {
               "(%ld of %ld observations with ground truth)\n",
               100 * depth.median_relative, 100 * depth.mean_relative, 100 * depth.p90_relative,
               100 * depth.median_signed_relative, depth.evaluated, depth.observations);
-  if (const auto& m = e.summary.sfm)
+  if (const sfm::SfmSummary* m = sfm::sfm_summary_of(e.summary))
     s += printf_string("sfm: focal %.1f px (%s), key frames %d, posed %d / still %d / bridged %d frames, reprojection RMS "
                 "%.3f px, scale %.4g m/unit\n",
                 m->focal, m->focal_source.c_str(), m->keyframes, m->posed_frames, m->still_frames, m->bridged_frames,
@@ -111,7 +113,7 @@ Json stereo_path_json(const StereoPathEvaluation& e) {
            {"p90_relative", depth.p90_relative},
            {"median_signed_relative", depth.median_signed_relative}}},
          {"per_frame_error_m", e.rigid.errors}};
-  if (e.summary.sfm) j["sfm"] = summary_to_json(e.summary)["sfm"];
+  if (const sfm::SfmSummary* m = sfm::sfm_summary_of(e.summary)) j["sfm"] = m->to_json();
   return j;
 }
 

@@ -15,8 +15,7 @@
 #include "smseg/eval/sweep.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/common/options.hpp"
-#include "smseg/sfm/sfm.hpp"
-#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg/common/output.hpp"
@@ -64,11 +63,9 @@ json synth_json(const synth::SynthOptions& o) {
 stacks::ExtractOptions extract_options(const FrontEnd& fe, bool progress) {
   stacks::ExtractOptions o;
   stacks::extract_options_table().read(o, JsonView(fe.options, "experiment config"), options::kConfig);
-  o.resolve();
   o.front_end.stereo.method = frontend::parse_stereo_method(fe.stereo, "stereo");
-  // A config's tracker is the stereo front end's (the SfM keeps its own "auto"), with its keypoints.
-  o.front_end.tracker = frontend::parse_frame_tracker(fe.tracker, "tracker");
-  if (o.keypoints == "auto") o.front_end.tracking.detector = frontend::default_keypoints(o.front_end.tracker);
+  o.stereo_tracker = fe.tracker;  // a config's tracker is the stereo front end's (the SfM keeps "auto")
+  o.resolve();
   o.motion = fe.motion;
   o.features.causal = fe.causal;
   o.progress = progress;
@@ -124,11 +121,9 @@ fs::path prepare_work(const std::string& name, const SequenceSource& source, con
   const fs::path seq_dir = prepare_sequence(name, source, cache, progress);
   const sequence::Sequence seq = sequence::load_sequence(seq_dir);
   const stacks::ExtractOptions eo = extract_options(fe, progress);
-  const json key = {{"sequence", fs::weakly_canonical(seq_dir).string()},
-                    {"front_end", frontend::front_end_options_to_json(eo.front_end)},
-                    {"motion", fe.motion},
-                    {"sfm", fe.motion == "sfm" ? sfm::sfm_options_to_json(eo.sfm) : json(nullptr)},
-                    {"features", stacks::feature_options_json(eo.features)}};
+  json key = stacks::run_options_key(fe.motion, eo);
+  key["sequence"] = fs::weakly_canonical(seq_dir).string();
+  key["features"] = stacks::feature_options_json(eo.features);
   const fs::path work = cache / "work" / (safe_name(seq.name) + "-" + json_hash(key));
   const fs::path done = work / "complete.json";
   if (fs::exists(done)) {

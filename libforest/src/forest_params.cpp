@@ -126,42 +126,42 @@ const options::Table<TrainParams>& train_params_table() {
   static const options::Table<T> table = [] {
     options::Table<T> t("training");
     // The ranges are validate()'s: a bad value is refused by the parser (bad usage) or the reader.
-    t.number("K", "-K", "sets Ks = Kt (thesis 400)", +[](T& p) -> int& { return p.K; }, 1, 100000000)
+    t.number("K", "-K", "sets Ks = Kt (thesis 400)", [](auto& p) -> auto& { return p.K; }, 1, 100000000)
         .in_python_as("k");
     // Ks = Kt = 0 (the default) stand for K; a file or a config holds the value itself.
-    t.number("Ks", "--Ks", "sampling windows per tree", +[](T& p) -> int& { return p.Ks; }, 1, 1000000)
+    t.number("Ks", "--Ks", "sampling windows per tree", [](auto& p) -> auto& { return p.Ks; }, 1, 1000000)
         .default_shown_as("K")
         .written_as([](const T& p) { return nlohmann::json(p.ks()); })
         .in_python_as("ks");
-    t.number("Kt", "--Kt", "tests (training pixels) per tree", +[](T& p) -> int& { return p.Kt; }, 1, 100000000)
+    t.number("Kt", "--Kt", "tests (training pixels) per tree", [](auto& p) -> auto& { return p.Kt; }, 1, 100000000)
         .default_shown_as("K")
         .written_as([](const T& p) { return nlohmann::json(p.kt()); })
         .in_python_as("kt");
-    t.number("M", "-M", "number of trees", +[](T& p) -> int& { return p.M; }, 1, 100000).in_python_as("n_estimators");
-    t.number("n_min", "--n-min", "nodes with fewer tests become leaves", +[](T& p) -> int& { return p.n_min; }, 1,
+    t.number("M", "-M", "number of trees", [](auto& p) -> auto& { return p.M; }, 1, 100000).in_python_as("n_estimators");
+    t.number("n_min", "--n-min", "nodes with fewer tests become leaves", [](auto& p) -> auto& { return p.n_min; }, 1,
              100000000);
     t.number("seed", "--seed", "random seed (each tree derives its own from it)",
-             +[](T& p) -> std::uint64_t& { return p.seed; }, std::uint64_t{0},
+             [](auto& p) -> auto& { return p.seed; }, std::uint64_t{0},
              std::numeric_limits<std::uint64_t>::max());
     // Files record the whole window sampling (its shares and learned histograms), params_to_json.
     t.named("windows", "--windows", "window sampling (thesis 4.5.3)",
-            +[](T& p) -> WindowSampling& { return p.windows.mode; }, "uniform | thesis-biased | learned",
+            [](auto& p) -> auto& { return p.windows.mode; }, "uniform | thesis-biased | learned",
             &window_sampling_from_string, +[](const WindowSampling& w) { return to_string(w); })
         .only(options::kCommandLine | options::kConfig | options::kPython);
     t.choice("balance", "--balance",
              "draw tests per class so no class swamps the rest (classes: each class equally often; sqrt: in "
              "proportion to the square root of its pixel count)",
-             +[](T& p) -> Balance& { return p.balance; }, kBalanceNames);
+             [](auto& p) -> auto& { return p.balance; }, kBalanceNames);
     t.flag("textons", "--textons", "add the texton tests fP, fPs, fPd, fPda on the greyscale image",
-           +[](T& p) -> bool& { return p.textons; });
-    t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", +[](T& p) -> Score& { return p.score; },
+           [](auto& p) -> auto& { return p.textons; });
+    t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", [](auto& p) -> auto& { return p.score; },
              kScoreNames)
         .optional_in_files()  // files written before the option: the thesis's score
         .in_python_as("criterion");
     // Does not change the forest: not recorded; run-experiment sets it itself.
     t.number("memory_mb", "--memory-mb",
              "memory budget of training in MiB: trees are built in batches that fit; refused if one tree does not",
-             +[](T& p) -> std::size_t& { return p.memory_mb; }, std::size_t{1}, std::size_t{1} << 30)
+             [](auto& p) -> auto& { return p.memory_mb; }, std::size_t{1}, std::size_t{1} << 30)
         .only(options::kCommandLine);
     return t;
   }();

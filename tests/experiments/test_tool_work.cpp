@@ -8,6 +8,7 @@
 #include "smseg/experiments/eval_stereo.hpp"
 #include "smseg/experiments/eval_stereo_path.hpp"
 #include "smseg/experiments/forest_peers.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
 #include "temp_dir.hpp"
 
 namespace fs = std::filesystem;
@@ -149,7 +150,7 @@ TEST(EvalStereoPathWork, ReportsTheMeasuresAndTheSfmLineOnlyForSfm) {
   EXPECT_EQ(report.substr(0, 46), "frames 3, ground-truth path length 2.00 m\nATE ");
   EXPECT_NE(report.find("end-point drift (start-aligned): 0.200 m = 10.00 %\n"), std::string::npos);
   EXPECT_EQ(report.find("sfm:"), std::string::npos);
-  e.summary.sfm = smseg::frontend::SfmSummary{};
+  e.summary.own = std::make_shared<smseg::sfm::SfmSummary>();
   EXPECT_NE(ex::stereo_path_report(e).find("sfm: focal"), std::string::npos);
   const smseg::Json j = ex::stereo_path_json(e);
   EXPECT_EQ(j["format"], "smseg-stereo-path-eval");

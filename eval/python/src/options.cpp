@@ -7,6 +7,7 @@
 #include "bindings.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/eval/evaluate.hpp"
+#include "smseg/eval/stream_output.hpp"
 #include "smseg/forest/params.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/synth/synth.hpp"
@@ -46,6 +47,7 @@ py::object option_tables() {
   return to_python({{"training", table_json(forest::train_params_table())},
                     {"extract_features", table_json(stacks::extract_options_table())},
                     {"evaluate", table_json(eval::eval_options_table())},
+                    {"label_stream", table_json(eval::label_stream_options_table())},
                     {"make_sequence", table_json(synth::synth_options_table())}});
 }
 
@@ -53,7 +55,7 @@ py::object option_tables() {
 
 void bind_options(py::module_& m) {
   m.def("option_tables", &option_tables,
-        "The declared options of training, extract_features, evaluate and make_sequence: per field its key, command-line "
+        "The declared options of training, extract_features, evaluate, label_stream (its own) and make_sequence: per field its key, command-line "
         "flag, config and Python spellings, type, help, surfaces and default.");
 }
 

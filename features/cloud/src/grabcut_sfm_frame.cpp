@@ -8,6 +8,7 @@
 
 #include "smseg/cloud/grabcut_sfm.hpp"
 #include "smseg/common/error.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
 
 namespace smseg::cloud {
 
@@ -24,9 +25,10 @@ PinholeIntrinsics frame_intrinsics(const sequence::Sequence& seq, const frontend
   PinholeIntrinsics k;
   k.cx = seq.calibration.cx;
   k.cy = seq.calibration.cy;
-  if (fe.summary.sfm && fe.summary.sfm->focal > 0) {
-    k.fx = k.fy = fe.summary.sfm->focal;
-    if (source) *source = "tracks.json summary.sfm.focal_px (" + fe.summary.sfm->focal_source + ")";
+  const sfm::SfmSummary* sfm = sfm::sfm_summary_of(fe.summary);
+  if (sfm && sfm->focal > 0) {
+    k.fx = k.fy = sfm->focal;
+    if (source) *source = "tracks.json summary.sfm.focal_px (" + sfm->focal_source + ")";
   } else if (seq.calibration.fx && seq.calibration.fy) {
     k.fx = *seq.calibration.fx;
     k.fy = *seq.calibration.fy;

@@ -33,19 +33,6 @@ std::vector<double> numbers(const JsonView& v, std::size_t expected, const char*
   return out;
 }
 
-std::vector<long> integers(const JsonView& v, std::size_t expected) {
-  if (!v.json().is_array()) v.fail("expected an array of integers");
-  const std::size_t n = v.size();
-  if (n != expected) v.fail("expected " + std::to_string(expected) + " integers, found " + std::to_string(n));
-  std::vector<long> out(n);
-  const Json& j = v.json();
-  for (std::size_t i = 0; i < n; ++i) {
-    if (!j[i].is_number_integer()) v.at(i).fail("expected an integer");
-    out[i] = j[i].get<long>();
-  }
-  return out;
-}
-
 /// A frame index or a point count: an integer in 0..2^31-1 (checked before it is narrowed to int).
 int count(const JsonView& j, const char* key) {
   const std::int64_t v = j.integer(key);
@@ -134,6 +121,19 @@ Json offset_estimate_json(const OffsetEstimate& e) {
 
 }  // namespace
 
+std::vector<long> integers(const JsonView& v, std::size_t expected) {
+  if (!v.json().is_array()) v.fail("expected an array of integers");
+  const std::size_t n = v.size();
+  if (n != expected) v.fail("expected " + std::to_string(expected) + " integers, found " + std::to_string(n));
+  std::vector<long> out(n);
+  const Json& j = v.json();
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!j[i].is_number_integer()) v.at(i).fail("expected an integer");
+    out[i] = j[i].get<long>();
+  }
+  return out;
+}
+
 Json summary_to_json(const FrontEndSummary& s) {
   const FilterCounts& c = s.filters;
   auto share = [](long part, long whole) { return whole > 0 ? static_cast<double>(part) / whole : 0.0; };
@@ -174,27 +174,9 @@ Json summary_to_json(const FrontEndSummary& s) {
                                      {"tracks", s.seconds.tracks},
                                      {"motion", s.seconds.motion}}},
               {"seconds_total_wall", s.seconds.total_wall}};
-  if (s.sfm) {
-    const SfmSummary& m = *s.sfm;
-    out["sfm"] = {{"tracker", m.tracker},
-                  {"focal_px", m.focal},
-                  {"focal_source", m.focal_source},
-                  {"focal_pairs", m.focal_pairs},
-                  {"init_pair", {m.init_frame_a, m.init_frame_b}},
-                  {"keyframes", m.keyframes},
-                  {"posed_frames", m.posed_frames},
-                  {"still_frames", m.still_frames},
-                  {"bridged_frames", m.bridged_frames},
-                  {"points_3d", m.points_3d},
-                  {"map_joins", m.map_joins},
-                  {"observations", m.observations},
-                  {"reprojection_rms_px", m.reprojection_rms_px},
-                  {"scale_m_per_unit", m.scale},
-                  {"ground_inliers", m.ground_inliers},
-                  {"ground_candidates", m.ground_candidates},
-                  {"seconds_per_frame", {{"sfm", m.seconds_sfm}, {"bundle_adjustment", m.seconds_ba}}}};
-  }
-  if (!s.sfm) out["disparity_offset_px"] = s.disparity_offset;
+  if (s.own) out[std::string(s.own->key())] = s.own->to_json();
+  // The disparity offset is the stereo front end's (a front end with its own part, the SfM, has none).
+  if (!s.own) out["disparity_offset_px"] = s.disparity_offset;
   if (s.offset_estimate) out["disparity_offset_estimate"] = offset_estimate_json(*s.offset_estimate);
   if (s.gravity) {
     const GravityEstimate& g = *s.gravity;
@@ -233,31 +215,6 @@ FilterCounts filter_counts_from_json(const JsonView& f) {
   return c;
 }
 
-SfmSummary sfm_summary_from_json(const JsonView& m) {
-  SfmSummary f;
-  f.tracker = m.str("tracker");
-  f.focal = m.num("focal_px");
-  f.focal_source = m.str("focal_source");
-  f.focal_pairs = static_cast<int>(m.integer("focal_pairs"));
-  const auto init = integers(m.at("init_pair"), 2);
-  f.init_frame_a = static_cast<int>(init[0]);
-  f.init_frame_b = static_cast<int>(init[1]);
-  f.keyframes = static_cast<int>(m.integer("keyframes"));
-  f.posed_frames = static_cast<int>(m.integer("posed_frames"));
-  f.still_frames = static_cast<int>(m.integer("still_frames"));
-  f.bridged_frames = static_cast<int>(m.integer("bridged_frames"));
-  f.points_3d = m.integer("points_3d");
-  f.map_joins = m.has("map_joins") ? m.integer("map_joins") : 0;  // files before local-map matching
-  f.observations = m.integer("observations");
-  f.reprojection_rms_px = m.num("reprojection_rms_px");
-  f.scale = m.num("scale_m_per_unit");
-  f.ground_inliers = static_cast<int>(m.integer("ground_inliers"));
-  f.ground_candidates = static_cast<int>(m.integer("ground_candidates"));
-  f.seconds_sfm = m.at("seconds_per_frame").num("sfm");
-  f.seconds_ba = m.at("seconds_per_frame").num("bundle_adjustment");
-  return f;
-}
-
 GravityEstimate gravity_from_json(const JsonView& g) {
   GravityEstimate e;
   const auto vec = [&](const char* key) {
@@ -276,7 +233,7 @@ GravityEstimate gravity_from_json(const JsonView& g) {
 
 }  // namespace
 
-FrontEndSummary summary_from_json(const JsonView& j) {
+FrontEndSummary summary_from_json(const JsonView& j, const SummaryPartReaders& parts) {
   FrontEndSummary s;
   s.frames = static_cast<int>(j.integer("frames"));
   s.keypoints = j.integer("keypoints");
@@ -299,7 +256,8 @@ FrontEndSummary summary_from_json(const JsonView& j) {
   s.seconds.tracks = t.num("tracks");
   s.seconds.motion = t.num("motion");
   s.seconds.total_wall = j.num("seconds_total_wall");
-  if (const auto sfm = j.maybe("sfm")) s.sfm = sfm_summary_from_json(*sfm);
+  for (const auto& [key, read] : parts)
+    if (const auto part = j.maybe(key)) s.own = read(*part);
   if (const auto g = j.maybe("gravity")) s.gravity = gravity_from_json(*g);
   if (const auto d = j.maybe("disparity_offset_px")) s.disparity_offset = d->as_num();
   if (const auto e = j.maybe("disparity_offset_estimate"))
@@ -439,7 +397,7 @@ Track track_from_json(const JsonView& t, int first_frame, long n) {
 
 }  // namespace
 
-TracksFile read_tracks(const fs::path& path) {
+TracksFile read_tracks(const fs::path& path, const SummaryPartReaders& parts) {
   const Json doc = read_json(path, kMaxLargeFileBytes);
   const JsonView j(doc, path);
   check_format(j, kTracksFormat, {kTracksVersion});
@@ -460,7 +418,7 @@ TracksFile read_tracks(const fs::path& path) {
   if (!tracks.json().is_array()) tracks.fail("expected an array of tracks");
   r.tracks.reserve(tracks.size());
   for (std::size_t i = 0; i < tracks.size(); ++i) r.tracks.push_back(track_from_json(tracks.at(i), r.first_frame, n));
-  r.summary = summary_from_json(j.at("summary"));
+  r.summary = summary_from_json(j.at("summary"), parts);
   return out;
 }
 

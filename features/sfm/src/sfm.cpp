@@ -517,7 +517,7 @@ void MonoFrontEnd::summarise(frontend::FrontEndResult& res, const frontend::Filt
   s.seconds.total_wall = since(wall_start_);
   report_.seconds_sfm = s.seconds.motion;
   report_.seconds_ba = n_ > 0 ? seconds_ba_ / n_ : 0;
-  s.sfm = sfm_summary(report_);
+  s.own = std::make_shared<SfmSummary>(sfm_summary(report_));
 }
 
 }  // namespace sfm_front_end

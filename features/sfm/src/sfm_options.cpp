@@ -45,37 +45,37 @@ const options::Table<SfmOptions>& sfm_options_table() {
     t.optional_number("focal", "--focal",
                       "sfm: focal length in pixels (default: the manifest's fx, else estimated by self-calibration, "
                       "else the image width)",
-                      +[](O& o) -> std::optional<double>& { return o.focal; }, 1.0, 1e6)
+                      [](auto& o) -> auto& { return o.focal; }, 1.0, 1e6)
         .checked_as("sfm.focal");
     t.number("match_radius", "--match-radius",
              "sfm, descriptors: match candidates within this many pixels; 0 = the whole image (wide baselines)",
-             +[](O& o) -> double& { return o.match_radius_px; }, 0.0, 1e5)
+             [](auto& o) -> auto& { return o.match_radius_px; }, 0.0, 1e5)
         .checked_as("sfm.match_radius_px");
     t.number("lowe_ratio", "--lowe-ratio", "sfm, descriptors: Lowe's ratio test, e.g. 0.8 for wide baselines; 0 = off",
-             +[](O& o) -> double& { return o.lowe_ratio; }, 0.0, 0.999999)
+             [](auto& o) -> auto& { return o.lowe_ratio; }, 0.0, 0.999999)
         .checked_as("sfm.lowe_ratio");
     t.number("epipolar_ratio", "--epipolar-ratio",
              "sfm, descriptors: match each verified pair again along its epipolar lines, with this ratio test;\n"
              "0 = off",
-             +[](O& o) -> double& { return o.epipolar_ratio; }, 0.0, 0.999999)
+             [](auto& o) -> auto& { return o.epipolar_ratio; }, 0.0, 0.999999)
         .checked_as("sfm.epipolar_ratio");
     t.number("map_window", "--map-window",
              "sfm, descriptors: also match each frame's keypoints to the 3D points of this many frames before\n"
              "it (joins tracks broken by a missed match); 0 = off",
-             +[](O& o) -> int& { return o.map_window; }, 0, 30)
+             [](auto& o) -> auto& { return o.map_window; }, 0, 30)
         .checked_as("sfm.map_window");
     t.number("reprojection_threshold", "--reprojection-threshold",
              "sfm: inlier threshold of PnP, triangulation and the final filter, pixels",
-             +[](O& o) -> double& { return o.reprojection_threshold_px; }, 1e-3, 1e3)
+             [](auto& o) -> auto& { return o.reprojection_threshold_px; }, 1e-3, 1e3)
         .checked_as("sfm.reprojection_threshold_px");
     t.number("keyframe_motion", "--keyframe-motion",
              "sfm: median track motion since the last key frame that makes a key frame, pixels",
-             +[](O& o) -> double& { return o.keyframe_motion_px; }, 1e-3, 1e4)
+             [](auto& o) -> auto& { return o.keyframe_motion_px; }, 1e-3, 1e4)
         .checked_as("sfm.keyframe_motion_px");
     t.number("ba_window", "--ba-window", "sfm: key frames in the local bundle adjustment",
-             +[](O& o) -> int& { return o.ba_window; }, 3, 1000)
+             [](auto& o) -> auto& { return o.ba_window; }, 3, 1000)
         .checked_as("sfm.ba_window");
-    t.number("sfm_seed", "--seed", "sfm: RANSAC seed", +[](O& o) -> std::uint64_t& { return o.seed; },
+    t.number("sfm_seed", "--seed", "sfm: RANSAC seed", [](auto& o) -> auto& { return o.seed; },
              std::uint64_t{0}, std::numeric_limits<std::uint64_t>::max());
     return t;
   }();
@@ -126,8 +126,8 @@ Json sfm_options_to_json(const SfmOptions& o) {
   return j;
 }
 
-frontend::SfmSummary sfm_summary(const SfmReport& r) {
-  frontend::SfmSummary s;
+SfmSummary sfm_summary(const SfmReport& r) {
+  SfmSummary s;
   s.tracker = sfm_tracker_name(r.tracker);
   s.focal = r.focal;
   s.focal_source = focal_source_name(r.focal_source);

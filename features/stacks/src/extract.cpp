@@ -191,7 +191,8 @@ SweepInputs sweep_inputs(const sequence::Sequence& seq, const frontend::FrontEnd
     const int f = fe.first_frame + k;
     if (f >= 0 && f < seq.frame_count()) in.usable[f] = true;
   }
-  const double focal = fe.summary.sfm ? fe.summary.sfm->focal : 0;
+  const sfm::SfmSummary* made = sfm::sfm_summary_of(fe.summary);
+  const double focal = made ? made->focal : 0;
   if (!(focal > 0)) throw Error(seq.manifest.string(), "focal", "the structure from motion reported no focal length");
   in.calibration = sfm::sfm_camera(seq, focal);
   return in;
@@ -445,8 +446,9 @@ std::string report_text(const ExtractReport& r, const std::string& work) {
                 s.valid_points_per_frame_mean, s.valid_points_per_frame_min, s.filters.kept_tracks, s.filters.tracks,
                 s.track_length_mean, s.inlier_ratio_mean, s.bridged_pairs.size(), r.bytes_per_frame / 1e6);
   std::string text = std::string(line) + "\n";
-  if (!s.sfm) return text;
-  const frontend::SfmSummary& m = *s.sfm;
+  const sfm::SfmSummary* sfm_part = sfm::sfm_summary_of(s);
+  if (!sfm_part) return text;
+  const sfm::SfmSummary& m = *sfm_part;
   std::snprintf(line, sizeof line,
                 "sfm (%s): focal %.1f px (%s); key frames %d; frames posed %d, still %d, bridged %d of %d; "
                 "reprojection RMS %.3f px over %ld observations; scale %.4g m/unit (ground inliers %d); "

@@ -28,10 +28,13 @@ class StereoFrontEnd final : public FrontEnd {
     return frontend::run_stereo_front_end(seq, fe);
   }
   Json options_json(const ExtractOptions& o) const override { return frontend::front_end_options_to_json(o.front_end); }
+  std::optional<Json> own_options_json(const ExtractOptions&) const override { return std::nullopt; }
   int min_track_frames(const ExtractOptions& o) const override { return o.front_end.filters.min_frames; }
   HeightReference auto_height_reference() const override { return HeightReference::Plane; }
   bool monocular() const override { return false; }
   std::string_view no_tracks_hint() const override { return "blank frames? too few frames?"; }
+  // Its own figures (gravity) are frontend's, which reads them with the shared ones.
+  frontend::SummaryPartReader summary_part_reader() const override { return {}; }
 };
 
 class SfmFrontEnd final : public FrontEnd {
@@ -54,6 +57,9 @@ class SfmFrontEnd final : public FrontEnd {
     if (s.camera_height) fe["camera_height"] = *s.camera_height;
     return fe;
   }
+  std::optional<Json> own_options_json(const ExtractOptions& o) const override {
+    return sfm::sfm_options_to_json(o.sfm);
+  }
   int min_track_frames(const ExtractOptions& o) const override { return as_run(o).filters.min_frames; }
   // A long monocular drive's camera path drifts up and down against its one ground plane: heights are
   // measured from the ground under each camera (docs/camvid.md, "Heights from the ground under the
@@ -61,6 +67,7 @@ class SfmFrontEnd final : public FrontEnd {
   HeightReference auto_height_reference() const override { return HeightReference::Camera; }
   bool monocular() const override { return true; }
   std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
+  frontend::SummaryPartReader summary_part_reader() const override { return sfm::sfm_summary_part; }
 
  private:
   // The SfM options as run: the camera height from the extraction options when not set.
@@ -96,6 +103,25 @@ const FrontEnd& front_end_named(const std::string& name, const std::string& fiel
 void check_motion_name(const std::string& name, const std::string& field) {
   if (name != "auto") front_end_named(name, field);
 }
+
+const frontend::SummaryPartReaders& summary_part_readers() {
+  static const frontend::SummaryPartReaders readers = [] {
+    frontend::SummaryPartReaders r;
+    for (const FrontEnd* f : front_ends())
+      if (auto read = f->summary_part_reader()) r.emplace(std::string(f->name()), std::move(read));
+    return r;
+  }();
+  return readers;
+}
+
+Json run_options_key(const std::string& motion, const ExtractOptions& options) {
+  Json key = {{"front_end", frontend::front_end_options_to_json(options.front_end)}, {"motion", motion}};
+  for (const FrontEnd* f : front_ends())
+    if (auto own = f->own_options_json(options)) key[std::string(f->name())] = f->name() == motion ? *own : Json();
+  return key;
+}
+
+frontend::TracksFile read_tracks(const fs::path& path) { return frontend::read_tracks(path, summary_part_readers()); }
 
 const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options) {
   if (options.motion != "auto") return front_end_named(options.motion, "motion");

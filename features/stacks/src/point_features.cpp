@@ -96,41 +96,41 @@ const options::Table<FeatureOptions>& feature_options_table() {
     t.flag("causal", "--causal",
            "only what is known at each frame (on-line use, what label-stream computes): fC from the camera\n"
            "path up to the frame, and a track's points from the frame it reaches --min-track-frames on",
-           +[](F& o) -> bool& { return o.causal; })
+           [](auto& o) -> auto& { return o.causal; })
         .only(options::kCommandLine | options::kFile | options::kPython);  // configs: per side, their own key
     t.flag("appearance", "--appearance",
            "also the image's own channels, after the six: fL fA fB (Lab colour), fG0..fG3 (gradient\n"
            "magnitude by orientation) and fRow fCol (position); train-forest --features fH,fC,fOx,fOy,fD,fR\n"
            "leaves them out (structure and motion only)",
-           +[](F& o) -> bool& { return o.appearance; })
+           [](auto& o) -> auto& { return o.appearance; })
         .recorded_unless([](const F& o) { return !o.appearance; });
     t.flag("dense", "--dense",
            "also dense geometry channels, after the others: fZV (valid), fZI (inverse depth), fZH (height),\n"
            "fZU (surface facing up), fZE (depth edges), fZC (distance to the camera path), from semi-global\n"
            "matching (stereo) or a plane sweep over the SfM's posed neighbour frames (mono); structure and\n"
            "motion, not appearance (docs/stereo.md, docs/sfm.md)",
-           +[](F& o) -> bool& { return o.dense; })
+           [](auto& o) -> auto& { return o.dense; })
         .recorded_unless([](const F& o) { return !o.dense; });
     t.number("sweep_baseline", "--sweep-baseline",
              "--dense, monocular: metres between the frame's camera and each neighbour the plane sweep reads\n"
              "(the nearest frame each side at least this far, within --sweep-reach frames); a video much\n"
              "denser than its training runs can match their baseline (docs/camvid.md)",
-             +[](F& o) -> double& { return o.sweep_baseline; }, 0.05, 1000.0)
+             [](auto& o) -> auto& { return o.sweep_baseline; }, 0.05, 1000.0)
         .recorded_unless_default();
     t.number("sweep_reach", "--sweep-reach", "--dense, monocular: frames either side the plane sweep looks for its neighbours in",
-             +[](F& o) -> int& { return o.sweep_reach; }, 1, 1000)
+             [](auto& o) -> auto& { return o.sweep_reach; }, 1, 1000)
         .recorded_unless_default();
     t.choice("height_reference", "--height-reference",
              "what fH and fZH measure heights from: plane (the run's ground plane, world Y), camera (the\n"
              "ground under each frame's camera: its height relative to the camera plus the cameras' median\n"
              "height, so a drifting monocular camera path does not shift them) or auto (camera for\n"
              "structure from motion, plane for stereo)",
-             +[](F& o) -> HeightReference& { return o.height_reference; }, kHeightReferenceNames)
+             [](auto& o) -> auto& { return o.height_reference; }, kHeightReferenceNames)
         .recorded_unless([](const F& o) { return o.height_reference != HeightReference::Camera; });
     t.number("future_frames", "--future-frames",
              "frames of camera motion applied to a point's last position (fC), and of the camera path\n"
              "ahead that fZC measures to (--dense)",
-             +[](F& o) -> int& { return o.future_frames; }, 0, 100000);
+             [](auto& o) -> auto& { return o.future_frames; }, 0, 100000);
     return t;
   }();
   return table;

@@ -47,32 +47,32 @@ const options::Table<SynthOptions>& synth_options_table() {
     t.named("scene", "--scene",
             "corridor, lab, or tabletop (a table with 3-6 objects in a room, the camera circling it; also writes "
             "instance images)",
-            +[](O& o) -> std::string& { return o.scene; }, "corridor | lab | tabletop", &scene_name, &options::as_written);
+            [](auto& o) -> auto& { return o.scene; }, "corridor | lab | tabletop", &scene_name, &options::as_written);
     t.number("seed", "--seed", "random seed for layout, textures, people and noise",
-             +[](O& o) -> std::uint64_t& { return o.seed; }, std::uint64_t{0},
+             [](auto& o) -> auto& { return o.seed; }, std::uint64_t{0},
              std::numeric_limits<std::uint64_t>::max());
-    t.number("frames", "--frames", "number of frames", +[](O& o) -> int& { return o.frames; }, 1, 100000);
+    t.number("frames", "--frames", "number of frames", [](auto& o) -> auto& { return o.frames; }, 1, 100000);
     // The command line gives both as --size WIDTHxHEIGHT.
-    t.number("width", "", "image width in pixels", +[](O& o) -> int& { return o.width; }, 16, 4096)
+    t.number("width", "", "image width in pixels", [](auto& o) -> auto& { return o.width; }, 16, 4096)
         .only(options::kConfig | options::kFile);
-    t.number("height", "", "image height in pixels", +[](O& o) -> int& { return o.height; }, 16, 4096)
+    t.number("height", "", "image height in pixels", [](auto& o) -> auto& { return o.height; }, 16, 4096)
         .only(options::kConfig | options::kFile);
     t.number("label_every", "--label-every",
              "mark every Nth frame as labelled in the manifest; label images are written for every frame",
-             +[](O& o) -> int& { return o.label_every; }, 1, 100000);
-    t.number("fps", "--fps", "frame rate in Hz (12, as in the thesis)", +[](O& o) -> double& { return o.fps; }, 1e-3,
+             [](auto& o) -> auto& { return o.label_every; }, 1, 100000);
+    t.number("fps", "--fps", "frame rate in Hz (12, as in the thesis)", [](auto& o) -> auto& { return o.fps; }, 1e-3,
              240.0);
-    t.number("baseline", "--baseline", "stereo baseline in metres", +[](O& o) -> double& { return o.baseline; }, 1e-3,
+    t.number("baseline", "--baseline", "stereo baseline in metres", [](auto& o) -> auto& { return o.baseline; }, 1e-3,
              1.0);
     t.optional_number("camera_height", "--camera-height",
                       "camera height above the floor in metres (default 1.0; tabletop 1.15, the table top + 0.4)",
-                      +[](O& o) -> std::optional<double>& { return o.camera_height; }, 0.3, 2.0)
+                      [](auto& o) -> auto& { return o.camera_height; }, 0.3, 2.0)
         .written_as([](const O& o) { return nlohmann::json(o.camera_y()); });
-    t.number("hfov_deg", "--hfov", "horizontal field of view in degrees", +[](O& o) -> double& { return o.hfov_deg; },
+    t.number("hfov_deg", "--hfov", "horizontal field of view in degrees", [](auto& o) -> auto& { return o.hfov_deg; },
              20.0, 120.0);
-    t.number("speed", "--speed", "mean robot speed in m/s", +[](O& o) -> double& { return o.speed; }, 0.0, 2.0);
+    t.number("speed", "--speed", "mean robot speed in m/s", [](auto& o) -> auto& { return o.speed; }, 0.0, 2.0);
     t.number("noise_sigma", "--noise", "sensor read noise, grey levels of 255",
-             +[](O& o) -> double& { return o.noise_sigma; }, 0.0, 50.0);
+             [](auto& o) -> auto& { return o.noise_sigma; }, 0.0, 50.0);
     return t;
   }();
   return table;

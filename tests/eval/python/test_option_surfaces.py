@@ -12,9 +12,9 @@ import pytest
 
 import smseg
 
-# The tools that take each struct whole (label-stream takes parts of two of them).
+# The tools that take each struct whole (label-stream also takes parts of two of them).
 TOOLS = {"training": "train-forest", "extract_features": "extract-features", "evaluate": "eval-forest",
-         "make_sequence": "make-sequence"}
+         "make_sequence": "make-sequence", "label_stream": "label-stream"}
 # Point parameters (the rest: a config's "synthetic" sequences).
 POINT_TABLES = ["evaluate", "extract_features", "training"]
 # Estimator parameters that are not training parameters: how to run, what to read.
@@ -106,6 +106,15 @@ def test_extraction_keys_of_configs_take_a_side(run_tool, tmp_path):
     assert r.returncode == 0, r.stderr
     r = check_config(run_tool, tmp_path, {"max_keypoints": 0})
     assert r.returncode != 0 and "fixed.max_keypoints" in r.stderr
+
+
+def test_superpixels_in_configs_is_a_name_or_a_number(run_tool, tmp_path):
+    r = check_config(run_tool, tmp_path, {}, {"superpixels": ["none", "small", 12]})
+    assert r.returncode == 0 and r.stdout.startswith("surfaces: 3 points"), r.stderr
+    r = check_config(run_tool, tmp_path, {"superpixels": 2})
+    assert r.returncode != 0 and "fixed.superpixels" in r.stderr
+    r = check_config(run_tool, tmp_path, {"superpixels": 2.5})
+    assert r.returncode != 0 and "fixed.superpixels" in r.stderr
 
 
 def test_every_training_field_is_a_parameter_of_the_estimator():

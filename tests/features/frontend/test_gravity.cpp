@@ -188,7 +188,7 @@ TEST(Gravity, TiltedTabletopWorldUpWithinTwoDegreesOfTruthInEveryFrame) {
   for (int f = 0; f < 150; ++f) EXPECT_LT(world_up_error(est, f), 2) << "frame " << f;
   // tracks.json keeps the estimate.
   write_tracks(scratch / "tracks.json", est, seq.name, seq.size, front_end_options_to_json(o));
-  const TracksFile back = read_tracks(scratch / "tracks.json");
+  const TracksFile back = read_tracks(scratch / "tracks.json", {});
   ASSERT_TRUE(back.result.summary.gravity);
   EXPECT_EQ(back.result.summary.gravity->source, "camera-path");
   EXPECT_LT((back.result.summary.gravity->up - est.summary.gravity->up).norm(), 1e-9);

@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "random_texture.hpp"
 #include "smseg/frontend/stereo.hpp"
 
 namespace fs = std::filesystem;
@@ -21,14 +22,7 @@ using namespace smseg::frontend;
 namespace {
 
 // A blurred random texture, wide enough to be sampled at any shift used below.
-cv::Mat texture(int w, int h, std::uint64_t seed) {
-  cv::RNG rng(seed);
-  cv::Mat t(h, w, CV_32FC1);
-  rng.fill(t, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::GaussianBlur(t, t, cv::Size(0, 0), 1.0);
-  cv::normalize(t, t, 10, 245, cv::NORM_MINMAX);
-  return t;
-}
+cv::Mat texture(int w, int h, std::uint64_t seed) { return test::random_texture(w, h, seed, 1.0, 10, 245); }
 
 // Samples tex at (x + shift, y) for every pixel of a W x H image (bilinear for fractional shifts).
 cv::Mat shifted(const cv::Mat& tex, int W, int H, double shift) {

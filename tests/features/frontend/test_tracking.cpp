@@ -12,6 +12,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "random_texture.hpp"
 #include "smseg/frontend/motion.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/frontend/tracking.hpp"
@@ -23,14 +24,7 @@ using namespace smseg::frontend;
 
 namespace {
 
-cv::Mat texture(int w, int h, std::uint64_t seed) {
-  cv::RNG rng(seed);
-  cv::Mat t(h, w, CV_32FC1);
-  rng.fill(t, cv::RNG::UNIFORM, 0.0, 255.0);
-  cv::GaussianBlur(t, t, cv::Size(0, 0), 1.5);
-  cv::normalize(t, t, 0, 255, cv::NORM_MINMAX);
-  return t;
-}
+cv::Mat texture(int w, int h, std::uint64_t seed) { return test::random_texture(w, h, seed, 1.5, 0, 255); }
 
 cv::Mat shifted(const cv::Mat& tex, int W, int H, double sx, double sy) {
   cv::Mat mx(H, W, CV_32FC1), my(H, W, CV_32FC1);
@@ -362,7 +356,7 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   // The tracks file round trip.
   const fs::path file = s.dir / "tracks.json";
   write_tracks(file, r, s.seq.name, s.seq.size, front_end_options_to_json(quiet()));
-  const TracksFile back = read_tracks(file);
+  const TracksFile back = read_tracks(file, {});
   EXPECT_EQ(back.sequence_name, "slide");
   EXPECT_EQ(back.image_size, cv::Size(320, 240));
   ASSERT_EQ(back.result.tracks.size(), r.tracks.size());
@@ -386,12 +380,12 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   Json j = read_json(file);
   j["version"] = 7;
   write_json_atomic(s.dir / "bad_version.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_version.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_version.json", {}), Error);
   j = read_json(file);
   j["tracks"][0]["x"].erase(0);
   write_json_atomic(s.dir / "bad_x.json", j);
   try {
-    read_tracks(s.dir / "bad_x.json");
+    read_tracks(s.dir / "bad_x.json", {});
     FAIL() << "a short x array must be an error";
   } catch (const Error& e) {
     EXPECT_NE(e.field().find("tracks[0].x"), std::string::npos) << e.what();
@@ -399,11 +393,11 @@ TEST(FrontEnd, RecoversTheSlidingCameraAndWritesTheTracksFile) {
   j = read_json(file);
   j["tracks"][0]["frames"][0] = 99;
   write_json_atomic(s.dir / "bad_frames.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_frames.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_frames.json", {}), Error);
   j = read_json(file);
   j["poses"].erase(1);
   write_json_atomic(s.dir / "bad_poses.json", j);
-  EXPECT_THROW(read_tracks(s.dir / "bad_poses.json"), Error);
+  EXPECT_THROW(read_tracks(s.dir / "bad_poses.json", {}), Error);
   fs::remove_all(s.dir);
 }
 

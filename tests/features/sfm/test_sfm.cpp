@@ -11,6 +11,7 @@
 #include <tbb/global_control.h>
 
 #include "smseg/stacks/extract.hpp"
+#include "smseg/stacks/front_ends.hpp"
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/synth/synth.hpp"
@@ -379,8 +380,8 @@ TEST_F(SfmCorridor, TexturelessFramesAreBridgedAndAllTexturelessGivesTheDocument
   ASSERT_EQ(res.poses.size(), static_cast<std::size_t>(seq_->frame_count()));
   EXPECT_GE(rep.init_frame_a, 0);
   EXPECT_GE(rep.bridged_frames, 3);  // the blank frames get no pose of their own and are reported
-  ASSERT_TRUE(res.summary.sfm.has_value());
-  EXPECT_EQ(res.summary.sfm->bridged_frames, rep.bridged_frames);
+  ASSERT_NE(sfm_summary_of(res.summary), nullptr);
+  EXPECT_EQ(sfm_summary_of(res.summary)->bridged_frames, rep.bridged_frames);
   for (const auto& tr : res.tracks)
     for (int f : tr.frames) EXPECT_TRUE(f < 28 || f >= 31) << "a point tracked in a blank frame";
   // The path before the gap keeps its shape. (Its metric scale is not checked: after the gap the map
@@ -413,14 +414,16 @@ TEST_F(SfmCorridor, ExtractFeaturesRunsMonoSequencesThroughSfmAndRecordsItsOptio
   eo.frames = FrameRange::parse("0:2", "--frames");
   const ExtractReport r = extract_features(s, work, eo);
   EXPECT_EQ(r.frames_written, 2);
-  ASSERT_TRUE(r.summary.sfm.has_value());
-  EXPECT_EQ(r.summary.sfm->tracker, "klt");
-  EXPECT_EQ(r.summary.sfm->focal_source, "manifest");
-  EXPECT_GT(r.summary.sfm->posed_frames, 30);
+  const SfmSummary* made = sfm_summary_of(r.summary);
+  ASSERT_NE(made, nullptr);
+  EXPECT_EQ(made->tracker, "klt");
+  EXPECT_EQ(made->focal_source, "manifest");
+  EXPECT_GT(made->posed_frames, 30);
   // The tracks file carries the SfM summary and the path.
-  const TracksFile tf = read_tracks(work / "tracks.json");
-  ASSERT_TRUE(tf.result.summary.sfm.has_value());
-  EXPECT_EQ(tf.result.summary.sfm->keyframes, r.summary.sfm->keyframes);
+  const TracksFile tf = stacks::read_tracks(work / "tracks.json");
+  ASSERT_NE(sfm_summary_of(tf.result.summary), nullptr);
+  EXPECT_EQ(sfm_summary_of(tf.result.summary)->keyframes, made->keyframes);
+  EXPECT_EQ(tf.result.summary.own->to_json(), made->to_json());
   EXPECT_EQ(tf.options.at("method"), "sfm");
   EXPECT_LT(absolute_path_error(tf.result.poses, s.gt_poses, PathAlignment::Rigid).relative, 0.05);
   // Other SfM options: refused without --force, rebuilt with it.
@@ -428,9 +431,9 @@ TEST_F(SfmCorridor, ExtractFeaturesRunsMonoSequencesThroughSfmAndRecordsItsOptio
   EXPECT_THROW(extract_features(s, work, eo), Error);
   eo.force = true;
   const ExtractReport r2 = extract_features(s, work, eo);
-  ASSERT_TRUE(r2.summary.sfm.has_value());
-  EXPECT_EQ(r2.summary.sfm->focal_source, "option");
-  EXPECT_EQ(r2.summary.sfm->focal, 250.0);
+  ASSERT_NE(sfm_summary_of(r2.summary), nullptr);
+  EXPECT_EQ(sfm_summary_of(r2.summary)->focal_source, "option");
+  EXPECT_EQ(sfm_summary_of(r2.summary)->focal, 250.0);
   // Stereo motion on a mono sequence is an error naming the manifest's kind.
   eo.motion = "stereo";
   try {

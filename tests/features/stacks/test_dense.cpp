@@ -206,7 +206,7 @@ TEST(DenseChannels, ExtractWritesThemAfterTheSix) {
   const int f = m.frames.at(2);
   const FrameStack stack = FrameStack::open(m, f, false);
   std::vector<cv::Mat> want;
-  const TracksFile tracks = read_tracks(dir / "work" / "tracks.json");
+  const TracksFile tracks = stacks::read_tracks(dir / "work" / "tracks.json");
   ASSERT_EQ(tracks.result.first_frame, 0);
   append_dense_rasters(dense_depth(seq, f, dense_stereo_options(eo.front_end.stereo)), seq.calibration,
                        tracks.result.poses.at(std::size_t(f)), want, 0,

@@ -6,6 +6,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/stacks/extract.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/front_ends.hpp"
 
 using namespace smseg::sequence;
@@ -78,4 +79,48 @@ TEST(FrontEnds, EachSaysWhatExtractionNeedsOfIt) {
   } catch (const smseg::Error& e) {
     EXPECT_NE(std::string(e.what()).find("seq/sequence.json"), std::string::npos) << e.what();
   }
+}
+
+TEST(FrontEnds, EachReadsBackItsOwnSummaryPartAndNamesItsOwnOptions) {
+  // Only the SfM has figures of its own; its reader is registered under its name.
+  const SummaryPartReaders& readers = summary_part_readers();
+  ASSERT_EQ(readers.size(), 1u);
+  ASSERT_EQ(readers.count("sfm"), 1u);
+  smseg::sfm::SfmSummary made;
+  made.tracker = "klt";
+  made.focal = 250;
+  made.focal_source = "option";
+  made.init_frame_a = 3, made.init_frame_b = 9;
+  const smseg::Json written = made.to_json();
+  const auto back = readers.at("sfm")(smseg::JsonView(written, "tracks.json", "summary.sfm"));
+  ASSERT_NE(back, nullptr);
+  EXPECT_EQ(back->key(), "sfm");
+  EXPECT_EQ(back->to_json(), written);
+  FrontEndSummary summary;
+  summary.own = back;
+  ASSERT_NE(smseg::sfm::sfm_summary_of(summary), nullptr);
+  EXPECT_EQ(smseg::sfm::sfm_summary_of(summary)->init_frame_b, 9);
+  EXPECT_EQ(summary_to_json(summary).at("sfm"), written);
+  // A run's key names the shared options, the front end, and each front end's own (null unless chosen).
+  ExtractOptions o;
+  const smseg::Json stereo = run_options_key("stereo", o), sfm = run_options_key("sfm", o);
+  EXPECT_TRUE(stereo.at("sfm").is_null());
+  EXPECT_EQ(sfm.at("sfm"), smseg::sfm::sfm_options_to_json(o.sfm));
+  EXPECT_EQ(stereo.at("front_end"), sfm.at("front_end"));
+  EXPECT_EQ(stereo.size(), 3u);
+}
+
+TEST(FrontEnds, TheStereoTrackerAloneLeavesTheSfmsTracker) {
+  // run-experiment's "tracker" is the stereo front end's: resolve() makes it and its keypoints.
+  ExtractOptions o;
+  o.stereo_tracker = "descriptors";
+  o.resolve();
+  EXPECT_EQ(o.front_end.tracker, FrameTracker::Descriptors);
+  EXPECT_EQ(o.front_end.tracking.detector, KeypointMethod::Sift);
+  EXPECT_EQ(o.sfm.tracker, smseg::sfm::SfmTracker::Auto);
+  ExtractOptions klt;
+  klt.stereo_tracker = "klt";
+  klt.resolve();
+  EXPECT_EQ(klt.front_end.tracker, FrameTracker::Klt);
+  EXPECT_EQ(klt.front_end.tracking.detector, KeypointMethod::Gftt);
 }

@@ -76,6 +76,21 @@ struct StreamOutputOptions {
   bool show = false;     ///< a window showing each overlay
 };
 
+/// label-stream's own options: where its frames come from and what it writes (the stereo front end's
+/// and the voting's are extract_options_table's and eval_options_table's).
+struct LabelStreamOptions {
+  std::string frames = "0:";  ///< frames of the sequence folder, A:B half-open
+  std::string cameras;        ///< two live sources "L,R" (camera indices or video files / URLs)
+  std::string side_by_side;   ///< one video whose frames hold left | right
+  int max_frames = 0;         ///< of a live source (0: until it ends)
+  int in_flight = 3;          ///< frames in the pipeline at once
+  bool no_labels = false;     ///< write no labels/ (output.labels = false)
+  StreamOutputOptions output;
+};
+
+/// LabelStreamOptions' fields, declared once (options.hpp): label-stream's options of its own.
+const options::Table<LabelStreamOptions>& label_stream_options_table();
+
 class StreamWriter {
  public:
   /// Makes the folders under `staging`; Error naming `out`/video when the video cannot be written.

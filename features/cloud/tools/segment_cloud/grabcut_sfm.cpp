@@ -6,9 +6,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "runs.hpp"
-#include "smseg/frontend/tracks_io.hpp"
 #include "smseg/sequence/image_file.hpp"
 #include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/front_ends.hpp"
 
 namespace segment_cloud {
 
@@ -83,7 +83,7 @@ Frame load_frame(const GrabCutSfmCli& o) {
   std::error_code ec;
   if (!fs::is_regular_file(f.tracks_path, ec))
     throw Error(f.tracks_path.string(), "", "no camera poses: run extract-features on the sequence first");
-  f.tracks = smseg::frontend::read_tracks(f.tracks_path);
+  f.tracks = smseg::stacks::read_tracks(f.tracks_path);
   smseg::frontend::check_made_from(f.tracks, f.tracks_path, f.seq);
   const int first = f.tracks.result.first_frame, posed = static_cast<int>(f.tracks.result.poses.size());
   if (o.frame < first || o.frame >= first + posed)

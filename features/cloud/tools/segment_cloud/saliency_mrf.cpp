@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "runs.hpp"
-#include "smseg/frontend/tracks_io.hpp"
+#include "smseg/stacks/front_ends.hpp"
 
 namespace segment_cloud {
 
@@ -47,7 +47,7 @@ SaliencyInput load_saliency_input(const SaliencyRun& run) {
   if (!seq.calibration.fx || !seq.calibration.fy)
     throw Error(seq.manifest.string(), "calibration", "projecting a cloud needs the focal length (fx, fy)");
   if (!fs::is_directory(in.work)) throw Error(in.work.string(), "--work", "no such work folder (run extract-features first)");
-  in.tracks = read_tracks(in.work / "tracks.json");
+  in.tracks = stacks::read_tracks(in.work / "tracks.json");
   check_made_from(in.tracks, in.work / "tracks.json", seq);
   const FrontEndResult& fe = in.tracks.result;
   in.pose_index = run.frame - fe.first_frame;

@@ -44,8 +44,11 @@
 
 #include <cstdint>
 #include <functional>
+#include <map>
+#include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <Eigen/Core>
@@ -196,26 +199,19 @@ struct StageSeconds {
   double total_wall = 0;  ///< wall-clock seconds of the whole run
 };
 
-/// What the monocular structure from motion did (sfm.hpp), part of the summary of SfM runs.
-struct SfmSummary {
-  std::string tracker;           ///< "klt" or "descriptors" (the one used)
-  double focal = 0;              ///< pixels, the value used (fx = fy)
-  std::string focal_source;      ///< "option", "manifest", "estimated" or "fallback" (image width)
-  int focal_pairs = 0;           ///< frame pairs that constrained the estimate
-  int init_frame_a = -1, init_frame_b = -1;  ///< initial pair (sequence indices); -1: never initialised
-  int keyframes = 0;
-  int posed_frames = 0;          ///< posed by the initial pair or PnP
-  int still_frames = 0;          ///< reused the previous pose (camera standing still)
-  int bridged_frames = 0;        ///< essential-matrix fallback, or no pose at all
-  long points_3d = 0;            ///< tracks with a 3D point
-  long map_joins = 0;            ///< tracks joined to a map point by local-map matching
-  long observations = 0;         ///< kept observations (the RMS is over these)
-  double reprojection_rms_px = 0;
-  double scale = 0;              ///< metres per reconstruction unit (from the camera height)
-  int ground_inliers = 0, ground_candidates = 0;
-  double seconds_sfm = 0;        ///< per frame: initialisation, PnP, triangulation, BA, scale
-  double seconds_ba = 0;         ///< per frame: bundle adjustment alone (included in seconds_sfm)
+/// A front end's own figures beyond the shared ones (structure from motion's: sfm_summary.hpp). The
+/// front end that made them writes them: they go into tracks.json's summary under key(), the front
+/// end's name; reading them back is the front end's too (summary_from_json's readers).
+class SummaryPart {
+ public:
+  virtual ~SummaryPart() = default;
+  virtual std::string_view key() const = 0;
+  virtual Json to_json() const = 0;
 };
+
+/// Reads a front end's own part of a summary, by its key: an Error naming the place of a bad value.
+using SummaryPartReader = std::function<std::shared_ptr<const SummaryPart>(const JsonView& part)>;
+using SummaryPartReaders = std::map<std::string, SummaryPartReader, std::less<>>;
 
 struct FrontEndSummary {
   int frames = 0;
@@ -230,7 +226,7 @@ struct FrontEndSummary {
   int bad_pairs = 0;
   std::vector<int> bridged_pairs;     ///< t of each bridged pair (t, t+1)
   StageSeconds seconds;
-  std::optional<SfmSummary> sfm;      ///< monocular SfM runs only
+  std::shared_ptr<const SummaryPart> own;  ///< the front end's own figures (SfM runs), or none
   std::optional<GravityEstimate> gravity;  ///< stereo runs with GravityMethod::Estimate only
   double disparity_offset = 0;        ///< stereo: pixels added to every computed disparity (the one used)
   std::optional<OffsetEstimate> offset_estimate;  ///< stereo runs with disparity_offset auto only

@@ -11,7 +11,8 @@
 //   "tracks": [{"frames": [...], "x": [...], "y": [...], "d": [...],
 //               "P": [X0, Y0, Z0, X1, ...] (camera frame, metres), "labels": [...] (-1 = none),
 //               "label": c}, ...]
-//   "summary": {...filter counts, valid points per frame, track lengths, inliers, seconds...}
+//   "summary": {...filter counts, valid points per frame, track lengths, inliers, seconds...,
+//               "<front end>": {...that front end's own figures, as it writes them...}}
 // }
 //
 // Parallel arrays per track keep it compact (about 60 bytes per observation): pixels and disparities
@@ -19,6 +20,7 @@
 // field (types, lengths, ascending frames inside the frame range) and names the file and field.
 
 #include <string>
+#include <vector>
 
 #include "smseg/frontend/motion.hpp"
 
@@ -35,13 +37,22 @@ struct TracksFile {
 };
 
 Json front_end_options_to_json(const FrontEndOptions& options);
+/// `expected` whole numbers, an Error naming the place otherwise (the readers of summary parts share it).
+std::vector<long> integers(const JsonView& v, std::size_t expected);
+
+/// The summary as tracks.json records it: the shared figures, and the front end's own part (if any)
+/// as that part writes itself.
 Json summary_to_json(const FrontEndSummary& summary);
-FrontEndSummary summary_from_json(const JsonView& j);
+/// The summary back: the shared figures, and the own part of the front end whose reader in `parts`
+/// finds its key (stacks::summary_part_readers() has every front end's).
+FrontEndSummary summary_from_json(const JsonView& j, const SummaryPartReaders& parts);
 
 /// Writes the file atomically.
 void write_tracks(const fs::path& path, const FrontEndResult& result, const std::string& sequence_name,
                   cv::Size image_size, const Json& options = Json::object());
-TracksFile read_tracks(const fs::path& path);
+/// Reads and checks the file; the summary's own parts through `parts` (stacks::read_tracks passes every
+/// front end's readers).
+TracksFile read_tracks(const fs::path& path, const SummaryPartReaders& parts);
 /// Error naming `path` unless its tracks were made from `seq`: the same sequence name and image size,
 /// and no posed frame past the sequence's end (a work folder given with another sequence).
 void check_made_from(const TracksFile& tracks, const fs::path& path, const sequence::Sequence& seq);

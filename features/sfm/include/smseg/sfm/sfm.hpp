@@ -49,7 +49,8 @@
 //      +Y, the first camera's optical axis projected on the plane is world +Z, and the origin is the
 //      first camera centre's foot on the plane (docs/design.md 3.2).
 //
-// Output: FrontEndResult as run_stereo_front_end gives it, with summary.sfm (sfm_summary). Per observation, `points` is the track's
+// Output: FrontEndResult as run_stereo_front_end gives it, the summary's own part an SfmSummary
+// (sfm_summary.hpp). Per observation, `points` is the track's
 // 3D point in that frame's camera (metres); `disparities` holds the inverse depth 1/Z in 1/metres (mono
 // has no stereo disparity; it is > 0 exactly where the observation has a 3D point). The filter counts
 // reuse the stereo names: "no disparity" means "no (consistent) 3D point". pair_motions are derived from
@@ -71,6 +72,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/frontend/tracking.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
 
 namespace smseg::sfm {
 
@@ -176,8 +178,8 @@ SfmOptions resolve_tracker(const SfmOptions& options, const sequence::Sequence& 
 /// The options as JSON (provenance in the work folder; extract-features compares them to resume).
 Json sfm_options_to_json(const SfmOptions& options);
 
-/// The report as it goes into FrontEndSummary::sfm.
-frontend::SfmSummary sfm_summary(const SfmReport& report);
+/// The report as it goes into the front-end summary (its own part, FrontEndSummary::own).
+SfmSummary sfm_summary(const SfmReport& report);
 
 /// Runs monocular SfM over the sequence (mono, or the left images of a stereo sequence). Errors
 /// (missing camera height, no usable focal length, bad frame range, unreadable image) name the file and

@@ -29,6 +29,9 @@ struct ExtractOptions {
   /// into front_end's and sfm's options by resolve().
   std::string keypoints = "auto";  ///< auto | sift | orb | akaze | gftt
   std::string tracker = "auto";    ///< auto | klt | descriptors
+  /// The stereo front end's tracker alone, when not "auto" (run-experiment's "tracker", which leaves
+  /// the SfM's at `tracker`).
+  std::string stereo_tracker = "auto";
   std::optional<int> max_keypoints;  ///< unset: each front end's default
   bool no_refine = false;          ///< stereo motion without the reprojection refinement
   frontend::FrontEndOptions front_end;   ///< stereo, tracking, filters, motion (the stereo front end)

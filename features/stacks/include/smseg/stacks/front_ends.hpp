@@ -1,18 +1,21 @@
 #pragma once
 // The front ends of feature extraction, behind one interface and registered by name: what a front end
 // takes (a sequence and the extraction options), what it gives (tracks, poses and a summary:
-// FrontEndResult), and what the rest of extraction needs to know of it (the options it records in
+// FrontEndResult, its own part of the summary writing itself and read back by the front end), and
+// what the rest of extraction needs to know of it (the options it records in
 // stacks.json, its track-length filter, how heights and dense depth are measured on its output).
 // extract-features --motion, the Python extract_features(motion=...), run-experiment's "motion" and
 // extract_features() all choose one by name through this registry; "auto" picks by the sequence's
 // kind. A new front end is one more implementation in front_ends.cpp.
 
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
 
 #include "smseg/common/io.hpp"
 #include "smseg/frontend/motion.hpp"
+#include "smseg/frontend/tracks_io.hpp"
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/point_features.hpp"
 
@@ -33,6 +36,10 @@ class FrontEnd {
   /// Its options as stacks.json and tracks.json record them ("front_end"), without the camera height
   /// that the sequence gives (extraction adds it).
   virtual Json options_json(const ExtractOptions& o) const = 0;
+  /// Its own options beyond the shared FrontEndOptions, as given (before the camera height is filled
+  /// in), for keys that name a run's options (run-experiment's cache); none when it has no options
+  /// of its own.
+  virtual std::optional<Json> own_options_json(const ExtractOptions& o) const = 0;
   /// The track-length filter it applies (the causal rule uses a track from this many frames on).
   virtual int min_track_frames(const ExtractOptions& o) const = 0;
   /// What HeightReference::Auto means on its output.
@@ -42,6 +49,9 @@ class FrontEnd {
   virtual bool monocular() const = 0;
   /// What most often leaves it without a single track, for the error that says so.
   virtual std::string_view no_tracks_hint() const = 0;
+  /// Reads back the own part of the summary that its runs write (FrontEndSummary::own, under its
+  /// name in tracks.json's summary); empty when its runs have none.
+  virtual frontend::SummaryPartReader summary_part_reader() const = 0;
 };
 
 /// Every front end, in the order help texts list them.
@@ -53,6 +63,15 @@ std::string front_end_choices();
 const FrontEnd& front_end_named(const std::string& name, const std::string& field);
 /// Error naming `field` unless `name` is "auto" or a front end's name.
 void check_motion_name(const std::string& name, const std::string& field);
+/// Every front end's reader of its own summary part, by name (frontend::read_tracks takes them).
+const frontend::SummaryPartReaders& summary_part_readers();
+/// The options of a run of the front end `motion` as keys name them: the shared front-end options
+/// ("front_end"), the name ("motion") and, under each front end's name that has options of its own,
+/// those (null for the front ends not chosen).
+Json run_options_key(const std::string& motion, const ExtractOptions& options);
+/// tracks.json read with every front end's summary part (frontend::read_tracks with
+/// summary_part_readers()).
+frontend::TracksFile read_tracks(const fs::path& path);
 /// The front end that options.motion chooses for this sequence ("auto": the one that is default for its
 /// kind).
 const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options);

@@ -13,8 +13,11 @@
 // declared on takes it, so a new option cannot be forgotten on one of them.
 //
 //   static const options::Table<TrainParams> t = options::Table<TrainParams>("training")
-//       .number("M", "-M", "number of trees", [](TrainParams& p) -> int& { return p.M; }, 1, 100000)
-//       .choice("balance", "--balance", "...", [](TrainParams& p) -> Balance& { return p.balance; }, kBalanceNames);
+//       .number("M", "-M", "number of trees", [](auto& p) -> auto& { return p.M; }, 1, 100000)
+//       .choice("balance", "--balance", "...", [](auto& p) -> auto& { return p.balance; }, kBalanceNames);
+//
+// A field's access is a generic lambda, called with the struct (the command line and the readers
+// write through it) and with a const struct (the writers read through it).
 
 #include <algorithm>
 #include <array>
@@ -181,8 +184,6 @@ inline CLI::Validator any_seed() {
 template <class S>
 class Table {
  public:
-  template <class T>
-  using Access = T& (*)(S&);
 
   /// `surfaces`: where its fields are offered unless a declaration says otherwise (only()).
   explicit Table(std::string name, unsigned surfaces = kEverywhere) : name_(std::move(name)), surfaces_(surfaces) {}
@@ -191,8 +192,9 @@ class Table {
   const std::vector<Field<S>>& fields() const { return fields_; }
 
   /// A number in [lo, hi] (whole for integer types; finite always).
-  template <class T>
-  Table& number(std::string key, std::string flag, std::string help, Access<T> access, T lo, T hi) {
+  template <class T, class Access>
+  Table& number(std::string key, std::string flag, std::string help, Access access, T lo, T hi) {
+    check_access<T>(access);
     Field<S> f = base(std::move(key), std::move(flag), std::move(help), std::is_integral_v<T> ? "integer" : "number");
     f.add_option = [flag = f.flag, help = f.help, access, lo, hi](CLI::App& app, S& s) {
       T& target = access(s);
@@ -201,15 +203,15 @@ class Table {
         o->check(CLI::Validator(kDecimalDigits).description(""));
       return o->check(detail::number_check(lo, hi));
     };
-    f.write = [access](const S& s) { return nlohmann::json(access(const_cast<S&>(s))); };
+    f.write = [access](const S& s) { return nlohmann::json(access(s)); };
     f.read = [access, lo, hi](S& s, const JsonView& v) { access(s) = detail::read_number(v, lo, hi); };
     return add(std::move(f));
   }
 
   /// A number that may be left unset (the library then decides: the sequence's camera height, ...).
-  template <class T>
-  Table& optional_number(std::string key, std::string flag, std::string help, Access<std::optional<T>> access, T lo,
-                         T hi) {
+  template <class T, class Access>
+  Table& optional_number(std::string key, std::string flag, std::string help, Access access, T lo, T hi) {
+    check_access<std::optional<T>>(access);
     Field<S> f = base(std::move(key), std::move(flag), std::move(help), std::is_integral_v<T> ? "integer" : "number");
     f.add_option = [flag = f.flag, help = f.help, access, lo, hi](CLI::App& app, S& s) {
       std::optional<T>* target = &access(s);
@@ -217,7 +219,7 @@ class Table {
           ->check(detail::number_check(lo, hi));
     };
     f.write = [access](const S& s) {
-      const auto& v = access(const_cast<S&>(s));
+      const auto& v = access(s);
       return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
     };
     f.read = [access, lo, hi](S& s, const JsonView& v) {
@@ -229,12 +231,14 @@ class Table {
   }
 
   /// A yes/no: a flag on the command line, true or false elsewhere.
-  Table& flag(std::string key, std::string flag, std::string help, Access<bool> access) {
+  template <class Access>
+  Table& flag(std::string key, std::string flag, std::string help, Access access) {
+    check_access<bool>(access);
     Field<S> f = base(std::move(key), std::move(flag), std::move(help), "flag");
     f.add_option = [flag = f.flag, help = f.help, access](CLI::App& app, S& s) {
       return app.add_flag(flag, access(s), help);
     };
-    f.write = [access](const S& s) { return nlohmann::json(access(const_cast<S&>(s))); };
+    f.write = [access](const S& s) { return nlohmann::json(access(s)); };
     f.read = [access](S& s, const JsonView& v) {
       if (!v.json().is_boolean()) v.fail("expected true or false, found " + v.json().dump());
       access(s) = v.json().get<bool>();
@@ -242,10 +246,27 @@ class Table {
     return add(std::move(f));
   }
 
+  /// Free text the tool checks itself (a frame range, a source, a file name).
+  template <class Access>
+  Table& text(std::string key, std::string flag, std::string help, Access access) {
+    check_access<std::string>(access);
+    Field<S> f = base(std::move(key), std::move(flag), std::move(help), "text");
+    f.add_option = [flag = f.flag, help = f.help, access](CLI::App& app, S& s) {
+      return app.add_option(flag, access(s), help)->capture_default_str();
+    };
+    f.write = [access](const S& s) { return nlohmann::json(access(s)); };
+    f.read = [access](S& s, const JsonView& v) {
+      if (!v.json().is_string()) v.fail("expected a text, found " + v.json().dump());
+      access(s) = v.json().get<std::string>();
+    };
+    return add(std::move(f));
+  }
+
   /// One of an enum's names (its table in names.hpp).
-  template <class E, std::size_t N>
-  Table& choice(std::string key, std::string flag, std::string help, Access<E> access,
+  template <class E, std::size_t N, class Access>
+  Table& choice(std::string key, std::string flag, std::string help, Access access,
                 const std::array<EnumName<E>, N>& names) {
+    check_access<E>(access);
     Field<S> f = base(std::move(key), std::move(flag), std::move(help) + ": " + choices_text(names), "name");
     f.add_option = [flag = f.flag, help = f.help, access, &names](CLI::App& app, S& s) {
       E* target = &access(s);
@@ -254,7 +275,7 @@ class Table {
               flag, [target, &names, flag](const std::string& v) { *target = as_usage_value(names, v, flag); }, help)
           ->default_str(name_of(names, access(s)));
     };
-    f.write = [access, &names](const S& s) { return nlohmann::json(name_of(names, access(const_cast<S&>(s)))); };
+    f.write = [access, &names](const S& s) { return nlohmann::json(name_of(names, access(s))); };
     f.read = [access, &names](S& s, const JsonView& v) {
       if (!v.json().is_string()) v.fail("expected a name (" + name_choices(names) + "), found " + v.json().dump());
       try {
@@ -267,9 +288,10 @@ class Table {
   }
 
   /// One of a set of names that a library checks itself (parse throws Error naming its field).
-  template <class T>
-  Table& named(std::string key, std::string flag, std::string help, Access<T> access, std::string choices,
+  template <class T, class Access>
+  Table& named(std::string key, std::string flag, std::string help, Access access, std::string choices,
                T (*parse)(const std::string&, const std::string&), std::string (*name)(const T&)) {
+    check_access<T>(access);
     Field<S> f = base(std::move(key), std::move(flag), std::move(help) + ": " + choices, "name");
     f.add_option = [flag = f.flag, help = f.help, access, parse, name](CLI::App& app, S& s) {
       T* target = &access(s);
@@ -286,7 +308,7 @@ class Table {
               help)
           ->default_str(name(access(s)));
     };
-    f.write = [access, name](const S& s) { return nlohmann::json(name(access(const_cast<S&>(s)))); };
+    f.write = [access, name](const S& s) { return nlohmann::json(name(access(s))); };
     f.read = [access, parse](S& s, const JsonView& v) {
       if (!v.json().is_string()) v.fail("expected a name, found " + v.json().dump());
       try {
@@ -300,18 +322,19 @@ class Table {
 
   /// Every field of another struct's table, for the member `access` of this one (an options struct
   /// made of others: extraction's of the features', the front ends').
-  template <class Part>
-  Table& include(const Table<Part>& part, Part& (*access)(S&)) {
+  template <class Part, class Access>
+  Table& include(const Table<Part>& part, Access access) {
+    check_access<Part>(access);
     for (const Field<Part>& p : part.fields()) {
       Field<S> f;
       f.key = p.key, f.config_key = p.config_key, f.python_key = p.python_key, f.flag = p.flag, f.help = p.help;
       f.type = p.type, f.surfaces = p.surfaces, f.required_in_files = p.required_in_files;
       f.library_names = p.library_names, f.default_text = p.default_text;
       f.add_option = [p, access](CLI::App& app, S& s) { return p.add_option(app, access(s)); };
-      f.write = [p, access](const S& s) { return p.write(access(const_cast<S&>(s))); };
+      f.write = [p, access](const S& s) { return p.write(access(s)); };
       f.read = [p, access](S& s, const JsonView& v) { p.read(access(s), v); };
       if (p.omitted_from_records)
-        f.omitted_from_records = [p, access](const S& s) { return p.omitted_from_records(access(const_cast<S&>(s))); };
+        f.omitted_from_records = [p, access](const S& s) { return p.omitted_from_records(access(s)); };
       add(std::move(f));
     }
     return *this;
@@ -359,6 +382,16 @@ class Table {
       static const S defaults{};
       return write(s) == write(defaults);
     });
+  }
+  /// A named field that takes a whole number as its decimal text where JSON gives one (a config's
+  /// superpixels: "small" or 12).
+  Table& numbers_as_names() {
+    fields_.back().read = [read = fields_.back().read](S& s, const JsonView& v) {
+      if (!v.json().is_number_integer()) return read(s, v);
+      const nlohmann::json text = v.json().dump();  // the number as written, as a name
+      read(s, JsonView(text, v.file(), v.where()));
+    };
+    return *this;
   }
   /// Spelt this way in run-experiment configs.
   Table& in_configs_as(std::string key) {
@@ -468,6 +501,14 @@ class Table {
   }
 
  private:
+  /// A field's access gives the member of that type, writable from S& and readable from const S&.
+  template <class T, class Access>
+  static void check_access(const Access&) {
+    static_assert(std::is_same_v<std::invoke_result_t<const Access&, S&>, T&>,
+                  "options: the access must give the field's member (T&) from the struct");
+    static_assert(std::is_same_v<std::invoke_result_t<const Access&, const S&>, const T&>,
+                  "options: the access must also give it (const T&) from a const struct: [](auto& s) -> auto&");
+  }
   Field<S> base(std::string key, std::string flag, std::string help, std::string type) {
     Field<S> f;
     f.key = f.config_key = f.python_key = std::move(key);
