@@ -14,9 +14,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-stacks::FeatureOptions causal_features() {
+stacks::FeatureOptions causal_features(const StreamOptions& options) {
   stacks::FeatureOptions f;
   f.causal = true;
+  if (options.mono) f.height_reference = stacks::HeightReference::Camera;  // the vo front end's
   return f;
 }
 
@@ -55,13 +56,17 @@ StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& 
       classifier_(options.eval.trees > 0 ? first_trees(forest, options.eval.trees) : forest),
       eval_(options.eval),
       size_(size),
-      front_end_(calibration, camera_height, options.front_end, source),
-      features_(size, causal_features(), options.front_end.filters.min_frames) {
+      features_(size, causal_features(options),
+                options.mono ? options.mono->filters.min_frames : options.front_end.filters.min_frames) {
   eval_.validate();
+  if (options.mono)
+    mono_.emplace(calibration, camera_height, size, *options.mono, source);
+  else
+    stereo_.emplace(calibration, camera_height, options.front_end, source);
 }
 
 frontend::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& left, const cv::Mat& right) const {
-  return front_end_.prepare(left, right);
+  return mono_ ? mono_->prepare(left) : stereo_->prepare(left, right);
 }
 
 cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
@@ -70,7 +75,7 @@ cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, i
     throw Error("", "frame " + std::to_string(frame_index),
                 "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream is " +
                     std::to_string(size_.width) + "x" + std::to_string(size_.height));
-  frame_ = front_end_.advance(std::move(pair));
+  frame_ = mono_ ? mono_->advance(std::move(pair)) : stereo_->advance(std::move(pair));
   auto t0 = Clock::now();
   const std::vector<cv::Mat>& sats = features_.push(frame_);
   const double features_ms = ms_since(t0);

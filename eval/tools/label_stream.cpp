@@ -1,5 +1,6 @@
-// label-stream: label a stereo video as it comes, frame by frame (the on-line labeller of the thesis's
-// future work): the stereo front end, causal features and the forest per frame, no stack on disk.
+// label-stream: label a stereo or monocular video as it comes, frame by frame (the on-line labeller of
+// the thesis's future work): the stereo front end (or, on a mono sequence, the causal visual odometry),
+// causal features and the forest per frame, no stack on disk.
 #include <csignal>
 #include <iostream>
 #include <memory>
@@ -36,7 +37,8 @@ struct Args {
 };
 
 void add_options(CLI::App& app, Args& a) {
-  app.add_option("SEQUENCE", a.seq_dir, "stereo sequence folder (holding sequence.json); with --cameras or --side-by-side "
+  app.add_option("SEQUENCE", a.seq_dir, "stereo or mono sequence folder (holding sequence.json; mono: the visual odometry "
+                                        "of extract-features --motion vo); with --cameras or --side-by-side (stereo) "
                                         "only its calibration, camera height, image size and classes are used")
       ->required();
   app.add_option("FOREST", a.forest_file, "forest file from train-forest (trained on --causal stacks of this size)")
@@ -57,7 +59,8 @@ void add_options(CLI::App& app, Args& a) {
   eval::eval_options_table().add_to(app, a.opt.eval, {"grid", "superpixels", "votes", "vote", "trees", "seed"});
   stacks::extract_options_table().add_to(app, a.front_end,
                                            {"stereo", "num_disparities", "block_size", "keypoints", "max_keypoints",
-                                            "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height"});
+                                            "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height",
+                                            "focal", "reprojection_threshold", "keyframe_motion", "ba_window"});
   app.add_flag("--no-labels", a.no_labels, "do not write OUT/labels/ (timing the rest alone)");
   app.add_flag("--overlays", a.output.overlays, "also write OUT/overlays/NNNNNN_overlay.png (labels over the left image)");
   app.add_option("--overlay-video", a.output.video, "also write the overlays as one MJPG video OUT/VIDEO (e.g. overlay.avi)");
@@ -96,6 +99,15 @@ stacks::FrameRange validate(Args& a) {
   return range;
 }
 
+// A mono sequence: the causal visual odometry (extract-features --motion vo's) instead of stereo.
+void use_visual_odometry(Args& a, const sequence::Sequence& seq) {
+  if (a.live())
+    throw UsageError(seq.manifest.string(), a.cameras.empty() ? "--side-by-side" : "--cameras",
+                     "live sources are stereo pairs; this sequence is mono");
+  a.opt.mono = stacks::visual_odometry_options(a.front_end);
+  a.opt.mono->progress = false;
+}
+
 std::unique_ptr<eval::FrameSource> open_source(const Args& a, const sequence::Sequence& seq,
                                                const stacks::FrameRange& range) {
   if (a.live())
@@ -110,8 +122,7 @@ int label_stream(Args& a) {
   const stacks::FrameRange range = validate(a);
   const OutputLock one_writer(a.out, {a.seq_dir, a.forest_file});
   const sequence::Sequence seq = sequence::load_sequence(a.seq_dir);
-  if (!a.live() && seq.kind != sequence::SequenceKind::Stereo)
-    throw Error(seq.manifest.string(), "kind", "label-stream needs a stereo sequence; this one is mono");
+  if (seq.kind == sequence::SequenceKind::Mono) use_visual_odometry(a, seq);
   const forest::Forest forest = forest::load_forest(a.forest_file);
   eval::StreamLabeller labeller(forest, a.forest_file, seq.calibration, seq.camera_height, seq.size, a.opt,
                                 seq.manifest.string());
@@ -158,7 +169,9 @@ int label_stream(Args& a) {
 int main(int argc, char** argv) {
   CLI::App app{
       "Label a stereo video frame by frame, as it comes (on-line use): per frame the stereo front end\n"
-      "(disparity, keypoints followed from the previous frame, camera motion), the causal structure-and-\n"
+      "(disparity, keypoints followed from the previous frame, camera motion; on a mono sequence the causal\n"
+      "visual odometry of extract-features --motion vo: KLT tracks, PnP, local bundle adjustment, scale\n"
+      "from the camera height above the ground), the causal structure-and-\n"
       "motion features in memory (what extract-features --causal computes; no stack is written) and the\n"
       "forest, per pixel or by grid or superpixel voting (as eval-forest). Frames come from a stereo\n"
       "sequence folder, or live from two cameras (--cameras L,R) or a side-by-side video (--side-by-side),\n"

@@ -1,10 +1,12 @@
-// The two front ends behind the FrontEnd interface (front_ends.hpp): stereo (frontend's
-// run_stereo_front_end) and monocular structure from motion (sfm's run_mono_front_end), and the
+// The front ends behind the FrontEnd interface (front_ends.hpp): stereo (frontend's
+// run_stereo_front_end), monocular structure from motion (sfm's run_mono_front_end), causal monocular
+// visual odometry (sfm's run_mono_stream_front_end, what label-stream runs on a mono sequence), and the
 // registry that options choose them from by name.
 #include "smseg/stacks/front_ends.hpp"
 
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/sfm/mono_stream.hpp"
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/extract.hpp"
 
@@ -72,12 +74,53 @@ class SfmFrontEnd final : public FrontEnd {
   }
 };
 
+// Monocular visual odometry, causal: the same stream label-stream runs on a mono sequence, so that
+// extract-features --causal with it gives label-stream's features. Never "auto" (the SfM sees the whole
+// run and is the better offline front end).
+class VoFrontEnd final : public FrontEnd {
+ public:
+  std::string_view name() const override { return "vo"; }
+  bool is_default_for(const sequence::Sequence&) const override { return false; }
+  void check(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    if (o.front_end.gravity.method != frontend::GravityMethod::Level)
+      throw Error(seq.manifest.string(), "gravity",
+                  "gravity estimation is for the stereo front end; visual odometry (this run) fits its own ground plane");
+    as_run(o).validate();
+  }
+  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    return sfm::run_mono_stream_front_end(seq, as_run(o));
+  }
+  Json options_json(const ExtractOptions& o) const override {
+    const sfm::SfmOptions s = as_run(o);
+    Json fe = {{"method", "vo"}, {"vo", sfm::sfm_options_to_json(s)}};
+    if (s.camera_height) fe["camera_height"] = *s.camera_height;
+    return fe;
+  }
+  int min_track_frames(const ExtractOptions& o) const override { return as_run(o).filters.min_frames; }
+  HeightReference auto_height_reference() const override { return HeightReference::Camera; }
+  bool monocular() const override { return true; }
+  std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
+
+  /// The options as run: the SfM's, with KLT tracking of Shi-Tomasi corners unless keypoints are chosen.
+  static sfm::SfmOptions as_run(const ExtractOptions& o) {
+    sfm::SfmOptions s = o.sfm;
+    if (!s.camera_height) s.camera_height = o.front_end.camera_height;
+    s.tracker = sfm::SfmTracker::Klt;
+    if (o.keypoints == "auto") s.tracking.detector = frontend::KeypointMethod::Gftt;
+    s.progress = o.progress;
+    return s;
+  }
+};
+
 }  // namespace
+
+sfm::SfmOptions visual_odometry_options(const ExtractOptions& options) { return VoFrontEnd::as_run(options); }
 
 const std::vector<const FrontEnd*>& front_ends() {
   static const StereoFrontEnd stereo;
   static const SfmFrontEnd sfm;
-  static const std::vector<const FrontEnd*> all{&stereo, &sfm};
+  static const VoFrontEnd vo;
+  static const std::vector<const FrontEnd*> all{&stereo, &sfm, &vo};
   return all;
 }
 

@@ -14,6 +14,7 @@
 #include "smseg/common/io.hpp"
 #include "smseg/frontend/motion.hpp"
 #include "smseg/sequence/sequence.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/point_features.hpp"
 
 namespace smseg::stacks {
@@ -56,5 +57,9 @@ void check_motion_name(const std::string& name, const std::string& field);
 /// The front end that options.motion chooses for this sequence ("auto": the one that is default for its
 /// kind).
 const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options);
+
+/// The options the "vo" front end (causal monocular visual odometry) runs with: what label-stream gives
+/// its monocular stream, so that its features are extract-features --motion vo --causal's.
+sfm::SfmOptions visual_odometry_options(const ExtractOptions& options);
 
 }  // namespace smseg::stacks
