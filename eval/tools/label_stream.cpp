@@ -168,17 +168,17 @@ int label_stream(Args& a) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "Label a stereo video frame by frame, as it comes (on-line use): per frame the stereo front end\n"
-      "(disparity, keypoints followed from the previous frame, camera motion; on a mono sequence the causal\n"
-      "visual odometry of extract-features --motion vo: KLT tracks, PnP, local bundle adjustment, scale\n"
-      "from the camera height above the ground), the causal structure-and-\n"
-      "motion features in memory (what extract-features --causal computes; no stack is written) and the\n"
-      "forest, per pixel or by grid or superpixel voting (as eval-forest). Frames come from a stereo\n"
-      "sequence folder, or live from two cameras (--cameras L,R) or a side-by-side video (--side-by-side),\n"
-      "whose calibration and camera height are then the SEQUENCE folder's. Writes OUT/labels/NNNNNN_labels.png\n"
-      "(class colours), optionally OUT/overlays/ and an overlay video, and OUT/summary.json (frames per\n"
-      "second, latency, milliseconds per stage); OUT is built beside itself and swapped in whole at the end.\n"
-      "Ctrl-C stops after the current frame and still writes everything.",
+      "Label a stereo or monocular video frame by frame, as it comes (on-line use): per frame the stereo\n"
+      "front end (disparity, keypoints followed from the previous frame, camera motion) or, on a mono\n"
+      "sequence, the causal visual odometry of extract-features --motion vo (KLT tracks, PnP, local bundle\n"
+      "adjustment, scale from the camera height above the ground; needs --focal or the manifest's fx), the\n"
+      "causal structure-and-motion features in memory (what extract-features --causal computes; no stack\n"
+      "is written) and the forest, per pixel or by grid or superpixel voting (as eval-forest). Frames come\n"
+      "from a sequence folder, or live from two cameras (--cameras L,R) or a side-by-side video\n"
+      "(--side-by-side), whose calibration and camera height are then the SEQUENCE folder's. Writes\n"
+      "OUT/labels/NNNNNN_labels.png (class colours), optionally OUT/overlays/ and an overlay video, and\n"
+      "OUT/summary.json (frames per second, latency, milliseconds per stage); OUT is built beside itself\n"
+      "and swapped in whole at the end. Ctrl-C stops after the current frame and still writes everything.",
       "label-stream"};
   Args args;
   add_options(app, args);

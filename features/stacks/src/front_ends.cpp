@@ -92,6 +92,13 @@ class VoFrontEnd final : public MonocularFrontEnd {
  public:
   std::string_view name() const override { return "vo"; }
   bool is_default_for(const sequence::Sequence&) const override { return false; }
+  void check(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    MonocularFrontEnd::check(seq, o);
+    if (!o.sfm.focal && !seq.calibration.fx)  // said before the work folder is started
+      throw Error(seq.manifest.string(), "focal",
+                  "visual odometry needs the focal length (--focal or the manifest's fx; it cannot self-calibrate: "
+                  "extract-features --motion sfm estimates one and prints it)");
+  }
   frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
     return sfm::run_mono_stream_front_end(seq, run_options(o));
   }

@@ -80,6 +80,11 @@ TEST(FrontEnds, EachSaysWhatExtractionNeedsOfIt) {
   EXPECT_EQ(vo.options_json(o).at("camera_height"), 1.25);
   EXPECT_EQ(visual_odometry_options(o).tracking.detector, KeypointMethod::Gftt);
   EXPECT_EQ(visual_odometry_options(o).tracker, smseg::sfm::SfmTracker::Klt);
+  // Without a focal length (a mono manifest without fx, no --focal) it is refused before anything runs.
+  ExtractOptions level;
+  EXPECT_THROW(vo.check(sequence_of_kind(SequenceKind::Mono), level), smseg::Error);
+  level.sfm.focal = 500;
+  EXPECT_NO_THROW(vo.check(sequence_of_kind(SequenceKind::Mono), level));
   // Stereo motion on a mono sequence, and gravity estimation under SfM, are refused naming the manifest.
   const Sequence mono = sequence_of_kind(SequenceKind::Mono);
   EXPECT_THROW(stereo.check(mono, o), smseg::Error);
