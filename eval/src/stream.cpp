@@ -15,9 +15,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-stacks::FeatureOptions causal_features() {
+stacks::FeatureOptions causal_features(const StreamOptions& options) {
   stacks::FeatureOptions f;
   f.causal = true;
+  if (options.mono) f.height_reference = stacks::HeightReference::Camera;  // the vo front end's
   return f;
 }
 
@@ -56,13 +57,17 @@ StreamLabeller::StreamLabeller(const forest::Forest& forest, const std::string& 
       classifier_(make_classifier(forest, options.eval)),
       eval_(options.eval),
       size_(size),
-      front_end_(calibration, camera_height, options.front_end, source),
-      features_(size, causal_features(), options.front_end.filters.min_frames) {
+      features_(size, causal_features(options),
+                options.mono ? options.mono->filters.min_frames : options.front_end.filters.min_frames) {
   eval_.validate();
+  if (options.mono)
+    mono_.emplace(calibration, camera_height, size, *options.mono, source);
+  else
+    stereo_.emplace(calibration, camera_height, options.front_end, source);
 }
 
 frontend::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& left, const cv::Mat& right) const {
-  return front_end_.prepare(left, right);
+  return mono_ ? mono_->prepare(left) : stereo_->prepare(left, right);
 }
 
 cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
@@ -71,7 +76,7 @@ cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, i
     throw Error("", "frame " + std::to_string(frame_index),
                 "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream is " +
                     std::to_string(size_.width) + "x" + std::to_string(size_.height));
-  frame_ = front_end_.advance(std::move(pair));
+  frame_ = mono_ ? mono_->advance(std::move(pair)) : stereo_->advance(std::move(pair));
   return label_frame_(left, frame_index, times);
 }
 
@@ -83,7 +88,7 @@ void StreamLabeller::calibrate(std::vector<frontend::StereoFrontEndStream::Prepa
       throw Error("", "frame " + std::to_string(frame_indices[lefts.size()]), "is not of the stream's size");
     lefts.push_back(p.left);
   }
-  std::vector<frontend::StreamFrame> frames = front_end_.calibrate(std::move(first));
+  std::vector<frontend::StreamFrame> frames = stereo_->calibrate(std::move(first));  // needs_calibration(): stereo
   for (std::size_t i = 0; i < frames.size(); ++i) {
     frame_ = std::move(frames[i]);
     StreamStageTimes times;

@@ -91,7 +91,7 @@ bool SequenceFrames::next(StreamInput& p, bool want_colour) {
   if (next_ >= end_) return false;
   p.index = next_++;
   p.left = seq_.load_left_gray(p.index);
-  p.right = seq_.load_right_gray(p.index);
+  p.right = seq_.kind == sequence::SequenceKind::Stereo ? seq_.load_right_gray(p.index) : cv::Mat();
   p.left_bgr = want_colour ? seq_.load_left(p.index) : cv::Mat();
   return true;
 }
@@ -203,7 +203,8 @@ Json stream_summary(const StreamRun& run, const StreamOptions& options, const St
           {"votes", options.eval.votes},
           {"threads", run.threads},
           {"in_flight", run.in_flight},
-          {"front_end", frontend::front_end_options_to_json(options.front_end)},
+          {"front_end", options.mono ? Json{{"method", "vo"}, {"vo", sfm::sfm_options_to_json(*options.mono)}}
+                                     : frontend::front_end_options_to_json(options.front_end)},
           {"disparity_offset_px", run.disparity_offset},
           {"seconds", run.seconds},
           {"frames_per_second", n / run.seconds},

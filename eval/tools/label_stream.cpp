@@ -1,5 +1,6 @@
-// label-stream: label a stereo video as it comes, frame by frame (the on-line labeller of the thesis's
-// future work): the stereo front end, causal features and the forest per frame, no stack on disk.
+// label-stream: label a stereo or monocular video as it comes, frame by frame (the on-line labeller of
+// the thesis's future work): the stereo front end (or, on a mono sequence, the causal visual odometry),
+// causal features and the forest per frame, no stack on disk.
 #include <csignal>
 #include <iostream>
 #include <memory>
@@ -36,7 +37,8 @@ struct Args {
 };
 
 void add_options(CLI::App& app, Args& a) {
-  app.add_option("SEQUENCE", a.seq_dir, "stereo sequence folder (holding sequence.json); with --cameras or --side-by-side "
+  app.add_option("SEQUENCE", a.seq_dir, "stereo or mono sequence folder (holding sequence.json; mono: the visual odometry "
+                                        "of extract-features --motion vo); with --cameras or --side-by-side (stereo) "
                                         "only its calibration, camera height, image size and classes are used")
       ->required();
   app.add_option("FOREST", a.forest_file, "forest file from train-forest (trained on --causal stacks of this size)")
@@ -49,7 +51,8 @@ void add_options(CLI::App& app, Args& a) {
   stacks::extract_options_table().add_to(app, a.front_end,
                                            {"stereo", "num_disparities", "block_size", "lr_check", "keypoints", "max_keypoints",
                                             "gftt_quality", "tracker", "min_track_frames", "no_refine", "camera_height",
-                                            "disparity_offset"});
+                                            "disparity_offset", "focal", "reprojection_threshold", "keyframe_motion",
+                                            "ba_window"});
   own.add_to(app, a.own, {"no_labels", "overlays", "overlay_video", "video_fps", "show"});
   add_threads_option(app, a.threads, "the labels do not depend on it");
   app.add_flag("-q,--quiet", a.quiet, "only the summary line");
@@ -85,6 +88,15 @@ stacks::FrameRange validate(Args& a) {
   return range;
 }
 
+// A mono sequence: the causal visual odometry (extract-features --motion vo's) instead of stereo.
+void use_visual_odometry(Args& a, const sequence::Sequence& seq) {
+  if (a.live())
+    throw UsageError(seq.manifest.string(), a.cameras.empty() ? "--side-by-side" : "--cameras",
+                     "live sources are stereo pairs; this sequence is mono");
+  a.opt.mono = stacks::visual_odometry_options(a.front_end);
+  a.opt.mono->progress = false;
+}
+
 std::unique_ptr<eval::FrameSource> open_source(const Args& a, const sequence::Sequence& seq,
                                                const stacks::FrameRange& range) {
   if (a.live())
@@ -99,8 +111,7 @@ int label_stream(Args& a) {
   const stacks::FrameRange range = validate(a);
   const OutputLock one_writer(a.out, {a.seq_dir, a.forest_file});
   const sequence::Sequence seq = sequence::load_sequence(a.seq_dir);
-  if (!a.live() && seq.kind != sequence::SequenceKind::Stereo)
-    throw Error(seq.manifest.string(), "kind", "label-stream needs a stereo sequence; this one is mono");
+  if (seq.kind == sequence::SequenceKind::Mono) use_visual_odometry(a, seq);
   const forest::Forest forest = forest::load_forest(a.forest_file);
   eval::StreamLabeller labeller(forest, a.forest_file, seq.calibration, seq.camera_height, seq.size, a.opt,
                                 seq.manifest.string());
@@ -148,15 +159,17 @@ int label_stream(Args& a) {
 
 int main(int argc, char** argv) {
   CLI::App app{
-      "Label a stereo video frame by frame, as it comes (on-line use): per frame the stereo front end\n"
-      "(disparity, keypoints followed from the previous frame, camera motion), the causal structure-and-\n"
-      "motion features in memory (what extract-features --causal computes; no stack is written) and the\n"
-      "forest, per pixel or by grid or superpixel voting (as eval-forest). Frames come from a stereo\n"
-      "sequence folder, or live from two cameras (--cameras L,R) or a side-by-side video (--side-by-side),\n"
-      "whose calibration and camera height are then the SEQUENCE folder's. Writes OUT/labels/NNNNNN_labels.png\n"
-      "(class colours), optionally OUT/overlays/ and an overlay video, and OUT/summary.json (frames per\n"
-      "second, latency, milliseconds per stage); OUT is built beside itself and swapped in whole at the end.\n"
-      "Ctrl-C stops after the current frame and still writes everything.",
+      "Label a stereo or monocular video frame by frame, as it comes (on-line use): per frame the stereo\n"
+      "front end (disparity, keypoints followed from the previous frame, camera motion) or, on a mono\n"
+      "sequence, the causal visual odometry of extract-features --motion vo (KLT tracks, PnP, local bundle\n"
+      "adjustment, scale from the camera height above the ground; needs --focal or the manifest's fx), the\n"
+      "causal structure-and-motion features in memory (what extract-features --causal computes; no stack\n"
+      "is written) and the forest, per pixel or by grid or superpixel voting (as eval-forest). Frames come\n"
+      "from a sequence folder, or live from two cameras (--cameras L,R) or a side-by-side video\n"
+      "(--side-by-side), whose calibration and camera height are then the SEQUENCE folder's. Writes\n"
+      "OUT/labels/NNNNNN_labels.png (class colours), optionally OUT/overlays/ and an overlay video, and\n"
+      "OUT/summary.json (frames per second, latency, milliseconds per stage); OUT is built beside itself\n"
+      "and swapped in whole at the end. Ctrl-C stops after the current frame and still writes everything.",
       "label-stream"};
   Args args;
   add_options(app, args);

@@ -34,7 +34,8 @@ void declare_choices(options::Table<E>& t) {
   // Configs have their own motion, stereo and tracker keys (train_/test_ sides, other defaults).
   t.named("motion", "--motion",
           "the front end tracks and camera motion come from (auto: stereo for stereo sequences, sfm, monocular\n"
-          "structure from motion on the left images, for mono ones)",
+          "structure from motion on the left images, for mono ones; vo: causal monocular visual odometry, what\n"
+          "label-stream runs on a mono sequence: with --causal its labels)",
           [](auto& o) -> auto& { return o.motion; }, front_end_choices(), &motion_name, &options::as_written)
       .only(kCommandLine | kPython);
   t.named("stereo", "--stereo", "disparity (bm: block matching, sgbm: semi-global, given: from the sequence)",

@@ -1,10 +1,12 @@
-// The two front ends behind the FrontEnd interface (front_ends.hpp): stereo (frontend's
-// run_stereo_front_end) and monocular structure from motion (sfm's run_mono_front_end), and the
+// The front ends behind the FrontEnd interface (front_ends.hpp): stereo (frontend's
+// run_stereo_front_end), monocular structure from motion (sfm's run_mono_front_end), causal monocular
+// visual odometry (sfm's run_mono_stream_front_end, what label-stream runs on a mono sequence), and the
 // registry that options choose them from by name.
 #include "smseg/stacks/front_ends.hpp"
 
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/tracks_io.hpp"
+#include "smseg/sfm/mono_stream.hpp"
 #include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/extract.hpp"
 
@@ -37,30 +39,27 @@ class StereoFrontEnd final : public FrontEnd {
   frontend::SummaryPartReader summary_part_reader() const override { return {}; }
 };
 
-class SfmFrontEnd final : public FrontEnd {
+// What the two monocular front ends share: the SfM's options, its checks and track filter, heights from
+// the ground under each camera.
+class MonocularFrontEnd : public FrontEnd {
  public:
-  std::string_view name() const override { return "sfm"; }
-  bool is_default_for(const sequence::Sequence& seq) const override { return seq.kind == sequence::SequenceKind::Mono; }
   void check(const sequence::Sequence& seq, const ExtractOptions& o) const override {
     if (o.front_end.gravity.method != frontend::GravityMethod::Level)
       throw Error(seq.manifest.string(), "gravity",
-                  "gravity estimation is for the stereo front end; structure from motion (this run) fits its own "
-                  "ground plane");
-    as_run(o).validate();
-  }
-  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
-    return sfm::run_mono_front_end(seq, as_run(o));
+                  "gravity estimation is for the stereo front end; " + std::string(description()) +
+                      " (this run) fits its own ground plane");
+    run_options(o).validate();
   }
   Json options_json(const ExtractOptions& o) const override {
-    const sfm::SfmOptions s = as_run(o);
-    Json fe = {{"method", "sfm"}, {"sfm", sfm::sfm_options_to_json(s)}};
+    const sfm::SfmOptions s = run_options(o);
+    Json fe = {{"method", std::string(name())}, {std::string(name()), sfm::sfm_options_to_json(s)}};
     if (s.camera_height) fe["camera_height"] = *s.camera_height;
     return fe;
   }
   std::optional<Json> own_options_json(const ExtractOptions& o) const override {
     return sfm::sfm_options_to_json(o.sfm);
   }
-  int min_track_frames(const ExtractOptions& o) const override { return as_run(o).filters.min_frames; }
+  int min_track_frames(const ExtractOptions& o) const override { return run_options(o).filters.min_frames; }
   // A long monocular drive's camera path drifts up and down against its one ground plane: heights are
   // measured from the ground under each camera (docs/camvid.md, "Heights from the ground under the
   // camera").
@@ -69,22 +68,72 @@ class SfmFrontEnd final : public FrontEnd {
   std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
   frontend::SummaryPartReader summary_part_reader() const override { return sfm::sfm_summary_part; }
 
- private:
-  // The SfM options as run: the camera height from the extraction options when not set.
-  static sfm::SfmOptions as_run(const ExtractOptions& o) {
+  /// The SfM options as run: the camera height from the extraction options when not set.
+  virtual sfm::SfmOptions run_options(const ExtractOptions& o) const {
     sfm::SfmOptions s = o.sfm;
     if (!s.camera_height) s.camera_height = o.front_end.camera_height;
     s.progress = o.progress;
     return s;
   }
+
+ protected:
+  virtual std::string_view description() const = 0;
 };
 
+class SfmFrontEnd final : public MonocularFrontEnd {
+ public:
+  std::string_view name() const override { return "sfm"; }
+  bool is_default_for(const sequence::Sequence& seq) const override { return seq.kind == sequence::SequenceKind::Mono; }
+  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    return sfm::run_mono_front_end(seq, run_options(o));
+  }
+
+ private:
+  std::string_view description() const override { return "structure from motion"; }
+};
+
+// Monocular visual odometry, causal: the same stream label-stream runs on a mono sequence, so that
+// extract-features --causal with it gives label-stream's features. Never "auto" (the SfM sees the whole
+// run and is the better offline front end).
+class VoFrontEnd final : public MonocularFrontEnd {
+ public:
+  std::string_view name() const override { return "vo"; }
+  bool is_default_for(const sequence::Sequence&) const override { return false; }
+  void check(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    MonocularFrontEnd::check(seq, o);
+    if (!o.sfm.focal && !seq.calibration.fx)  // said before the work folder is started
+      throw Error(seq.manifest.string(), "focal",
+                  "visual odometry needs the focal length (--focal or the manifest's fx; it cannot self-calibrate: "
+                  "extract-features --motion sfm estimates one and prints it)");
+  }
+  frontend::FrontEndResult run(const sequence::Sequence& seq, const ExtractOptions& o) const override {
+    return sfm::run_mono_stream_front_end(seq, run_options(o));
+  }
+  /// The SfM's options, with KLT tracking of Shi-Tomasi corners unless keypoints are chosen.
+  sfm::SfmOptions run_options(const ExtractOptions& o) const override {
+    sfm::SfmOptions s = MonocularFrontEnd::run_options(o);
+    s.tracker = sfm::SfmTracker::Klt;
+    if (o.keypoints == "auto") s.tracking.detector = frontend::KeypointMethod::Gftt;
+    return s;
+  }
+
+ private:
+  std::string_view description() const override { return "visual odometry"; }
+};
+
+const VoFrontEnd& vo_front_end() {
+  static const VoFrontEnd vo;
+  return vo;
+}
+
 }  // namespace
+
+sfm::SfmOptions visual_odometry_options(const ExtractOptions& options) { return vo_front_end().run_options(options); }
 
 const std::vector<const FrontEnd*>& front_ends() {
   static const StereoFrontEnd stereo;
   static const SfmFrontEnd sfm;
-  static const std::vector<const FrontEnd*> all{&stereo, &sfm};
+  static const std::vector<const FrontEnd*> all{&stereo, &sfm, &vo_front_end()};
   return all;
 }
 

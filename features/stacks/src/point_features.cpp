@@ -80,6 +80,9 @@ static double median_camera_height(const std::vector<sequence::Pose>& poses) {
 
 std::optional<double> reference_camera_height(const FeatureOptions& opt, const std::vector<sequence::Pose>& poses) {
   if (opt.height_reference != HeightReference::Camera) return std::nullopt;
+  // Causal features know only the frames so far: the first camera's height (the front ends put the
+  // first camera camera_height above the ground), as a live stream takes it (FeatureStream).
+  if (opt.causal) return poses.empty() ? 0.0 : centre(poses.front()).y();
   return median_camera_height(poses);
 }
 

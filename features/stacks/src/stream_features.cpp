@@ -3,7 +3,7 @@
 namespace smseg::stacks {
 
 FeatureStream::FeatureStream(cv::Size size, const FeatureOptions& options, int min_track_frames)
-    : size_(size), min_track_frames_(min_track_frames) {
+    : size_(size), min_track_frames_(min_track_frames), height_reference_(options.height_reference) {
   options.validate();
   if (!options.causal) throw Error("", "features.causal", "a stream can only compute causal features");
   video_.poses.resize(1);
@@ -29,6 +29,12 @@ const std::vector<cv::Mat>& FeatureStream::push(const frontend::StreamFrame& fra
     obs.push_back(p);
   }
   video_.poses[0] = frame.pose;
+  if (frame.index == 0 && height_reference_ == HeightReference::Camera) {
+    FeatureOptions o;  // the causal reference: the first camera's height (reference_camera_height)
+    o.causal = true;
+    o.height_reference = HeightReference::Camera;
+    attributes_ = CausalPointAttributes(reference_camera_height(o, video_.poses));
+  }
   FrameAttributes fa;
   attributes_.add_frame(frame.pose, obs, fa);
   attributes_.keep_only(frame.live_tracks);

@@ -25,8 +25,8 @@ Sequence sequence_of_kind(SequenceKind kind) {
 }  // namespace
 
 TEST(FrontEnds, ChosenByNameAndAutoByTheSequencesKind) {
-  ASSERT_EQ(front_ends().size(), 2u);
-  EXPECT_EQ(front_end_choices(), "auto | stereo | sfm");
+  ASSERT_EQ(front_ends().size(), 3u);
+  EXPECT_EQ(front_end_choices(), "auto | stereo | sfm | vo");
   EXPECT_EQ(front_end_named("stereo", "motion").name(), "stereo");
   EXPECT_EQ(front_end_named("sfm", "motion").name(), "sfm");
   ExtractOptions o;  // motion "auto"
@@ -34,6 +34,8 @@ TEST(FrontEnds, ChosenByNameAndAutoByTheSequencesKind) {
   EXPECT_EQ(front_end_for(sequence_of_kind(SequenceKind::Mono), o).name(), "sfm");
   o.motion = "sfm";  // asked for: SfM on the left images of a stereo sequence
   EXPECT_EQ(front_end_for(sequence_of_kind(SequenceKind::Stereo), o).name(), "sfm");
+  o.motion = "vo";  // the causal visual odometry is only ever asked for
+  EXPECT_EQ(front_end_for(sequence_of_kind(SequenceKind::Mono), o).name(), "vo");
 }
 
 TEST(FrontEnds, AnUnknownNameIsRefusedWithTheChoices) {
@@ -43,7 +45,7 @@ TEST(FrontEnds, AnUnknownNameIsRefusedWithTheChoices) {
     check_motion_name("lidar", "--motion");
     FAIL() << "accepted";
   } catch (const smseg::Error& e) {
-    EXPECT_EQ(std::string(e.what()), "--motion: expected auto | stereo | sfm, got 'lidar'");
+    EXPECT_EQ(std::string(e.what()), "--motion: expected auto | stereo | sfm | vo, got 'lidar'");
   }
   ExtractOptions o;
   o.motion = "auto ";  // not trimmed: a name is exact
@@ -69,6 +71,21 @@ TEST(FrontEnds, EachSaysWhatExtractionNeedsOfIt) {
   EXPECT_EQ(j.at("camera_height"), 1.25);
   EXPECT_TRUE(j.contains("sfm"));
   EXPECT_FALSE(stereo.options_json(o).contains("sfm"));
+  // The visual odometry: monocular, heights from the ground under each camera, the SfM's options and
+  // track filter, KLT on Shi-Tomasi corners unless keypoints are chosen.
+  const FrontEnd& vo = front_end_named("vo", "motion");
+  EXPECT_TRUE(vo.monocular());
+  EXPECT_EQ(vo.auto_height_reference(), HeightReference::Camera);
+  EXPECT_EQ(vo.min_track_frames(o), 6);
+  EXPECT_EQ(vo.options_json(o).at("method"), "vo");
+  EXPECT_EQ(vo.options_json(o).at("camera_height"), 1.25);
+  EXPECT_EQ(visual_odometry_options(o).tracking.detector, KeypointMethod::Gftt);
+  EXPECT_EQ(visual_odometry_options(o).tracker, smseg::sfm::SfmTracker::Klt);
+  // Without a focal length (a mono manifest without fx, no --focal) it is refused before anything runs.
+  ExtractOptions level;
+  EXPECT_THROW(vo.check(sequence_of_kind(SequenceKind::Mono), level), smseg::Error);
+  level.sfm.focal = 500;
+  EXPECT_NO_THROW(vo.check(sequence_of_kind(SequenceKind::Mono), level));
   // Stereo motion on a mono sequence, and gravity estimation under SfM, are refused naming the manifest.
   const Sequence mono = sequence_of_kind(SequenceKind::Mono);
   EXPECT_THROW(stereo.check(mono, o), smseg::Error);

@@ -215,6 +215,13 @@ TEST(PointFeatures, HeightsFromTheCameraFollowAPathThatDrifts) {
     EXPECT_EQ(from_camera.fC[f], from_plane.fC[f]);  // only heights change
     EXPECT_EQ(from_camera.fR[f], from_plane.fR[f]);
   }
+  // Causal features know only the frames so far: their reference is the first camera's height (1 m),
+  // what a live stream takes (FeatureStream), not the run's median.
+  camera.causal = true;
+  EXPECT_EQ(reference_camera_height(camera, v.poses), 1.0);
+  const auto causal = compute_point_attributes(v, camera);
+  for (int f = 0; f < frames; ++f) EXPECT_NEAR(causal.fH[f][0], 1.0 - 1.2, 1e-9) << "frame " << f;
+  camera.causal = false;
   PointCloudVideo level = still_camera(3);
   for (int f = 0; f < 3; ++f) ASSERT_TRUE(observe(level, f, f, {0.2 * f, 0.35, -3}));
   const auto a = compute_point_attributes(level, {}), b = compute_point_attributes(level, camera);

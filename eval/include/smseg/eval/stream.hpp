@@ -1,6 +1,7 @@
 #pragma once
-// Labelling a live stereo stream (label-stream): each stereo pair goes through the stereo front end
-// one frame at a time (frontend/stream.hpp), its causal feature stack is made in memory
+// Labelling a live stream (label-stream): each stereo pair goes through the stereo front end one frame
+// at a time (frontend/stream.hpp), or each image of a monocular video through the causal visual
+// odometry (sfm/mono_stream.hpp, StreamOptions::mono), its causal feature stack is made in memory
 // (stacks/stream_features.hpp: no stack file is written) and the forest labels it per pixel or by
 // grid or superpixel voting (label_frame). With the same options its labels are those of
 // `extract-features --causal` + `eval-forest` on the same frames (tests/eval/test_label_stream.cpp).
@@ -14,6 +15,7 @@
 
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/frontend/stream.hpp"
+#include "smseg/sfm/mono_stream.hpp"
 #include "smseg/stacks/stream_features.hpp"
 
 namespace smseg::eval {
@@ -21,6 +23,10 @@ namespace smseg::eval {
 struct StreamOptions {
   frontend::FrontEndOptions front_end;  ///< the stereo front end (as extract-features takes it)
   EvalOptions eval;                     ///< per pixel, grid or superpixel voting, smoothing; frames and pictures unused
+  /// Set: a monocular stream, the visual odometry with these options (extract-features --motion vo's,
+  /// stacks::visual_odometry_options) instead of the stereo front end; heights from the ground under
+  /// each camera (the vo front end's HeightReference::Camera).
+  std::optional<sfm::SfmOptions> mono;
 };
 
 /// Milliseconds of each stage of one frame.
@@ -41,22 +47,24 @@ class StreamLabeller {
                  const std::string& source);
 
   /// The first half of a frame's work, which needs no earlier frame (disparity, keypoints): thread-safe,
-  /// so that a pipeline prepares the next pairs while label() runs (8-bit grey images).
+  /// so that a pipeline prepares the next pairs while label() runs (8-bit grey images; a monocular
+  /// stream ignores right_gray).
   frontend::StereoFrontEndStream::Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
 
   /// Labels the next prepared pair, in order. `frame_index` keys the voting pixels (a sequence's
   /// frame number, as eval-forest uses it). Returns the class positions (CV_8UC1).
   cv::Mat label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
 
-  /// With the front end's disparity_offset auto, the stream first estimates its offset from its
+  /// With the stereo front end's disparity_offset auto, the stream first estimates its offset from its
   /// first frames (frontend::kOffsetFrames, or all of a shorter video): calibrate() takes them prepared,
   /// in order, with their frame indices, and hands each one's labels to `labelled` in order (as label()
   /// would: last_frame() is that frame's meanwhile); label() follows from the next one.
-  bool needs_calibration() const { return front_end_.needs_calibration(); }
+  bool needs_calibration() const { return stereo_ && stereo_->needs_calibration(); }
   using Labelled = std::function<void(std::size_t i, const cv::Mat& labels, const StreamStageTimes& times)>;
   void calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first, const std::vector<int>& frame_indices,
                  const Labelled& labelled);
-  double disparity_offset() const { return front_end_.disparity_offset(); }  ///< pixels, once calibrated
+  /// Pixels, once calibrated (a monocular stream: 0, it has no disparities).
+  double disparity_offset() const { return stereo_ ? stereo_->disparity_offset() : 0.0; }
 
   /// prepare() then label().
   cv::Mat push(const cv::Mat& left_gray, const cv::Mat& right_gray, int frame_index, StreamStageTimes* times = nullptr) {
@@ -74,7 +82,8 @@ class StreamLabeller {
   forest::Classifier classifier_;
   EvalOptions eval_;
   cv::Size size_;
-  frontend::StereoFrontEndStream front_end_;
+  std::optional<frontend::StereoFrontEndStream> stereo_;  // one of the two
+  std::optional<sfm::MonoFrontEndStream> mono_;
   stacks::FeatureStream features_;
   frontend::StreamFrame frame_;
 };

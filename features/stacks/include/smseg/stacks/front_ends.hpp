@@ -17,6 +17,7 @@
 #include "smseg/frontend/motion.hpp"
 #include "smseg/frontend/tracks_io.hpp"
 #include "smseg/sequence/sequence.hpp"
+#include "smseg/sfm/sfm.hpp"
 #include "smseg/stacks/point_features.hpp"
 
 namespace smseg::stacks {
@@ -75,5 +76,9 @@ frontend::TracksFile read_tracks(const fs::path& path);
 /// The front end that options.motion chooses for this sequence ("auto": the one that is default for its
 /// kind).
 const FrontEnd& front_end_for(const sequence::Sequence& seq, const ExtractOptions& options);
+
+/// The options the "vo" front end (causal monocular visual odometry) runs with: what label-stream gives
+/// its monocular stream, so that its features are extract-features --motion vo --causal's.
+sfm::SfmOptions visual_odometry_options(const ExtractOptions& options);
 
 }  // namespace smseg::stacks

@@ -55,8 +55,9 @@ enum class HeightReference {
   Auto,    ///< extract-features: Camera for monocular SfM runs, Plane for stereo; elsewhere Plane
   Plane,   ///< the run's ground plane: world Y (the thesis)
   Camera,  ///< the ground under each frame's camera: the point's height relative to the camera plus the
-           ///< cameras' median height over the run, so a camera path that drifts up or down (a long
-           ///< monocular drive) does not shift every height of its frames
+           ///< cameras' median height over the run (causal features: the first camera's height), so a
+           ///< camera path that drifts up or down (a long monocular drive) does not shift every height
+           ///< of its frames
 };
 std::string to_string(HeightReference h);
 HeightReference height_reference_from_string(const std::string& s, const std::string& option);

@@ -15,6 +15,8 @@ namespace smseg::stacks {
 class FeatureStream {
  public:
   /// `min_track_frames`: the front end's TrackFilterOptions::min_frames (the causal track rule).
+  /// HeightReference::Camera measures heights from the ground under each camera, the first frame's
+  /// camera height its reference (as extract-features --causal); any other, world Y.
   FeatureStream(cv::Size size, const FeatureOptions& options, int min_track_frames);
 
   /// The frame's six summed-area tables (structure_feature_names() order; CV_64FC1, (H+1) x (W+1)),
@@ -24,6 +26,7 @@ class FeatureStream {
  private:
   cv::Size size_;
   int min_track_frames_;
+  HeightReference height_reference_;
   CausalPointAttributes attributes_;
   PointCloudVideo video_;    // this frame alone
   PointAttributes attrs_;    // this frame alone
