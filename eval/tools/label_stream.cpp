@@ -91,7 +91,7 @@ stacks::FrameRange validate(Args& a) {
 // A mono sequence: the causal visual odometry (extract-features --motion vo's) instead of stereo.
 void use_visual_odometry(Args& a, const sequence::Sequence& seq) {
   if (a.live())
-    throw UsageError(seq.manifest.string(), a.cameras.empty() ? "--side-by-side" : "--cameras",
+    throw UsageError(seq.manifest.string(), a.own.cameras.empty() ? "--side-by-side" : "--cameras",
                      "live sources are stereo pairs; this sequence is mono");
   a.opt.mono = stacks::visual_odometry_options(a.front_end);
   a.opt.mono->progress = false;

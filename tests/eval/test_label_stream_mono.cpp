@@ -10,6 +10,7 @@
 #include "smseg/eval/stream.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/sfm/mono_stream.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/synth/synth.hpp"
 #include "run_tool.hpp"
@@ -104,11 +105,12 @@ TEST_F(LabelStreamMono, VisualOdometryFollowsTheGroundTruthPath) {
   sfm::SfmOptions o = stacks::visual_odometry_options(vo_options());
   o.progress = false;
   const frontend::FrontEndResult vo = sfm::run_mono_stream_front_end(*seq, o);
-  ASSERT_TRUE(vo.summary.sfm);
+  const sfm::SfmSummary* summary = sfm::sfm_summary_of(vo.summary);
+  ASSERT_TRUE(summary);
   int first = 1;
   while (first < seq->frame_count() && !vo.pair_motions[first - 1].ok) ++first;
   ASSERT_LT(first, seq->frame_count() / 2) << "initialised too late";
-  EXPECT_EQ(vo.summary.sfm->posed_frames, seq->frame_count() - first) << "every frame after it posed by PnP";
+  EXPECT_EQ(summary->posed_frames, seq->frame_count() - first) << "every frame after it posed by PnP";
   auto at = [](const sequence::Pose& p) { return Eigen::Vector3d(p.t[0], p.t[1], p.t[2]); };
   double travelled = 0, worst = 0;
   for (int f = first + 1; f < seq->frame_count(); ++f) {

@@ -1,11 +1,13 @@
 // The monocular stream over a whole sequence (run_mono_stream_front_end, mono_stream.hpp): the "vo" front
 // end of extract-features, whose tracks and poses are exactly what a live stream knew at each frame.
+#include <memory>
 #include <cmath>
 #include <map>
 
 #include "smseg/common/error.hpp"
 #include "smseg/common/progress.hpp"
 #include "smseg/sfm/mono_stream.hpp"
+#include "smseg/sfm/sfm_summary.hpp"
 
 namespace smseg::sfm {
 
@@ -41,9 +43,10 @@ void keep_long_tracks(std::map<int, frontend::Track>& tracks, int min_frames, fr
   }
 }
 
-frontend::SfmSummary stream_summary(const MonoFrontEndStream& stream, const SfmOptions& options, long points) {
+std::shared_ptr<const SfmSummary> stream_summary(const MonoFrontEndStream& stream, const SfmOptions& options, long points) {
   const MonoStreamCounts& c = stream.counts();
-  frontend::SfmSummary s;
+  auto summary = std::make_shared<SfmSummary>();
+  SfmSummary& s = *summary;
   s.tracker = "klt";
   s.focal = stream.focal();
   s.focal_source = options.focal ? "option" : "manifest";
@@ -57,7 +60,7 @@ frontend::SfmSummary stream_summary(const MonoFrontEndStream& stream, const SfmO
   s.ground_inliers = c.ground_inliers;
   s.seconds_sfm = c.frames > 0 ? c.seconds_motion / c.frames : 0;
   s.seconds_ba = c.frames > 0 ? c.seconds_ba / c.frames : 0;
-  return s;
+  return summary;
 }
 
 }  // namespace
@@ -93,7 +96,7 @@ frontend::FrontEndResult run_mono_stream_front_end(const sequence::Sequence& seq
   s.seconds.keypoints = keypoint_ms / 1000 / n;
   s.seconds.matching = tracking_ms / 1000 / n;
   s.seconds.motion = stream.counts().seconds_motion / n;
-  s.sfm = stream_summary(stream, options, static_cast<long>(res.tracks.size()));
+  s.own = stream_summary(stream, options, static_cast<long>(res.tracks.size()));
   return res;
 }
 
