@@ -67,6 +67,7 @@ class MonocularFrontEnd : public FrontEnd {
   bool monocular() const override { return true; }
   std::string_view no_tracks_hint() const override { return "a camera that does not move? blank frames?"; }
   frontend::SummaryPartReader summary_part_reader() const override { return sfm::sfm_summary_part; }
+  std::string_view summary_part_key() const override { return "sfm"; }  // both write an SfmSummary
 
   /// The SfM options as run: the camera height from the extraction options when not set.
   virtual sfm::SfmOptions run_options(const ExtractOptions& o) const {
@@ -157,7 +158,7 @@ const frontend::SummaryPartReaders& summary_part_readers() {
   static const frontend::SummaryPartReaders readers = [] {
     frontend::SummaryPartReaders r;
     for (const FrontEnd* f : front_ends())
-      if (auto read = f->summary_part_reader()) r.emplace(std::string(f->name()), std::move(read));
+      if (auto read = f->summary_part_reader()) r.emplace(std::string(f->summary_part_key()), std::move(read));
     return r;
   }();
   return readers;
@@ -165,8 +166,14 @@ const frontend::SummaryPartReaders& summary_part_readers() {
 
 Json run_options_key(const std::string& motion, const ExtractOptions& options) {
   Json key = {{"front_end", frontend::front_end_options_to_json(options.front_end)}, {"motion", motion}};
+  // Under each own-options key (the visual odometry shares the SfM's, "sfm"): the chosen front end's
+  // options, null for the others.
   for (const FrontEnd* f : front_ends())
-    if (auto own = f->own_options_json(options)) key[std::string(f->name())] = f->name() == motion ? *own : Json();
+    if (auto own = f->own_options_json(options)) {
+      const std::string k(f->summary_part_key());
+      if (f->name() == motion) key[k] = *own;
+      else if (!key.contains(k)) key[k] = nullptr;
+    }
   return key;
 }
 

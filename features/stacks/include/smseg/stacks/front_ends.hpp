@@ -50,9 +50,13 @@ class FrontEnd {
   virtual bool monocular() const = 0;
   /// What most often leaves it without a single track, for the error that says so.
   virtual std::string_view no_tracks_hint() const = 0;
-  /// Reads back the own part of the summary that its runs write (FrontEndSummary::own, under its
-  /// name in tracks.json's summary); empty when its runs have none.
+  /// Reads back the own part of the summary that its runs write (FrontEndSummary::own, under
+  /// summary_part_key() in tracks.json's summary); empty when its runs have none.
   virtual frontend::SummaryPartReader summary_part_reader() const = 0;
+  /// Where its part is in tracks.json's summary, and its own options in a run's key: its name, unless
+  /// it shares another front end's (the visual odometry fills the SfM's figures and takes its options,
+  /// under "sfm").
+  virtual std::string_view summary_part_key() const { return name(); }
 };
 
 /// Every front end, in the order help texts list them.
@@ -64,7 +68,8 @@ std::string front_end_choices();
 const FrontEnd& front_end_named(const std::string& name, const std::string& field);
 /// Error naming `field` unless `name` is "auto" or a front end's name.
 void check_motion_name(const std::string& name, const std::string& field);
-/// Every front end's reader of its own summary part, by name (frontend::read_tracks takes them).
+/// Every front end's reader of its own summary part, by its key in the summary (frontend::read_tracks
+/// takes them).
 const frontend::SummaryPartReaders& summary_part_readers();
 /// The options of a run of the front end `motion` as keys name them: the shared front-end options
 /// ("front_end"), the name ("motion") and, under each front end's name that has options of its own,
