@@ -7,18 +7,11 @@
 # Usage: camvid_cross_validate_test.sh SOURCE_DIR BIN_DIR SHARED_DIR     (exit 77: no CamVid, skipped)
 set -euo pipefail
 src=$1 bin=$2 shared=$3
-camvid="$shared/data/camvid"
-[[ -f "$camvid/frames.csv" ]] || { echo "no CamVid under $shared/data: skipped"; exit 77; }
-tmp="$(mktemp -d)"
-trap 'rm -rf "$tmp"' EXIT
-
-mini="$tmp/camvid"
-mkdir -p "$mini"
-for d in train trainannot val valannot; do ln -s "$camvid/$d" "$mini/$d"; done
-cp "$camvid/classes.csv" "$mini/"
+# shellcheck source=mini_camvid.sh
+source "$(dirname "${BASH_SOURCE[0]}")/mini_camvid.sh"
+mini_camvid "$shared"
 {
-  head -1 "$camvid/frames.csv"
-  awk -F, '$1 == "0016E5" && $3 == "train" && $2 >= 8190 && $2 <= 8640' "$camvid/frames.csv"
+  header_and_short_run
   awk -F, '$1 == "0001TP" && $3 == "train" { n++; if (n <= 16) print }' "$camvid/frames.csv"
   awk -F, '$3 == "val" { n++; if (n <= 30) print }' "$camvid/frames.csv"
 } >"$mini/frames.csv"
