@@ -103,13 +103,7 @@ export bin out
 # runs' is, one second (2.8 m median) apart: on val S+M 59.1 / 32.7 -> 61.8 / 33.4 (docs/camvid.md,
 # "A plane sweep at the training runs' baseline").
 sweep_options() {  # SEQUENCE_FOLDER: extract-features options for its plane sweep
-  python3 - "$1/sequence.json" <<'PY'
-import json, sys
-times = [f.get("time") for f in json.load(open(sys.argv[1]))["frames"]]
-steps = sorted(b - a for a, b in zip(times, times[1:]) if a is not None and b is not None)
-if steps and steps[len(steps) // 2] < 0.5:
-    print("--sweep-baseline 4 --sweep-reach 24")
-PY
+  python3 "$here/experiments/camvid/sweep_options.py" "$1"
 }
 # One line per extraction, without trailing blanks (xargs -L joins a line ending in one to the next).
 {

@@ -41,6 +41,8 @@ import sys
 import tempfile
 from concurrent.futures import ThreadPoolExecutor
 
+from sweep_options import median_step, sweep_options
+
 HERE = os.path.dirname(os.path.abspath(__file__))
 CONTEXT_FOLDS = 4
 TEST_RATE_HZ = 1.0  # the test split's frame rate: faster runs are tested at it (interleaved phases)
@@ -66,6 +68,7 @@ def write_atomic(path, text):
     fd, tmp = tempfile.mkstemp(prefix=".tmp-", dir=os.path.dirname(os.path.abspath(path)))
     with os.fdopen(fd, "w") as f:
         f.write(text)
+    os.chmod(tmp, 0o644)  # mkstemp's 0600 is for the temporary name only
     os.replace(tmp, path)
 
 
@@ -80,12 +83,17 @@ def load_config(path):
     for key in config:
         if key not in ("forest", "prior_power", "runs"):
             fail(f"{path}: {key}: unknown key (expected forest, prior_power, runs)")
+    strings = lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)
+    if "forest" in config and not strings(config["forest"]):
+        fail(f"{path}: forest: expected a list of train-forest options (strings)")
     for name, r in config["runs"].items():
-        if not isinstance(r, dict) or not isinstance(r.get("train"), list):
+        if not isinstance(r, dict) or "train" not in r:
             fail(f"{path}: runs.{name}.train: expected a list of train-forest options")
-        for key in r:
+        for key, value in r.items():
             if key not in ("train", "context", "eval", "forest"):
                 fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest)")
+            if not strings(value):
+                fail(f"{path}: runs.{name}.{key}: expected a list of options (strings)")
     powers = config.setdefault("prior_power", [0])
     if not powers or not all(isinstance(p, (int, float)) and 0 <= p <= 4 for p in powers):
         fail(f"{path}: prior_power: expected a list of numbers in 0..4")
@@ -94,20 +102,6 @@ def load_config(path):
 
 
 # ---- preparation: sequences and work folders ------------------------------------------------------
-
-def median_step(sequence):
-    """The median time between a sequence's frames, seconds (None without frame times)."""
-    with open(os.path.join(sequence, "sequence.json")) as f:
-        times = [fr.get("time") for fr in json.load(f)["frames"]]
-    steps = sorted(b - a for a, b in zip(times, times[1:]) if a is not None and b is not None)
-    return steps[len(steps) // 2] if steps else None
-
-
-def sweep_options(sequence):
-    """benchmark.sh's plane-sweep baseline: runs filmed faster than 2 Hz read neighbours 4 m away."""
-    step = median_step(sequence)
-    return ["--sweep-baseline", "4", "--sweep-reach", "24"] if step is not None and step < 0.5 else []
-
 
 def phases_of(sequence):
     """How many interleaved phases bring a run to the test split's rate (1: it is at that rate already)."""
