@@ -9,11 +9,15 @@ the 15 Hz val run) is held out in turn: the forests of CONFIG's runs are trained
 tested on it. The held-out run is tested at the rate of the test split (1 Hz): a 1 Hz run as it is; a
 faster run cut into interleaved 1 Hz phases (subsample.py; val: 15), each extracted as its own
 sequence, scored together. The faster run whole is reported beside ("whole"), not in the fold means. Training runs are extracted with --require-label (the training filters), held-out runs
-without (no label reaches a test feature), each with benchmark.sh's options (--appearance --dense, the
-plane-sweep baseline of runs filmed faster than 2 Hz).
+without (no label reaches a test feature), each with CONFIG's extract options (default benchmark.sh's:
+--appearance --dense, with the plane-sweep baseline of runs filmed faster than 2 Hz).
 
 CONFIG (JSON):
-  {"forest": ["-K", "400", "--Kt", "20000", "-M", "7", "--seed", "1"],   train-forest options of every run
+  {"extract": ["--appearance", "--dense"],                              extract-features options (default
+                                                                        shown; without --dense, no plane
+                                                                        sweep: a cheap protocol for levers
+                                                                        of forests that read no dense channel)
+   "forest": ["-K", "400", "--Kt", "20000", "-M", "7", "--seed", "1"],   train-forest options of every run
    "prior_power": [0, 0.5, 1],                                         eval-forest --prior-power points
    "runs": {"NAME": {"train": [train-forest options],
                      "context": [second forest's options],             optional: auto-context (4 folds)
@@ -45,6 +49,7 @@ from sweep_options import median_step, sweep_options
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 CONTEXT_FOLDS = 4
+BENCHMARK_EXTRACT = ["--appearance", "--dense"]  # benchmark.sh's extraction (with its plane-sweep choice)
 TEST_RATE_HZ = 1.0  # the test split's frame rate: faster runs are tested at it (interleaved phases)
 
 
@@ -81,11 +86,12 @@ def load_config(path):
     if not isinstance(config.get("runs"), dict) or not config["runs"]:
         fail(f"{path}: runs: expected an object naming at least one run")
     for key in config:
-        if key not in ("forest", "prior_power", "runs"):
-            fail(f"{path}: {key}: unknown key (expected forest, prior_power, runs)")
+        if key not in ("extract", "forest", "prior_power", "runs"):
+            fail(f"{path}: {key}: unknown key (expected extract, forest, prior_power, runs)")
     strings = lambda v: isinstance(v, list) and all(isinstance(x, str) for x in v)
-    if "forest" in config and not strings(config["forest"]):
-        fail(f"{path}: forest: expected a list of train-forest options (strings)")
+    for key, tool in (("extract", "extract-features"), ("forest", "train-forest")):
+        if key in config and not strings(config[key]):
+            fail(f"{path}: {key}: expected a list of {tool} options (strings)")
     for name, r in config["runs"].items():
         if not isinstance(r, dict) or "train" not in r:
             fail(f"{path}: runs.{name}.train: expected a list of train-forest options")
@@ -98,6 +104,7 @@ def load_config(path):
     if not powers or not all(isinstance(p, (int, float)) and 0 <= p <= 4 for p in powers):
         fail(f"{path}: prior_power: expected a list of numbers in 0..4")
     config.setdefault("forest", ["-K", "400", "--Kt", "20000", "-M", "7", "--seed", "1"])
+    config.setdefault("extract", BENCHMARK_EXTRACT)
     return config
 
 
@@ -136,8 +143,9 @@ def prepare_sequences(bin_dir, camvid, out):
     return runs, phases
 
 
-def extraction(bin_dir, out, reuse, side, sequence):
-    """One work folder: reused from a benchmark's OUT by symlink, kept when finished, else extracted."""
+def extraction(bin_dir, out, reuse, extract, side, sequence):
+    """One work folder: reused from a benchmark's OUT by symlink, kept when finished, else extracted.
+    `extract`: the config's extract-features options (the plane-sweep choice added with --dense)."""
     name = os.path.basename(sequence)
     work = os.path.join(out, "work", side, name)
     if os.path.exists(os.path.join(work, "stacks.json")):
@@ -148,7 +156,7 @@ def extraction(bin_dir, out, reuse, side, sequence):
             os.unlink(work)
         os.symlink(os.path.abspath(os.path.join(reuse, "work", side, name)), work)
         return work
-    options = ["--appearance", "--dense", "--threads", "1", "-q"] + sweep_options(sequence)
+    options = extract + ["--threads", "1", "-q"] + (sweep_options(sequence) if "--dense" in extract else [])
     if side == "train":
         options.append("--require-label")
     os.makedirs(os.path.join(out, "logs"), exist_ok=True)
@@ -157,11 +165,25 @@ def extraction(bin_dir, out, reuse, side, sequence):
     return work
 
 
-def prepare_works(bin_dir, out, reuse, runs, phases, jobs):
+def keep_extract_options(out, extract):
+    """OUT/work/extract.json: the extract-features options of OUT's work folders, which another config
+    with other options must not resume from."""
+    path = os.path.join(out, "work", "extract.json")
+    if os.path.isfile(path):
+        with open(path) as f:
+            kept = json.load(f)
+        if kept != extract:
+            fail(f"{path}: {out}'s work folders were extracted with {kept}, the config asks for {extract}: use another OUT")
+        return
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    write_atomic(path, json.dumps(extract) + "\n")
+
+
+def prepare_works(bin_dir, out, reuse, extract, runs, phases, jobs):
     jobs_list = [("train", s) for s in runs.values()] + [("test", s) for s in runs.values()]
     jobs_list += [("test", p) for name in phases for p in phases[name]]
     with ThreadPoolExecutor(max_workers=jobs) as pool:
-        works = list(pool.map(lambda j: extraction(bin_dir, out, reuse, *j), jobs_list))
+        works = list(pool.map(lambda j: extraction(bin_dir, out, reuse, extract, *j), jobs_list))
     n = len(runs)
     train = dict(zip(runs, works[:n]))
     test = dict(zip(runs, works[n:2 * n]))
@@ -338,8 +360,11 @@ def main():
     out = os.path.abspath(a.out)
     os.makedirs(out, exist_ok=True)
     config["out"] = out
+    if a.reuse and config["extract"] != BENCHMARK_EXTRACT:
+        fail(f"--reuse: {a.config}'s extract options {config['extract']} are not benchmark.sh's {BENCHMARK_EXTRACT}")
+    keep_extract_options(out, config["extract"])
     runs, phase_sequences = prepare_sequences(bin_dir, camvid, out)
-    train, test, phases = prepare_works(bin_dir, out, a.reuse, runs, phase_sequences, a.jobs)
+    train, test, phases = prepare_works(bin_dir, out, a.reuse, config["extract"], runs, phase_sequences, a.jobs)
     folds = {name: {held: run_fold(bin_dir, config, name, held, train, test, phases) for held in sorted(runs)}
              for name in config["runs"]}
     summary = summarise(config, folds)
