@@ -148,7 +148,11 @@ def extraction(bin_dir, out, reuse, extract, side, sequence):
     `extract`: the config's extract-features options (the plane-sweep choice added with --dense)."""
     name = os.path.basename(sequence)
     work = os.path.join(out, "work", side, name)
-    if os.path.exists(os.path.join(work, "stacks.json")):
+    # extract-features writes stacks.json first, so that a killed run resumes: only this marker, written
+    # once it has finished, says the folder is whole. Without it extract-features runs again (and keeps
+    # the frames on disk).
+    finished = os.path.join(out, "work", side, f".finished-{name}")
+    if os.path.isfile(finished) and os.path.isfile(os.path.join(work, "stacks.json")):
         return work
     os.makedirs(os.path.dirname(work), exist_ok=True)
     if reuse and os.path.isfile(os.path.join(reuse, "work", side, name, "stacks.json")):
@@ -162,6 +166,7 @@ def extraction(bin_dir, out, reuse, extract, side, sequence):
     os.makedirs(os.path.join(out, "logs"), exist_ok=True)
     run([f"{bin_dir}/extract-features", sequence, "-o", work] + options,
         log=os.path.join(out, "logs", f"extract-{side}-{name}.txt"))
+    write_atomic(finished, "")
     return work
 
 

@@ -67,3 +67,25 @@ set -e
 [[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "bad.json: folds: unknown key" "$tmp/err.txt" ||
   { echo "FAIL: bad config gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
 echo "bad config: ok"
+
+# A work folder whose extraction was killed (stacks.json written, frames missing, no finished marker) is
+# extracted again on the next run, not taken as whole.
+victim="$tmp/out/work/test/0016E5_08190-08640"
+frame=$(ls "$victim/stacks" | head -1)
+rm "$victim/stacks/$frame" "$tmp/out/work/test/.finished-0016E5_08190-08640"
+SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/config.json" --jobs 2 \
+  >/dev/null
+[[ -f "$victim/stacks/$frame" && -f "$tmp/out/work/test/.finished-0016E5_08190-08640" ]] ||
+  { echo "FAIL: the killed extraction was taken as whole"; exit 1; }
+echo "killed extraction resumed: ok"
+
+# Another config's extract options on the same OUT: refused in one line (its folders were made otherwise).
+/usr/bin/python3 -c 'import json,sys; c=json.load(open(sys.argv[1])); c["extract"]=["--appearance"]; print(json.dumps(c))' \
+  "$tmp/config.json" >"$tmp/other.json"
+set +e
+SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/other.json" 2>"$tmp/err.txt"
+code=$?
+set -e
+[[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "extract.json: .* use another OUT" "$tmp/err.txt" ||
+  { echo "FAIL: other extract options gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
+echo "other extract options: ok"
