@@ -320,6 +320,37 @@ TEST(Classifier, SamePixelListLabelsWhateverTheThreadCountAndTheSets) {
   }
 }
 
+// Short lists, around a vector's lanes (the vector walk takes sets of at least one vector of pixels and
+// walks the trees' (pixel, tree) items one after the other, wrapping from one tree into the next within
+// a vector), for forests of one and of three trees: each pixel as posterior() gives it, on every target.
+TEST(Classifier, ShortPixelListsAgreeWithSinglePixels) {
+  const SyntheticData s = frames(2, 7, false);
+  for (const int trees : {1, 3}) {
+    TrainParams p;
+    p.K = 60;
+    p.M = trees;
+    const Forest f = train_forest(s.data, p);
+    const std::size_t C = f.classes.size();
+    Classifier clf(f);
+    for (const std::string& target : Classifier::simd_targets()) {
+      clf.set_simd_target(target);
+      for (const std::size_t n : {1, 7, 8, 15, 16, 17, 31, 33, 65, 100}) {
+        SCOPED_TRACE("SIMD target " + target + ", " + std::to_string(trees) + " trees, " + std::to_string(n) + " pixels");
+        Rng rng(n);
+        std::vector<Pixel> pixels;
+        for (std::size_t i = 0; i < n; ++i) pixels.push_back({rng.uniform_int(0, 71), rng.uniform_int(0, 51)});
+        std::vector<std::uint8_t> labels(n);
+        std::vector<float> dists(n * C), one(C);
+        clf.classify_pixels(s.data.frames[0], pixels, labels, dists);
+        for (std::size_t i = 0; i < n; ++i) {
+          ASSERT_EQ(clf.posterior(s.data.frames[0], pixels[i].x, pixels[i].y, one.data()), labels[i]);
+          ASSERT_EQ(0, std::memcmp(one.data(), &dists[i * C], C * sizeof(float)));
+        }
+      }
+    }
+  }
+}
+
 // classify_frame keeps a padded copy of the frame's tables per thread: frames classified from a
 // parallel loop (each call's own parallel loop nested in it) must each get their own labels.
 TEST(Classifier, FramesClassifiedInParallelEachGetTheirOwnLabels) {
