@@ -63,16 +63,8 @@ std::vector<std::uint8_t> tally(const forest::Classifier& classifier, const fore
   const std::size_t regions = first.size() - 1;
   std::vector<std::uint8_t> labels(pixels.size());
   std::vector<float> dists(rule == VoteRule::Sum ? pixels.size() * std::size_t(C) : 0);
-  // Blocks of voters in parallel (a frame's voters are often fewer than the classifier's own chunk);
-  // each pixel's result does not depend on the blocking.
-  constexpr std::size_t kBlock = 256;
-  const std::size_t blocks = (pixels.size() + kBlock - 1) / kBlock;
-  tbb::parallel_for(std::size_t(0), blocks, [&](std::size_t b) {
-    const std::size_t lo = b * kBlock, n = std::min(kBlock, pixels.size() - lo);
-    classifier.classify_pixels(frame, std::span<const forest::Pixel>(pixels.data() + lo, n),
-                               std::span<std::uint8_t>(labels.data() + lo, n),
-                               dists.empty() ? std::span<float>() : std::span<float>(dists.data() + lo * std::size_t(C), n * std::size_t(C)));
-  });
+  // One call: the classifier cuts the voters into sets for the threads itself.
+  classifier.classify_pixels(frame, pixels, labels, dists);
   std::vector<std::uint8_t> winner(regions, 255);
   std::vector<double> sum(static_cast<std::size_t>(C));
   for (std::size_t r = 0; r < regions; ++r) {

@@ -8,7 +8,11 @@ binaries round after round (A B A B ...) on the same benchmark filter, collects 
 (not the aggregates), and reports per case and binary the minimum (the run least disturbed) and the
 median, and each binary's minimum against the first binary's.
 
-Usage: compare.py [--filter REGEX] [--rounds N] [--repetitions R] [--json OUT] BINARY [BINARY ...]
+With --cpu the figures are Google Benchmark's cpu_time (the calling thread's CPU time) instead of the
+real time: on a machine busier than its cores, a one-thread case's CPU time is the least disturbed
+figure (the real time counts the waits for a core).
+
+Usage: compare.py [--filter REGEX] [--rounds N] [--repetitions R] [--cpu] [--json OUT] BINARY [BINARY ...]
   e.g. compare.py --filter 'BM_LabelFrameCamVid/mode:1' --rounds 4 /tmp/bench_eval_old build/bin/bench_eval
 The binaries see the same environment (SMSEG_BENCH_FOREST etc. pass through).
 """
@@ -22,8 +26,9 @@ from collections import defaultdict
 from pathlib import Path
 
 
-def run_once(binary, pattern, repetitions):
-    """Every repetition of every case of one run of `binary`: {case: [real time in ms, ...]}."""
+def run_once(binary, pattern, repetitions, clock="real_time"):
+    """Every repetition of every case of one run of `binary`: {case: [time in ms, ...]}, `clock` being
+    real_time or cpu_time."""
     with tempfile.NamedTemporaryFile(suffix=".json") as out:
         cmd = [binary, f"--benchmark_filter={pattern}", f"--benchmark_repetitions={repetitions}",
                f"--benchmark_out={out.name}", "--benchmark_out_format=json"]
@@ -46,7 +51,7 @@ def run_once(binary, pattern, repetitions):
     for b in report.get("benchmarks", []):
         if b.get("run_type") != "iteration" or b.get("error_occurred"):
             continue
-        times[b["run_name"]].append(b["real_time"] * scale[b.get("time_unit", "ns")])
+        times[b["run_name"]].append(b[clock] * scale[b.get("time_unit", "ns")])
     return times
 
 
@@ -56,6 +61,7 @@ def main():
     ap.add_argument("--filter", default=".", help="--benchmark_filter for every binary")
     ap.add_argument("--rounds", type=int, default=4, help="runs of each binary, alternated")
     ap.add_argument("--repetitions", type=int, default=5, help="--benchmark_repetitions per run")
+    ap.add_argument("--cpu", action="store_true", help="cpu_time (the calling thread's) instead of real time")
     ap.add_argument("--json", help="also write the collected times and the summary here")
     a = ap.parse_args()
     if a.rounds < 1 or a.repetitions < 1:
@@ -66,14 +72,15 @@ def main():
     times = {b: defaultdict(list) for b in a.binaries}
     for r in range(a.rounds):
         for b in a.binaries:
-            for case, ts in run_once(b, a.filter, a.repetitions).items():
+            for case, ts in run_once(b, a.filter, a.repetitions, "cpu_time" if a.cpu else "real_time").items():
                 times[b][case].extend(ts)
     cases = sorted({c for b in a.binaries for c in times[b]})
     if not cases:
         sys.exit(f"compare.py: no benchmark matches --filter {a.filter!r}")
     summary = []
     ref = a.binaries[0]
-    print(f"{'case':62s} {'binary':28s} {'min ms':>9s} {'median ms':>10s} {'n':>4s} {'min / ref':>9s}")
+    unit = "cpu ms" if a.cpu else "ms"
+    print(f"{'case':62s} {'binary':28s} {'min ' + unit:>10s} {'median ' + unit:>13s} {'n':>4s} {'min / ref':>9s}")
     for case in cases:
         for b in a.binaries:
             ts = times[b].get(case, [])
@@ -84,9 +91,10 @@ def main():
             row["min_vs_reference"] = min(ts) / min(ref_ts) if ref_ts else None
             summary.append(row)
             ratio = f"{row['min_vs_reference']:.3f}" if row["min_vs_reference"] else ""
-            print(f"{case:62s} {Path(b).name[:28]:28s} {row['min_ms']:9.3f} {row['median_ms']:10.3f} {len(ts):4d} {ratio:>9s}")
+            print(f"{case:62s} {Path(b).name[:28]:28s} {row['min_ms']:10.3f} {row['median_ms']:13.3f} {len(ts):4d} {ratio:>9s}")
     if a.json:
         Path(a.json).write_text(json.dumps({"rounds": a.rounds, "repetitions": a.repetitions, "filter": a.filter,
+                                            "clock": "cpu_time" if a.cpu else "real_time",
                                             "summary": summary,
                                             "times_ms": {b: dict(times[b]) for b in a.binaries}}, indent=1))
 

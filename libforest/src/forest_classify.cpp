@@ -22,6 +22,20 @@ float float_ceil(double t) {
   return f;
 }
 constexpr int kMaxClasses = 256;
+
+// classify_pixels' sets: pieces of about kSetPixels pixels, and at least kPiecesPerThread pieces per
+// thread of the arena, so that every thread gets an even share (a thread slowed by a neighbour leaves
+// its last piece to the others), but not below kMinPixels (a vector walk needs pixels for its lanes).
+// A set's pixels go through every tree together and read the tables around them: a few hundred
+// neighbouring voters keep those reads in the caches (bench_eval, CamVid grid B = 20, V = 6, one
+// thread: sets of 64-650 voters 2.2-2.4 ms, all 2 592 in one set 3.0 ms).
+std::size_t pixel_chunk(std::size_t n) {
+  constexpr std::size_t kSetPixels = 256, kPiecesPerThread = 2, kMinPixels = 64;
+  const auto threads = static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const std::size_t wanted = std::max((n + kSetPixels - 1) / kSetPixels, kPiecesPerThread * threads);
+  const std::size_t pieces = std::clamp<std::size_t>(n / kMinPixels, 1, wanted);
+  return std::max<std::size_t>(1, (n + pieces - 1) / pieces);
+}
 }  // namespace
 
 Classifier::Classifier(const Forest& forest)
@@ -154,11 +168,11 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
   for (std::size_t i = 0; i < pixels.size(); ++i)
     if (pixels[i].x < 0 || pixels[i].y < 0 || pixels[i].x >= width_ || pixels[i].y >= height_)
       throw Error("", "pixels[" + std::to_string(i) + "]", "outside the image");
-  constexpr std::size_t kChunk = 2048;
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (pixels.size() + kChunk - 1) / kChunk), [&](const tbb::blocked_range<std::size_t>& r) {
+  const std::size_t chunk = pixel_chunk(pixels.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (pixels.size() + chunk - 1) / chunk, 1), [&](const tbb::blocked_range<std::size_t>& r) {
     Scratch s;
     for (std::size_t blk = r.begin(); blk != r.end(); ++blk) {
-      const std::size_t b = blk * kChunk, m = std::min(pixels.size(), b + kChunk) - b;
+      const std::size_t b = blk * chunk, m = std::min(pixels.size(), b + chunk) - b;
       s.xs.resize(m);
       s.ys.resize(m);
       for (std::size_t i = 0; i < m; ++i) {

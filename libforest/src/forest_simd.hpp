@@ -73,12 +73,15 @@ struct SimdKernels {
   void (*leaf_rows)(const ChunkEntry* a, std::uint32_t b, std::uint32_t e, std::int32_t row, int per_row, int width,
                     std::int32_t* leaf);
   /// classify_pixels' walk (route_tree's work for forests without texton tests): pixels (xs[i], ys[i]),
-  /// i < n, through the tree whose root is node `root` of `nodes` (16-byte compact nodes: int16 x0, x1,
-  /// y0, y1; float threshold; uint32 next, as Classifier lays them out), reading the frame's tables
-  /// `sats` (row stride width + 1), several vectors of pixels in flight; leaf[i] for each. Every window
-  /// is clipped as window_sum clips it.
-  void (*route)(const void* nodes, std::uint32_t root, const double* const* sats, std::size_t num_sats, int width,
-                int height, const std::int32_t* xs, const std::int32_t* ys, std::size_t n, std::int32_t* leaf);
+  /// i < n, through the M trees whose roots are nodes roots[t] of `nodes` (16-byte compact nodes: int16
+  /// x0, x1, y0, y1; float threshold; uint32 next, as Classifier lays them out), reading the frame's
+  /// tables `sats` (row stride width + 1), several vectors of (pixel, tree) items in flight; leaf[t * n + i]
+  /// for each (`leaf` has room for n * M + 1 values). Every window is clipped as window_sum clips it.
+  /// Returns false, having written nothing, for a set it does not take: fewer pixels than a vector has
+  /// lanes, or tables too far apart in memory for 32-bit indices.
+  bool (*walk)(const void* nodes, const std::uint32_t* roots, std::size_t M, const double* const* sats,
+               std::size_t num_sats, int width, int height, const std::int32_t* xs, const std::int32_t* ys,
+               std::size_t n, std::int32_t* leaf);
   /// classify_set's votes for forests of at most 16 classes (`padded` = 16 floats a leaf row): per
   /// pixel i < n, the rows leaf[t * n + i] of `probs` summed over the trees t < M in order, and the
   /// first class of the largest sum; labels[i], and dists[i * classes + c] unless dists is null.

@@ -64,11 +64,11 @@ void Classifier::set_simd_target(std::string_view name) { simd_ = detail::simd_k
 std::vector<std::string> Classifier::simd_targets() { return detail::simd_target_names(); }
 
 void Classifier::build_compact(const Forest& forest) {
-  // The vector walk (SimdKernels::route) reads the nodes as two 64-bit words: the rectangle, then
+  // The vector walk (SimdKernels::walk) reads the nodes as two 64-bit words: the rectangle, then
   // threshold and link.
   static_assert(sizeof(CompactNode) == 16 && offsetof(CompactNode, x0) == 0 && offsetof(CompactNode, y1) == 6 &&
                     offsetof(CompactNode, threshold) == 8 && offsetof(CompactNode, next) == 12,
-                "SimdKernels::route's view of a compact node");
+                "SimdKernels::walk's view of a compact node");
   compact_.reserve(nodes_.size());
   std::size_t base = 0;  // the tree's first index in nodes_
   for (const Tree& tree : forest.trees) {
@@ -343,16 +343,16 @@ void Classifier::classify_set(const FrameData& frame, const Tables& tables, Scra
   s.leaf.resize(n * M + detail::kChunkPixels);  // (SimdKernels::leaf_rows' room past the last tree)
   s.labels.resize(n);
   s.dists.resize(with_dists ? n * C : 0);
-  for (std::size_t t = 0; t < M; ++t) {
+  const bool walked = !tile && simd_ && !textons_ &&
+                      simd_->walk(compact_.data(), compact_roots_.data(), M, frame.sats.data(), frame.sats.size(), width_,
+                                  height_, s.xs.data(), s.ys.data(), n, s.leaf.data());
+  for (std::size_t t = 0; t < M && !walked; ++t) {
     std::int32_t* leaf = s.leaf.data() + t * n;
     const std::uint32_t root = compact_roots_[t];
     if (tile && simd_) {
       partition_chunks(frame, tables, *tile, s, root, leaf);  // every pixel inside (inside == n)
     } else if (tile) {
       partition_tree(frame, tables, s, n, root, leaf);
-    } else if (simd_ && !textons_) {
-      simd_->route(compact_.data(), root, frame.sats.data(), frame.sats.size(), width_, height_, s.xs.data(),
-                   s.ys.data(), n, leaf);
     } else if (textons_) {
       route_tree<false, true>(frame, tables, s, 0, inside, root, leaf);
       route_tree<true, true>(frame, tables, s, inside, n, root, leaf);

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # experiments/bench/compare.py on a real benchmark program (bench_graphcut's one max-flow case, a few
-# milliseconds a run): two binaries alternated, every repetition collected, the summary and the JSON;
+# milliseconds a run): two binaries alternated, every repetition collected, the summary and the JSON
+# (real and, with --cpu, CPU times);
 # and the one-line refusals (a missing binary, a filter that matches nothing, zero rounds).
 # Usage: bench_compare_test.sh SOURCE_DIR BIN_DIR
 set -euo pipefail
@@ -29,6 +30,16 @@ assert all(0 < r["min_ms"] <= r["median_ms"] for r in rows), rows
 times = d["times_ms"]
 assert set(times) == {r["binary"] for r in rows}
 assert all(min(ts) == r["min_ms"] for r in rows for ts in [times[r["binary"]][r["case"]]])
+PY
+
+# --cpu: the CPU times, named so in the JSON.
+python3 "${compare[@]}" --filter 'BM_GridMaxFlow' --rounds 1 --repetitions 2 --cpu --json "$tmp/cpu.json" \
+  "$tmp/bench_a" > /dev/null
+python3 - "$tmp/cpu.json" <<'PY' || fail "--cpu JSON"
+import json, sys
+d = json.load(open(sys.argv[1]))
+assert d["clock"] == "cpu_time", d["clock"]
+assert len(d["summary"]) == 1 and d["summary"][0]["n"] == 2, d["summary"]
 PY
 
 refuses() {  # EXPECTED_TEXT ARGS...: a non-zero exit and one line naming the problem

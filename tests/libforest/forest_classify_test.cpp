@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <string>
 
 #include <oneapi/tbb/global_control.h>
@@ -277,6 +278,77 @@ TEST(Classifier, SameLabelsWhateverTheThreadCount) {
   }
   EXPECT_EQ(a, b);
   EXPECT_EQ(da, db);
+}
+
+// classify_pixels cuts a list into sets by the arena's thread count and the list's length: the labels
+// and distributions must not depend on either (one thread or eight, the whole list or its halves), on
+// every SIMD target.
+TEST(Classifier, SamePixelListLabelsWhateverTheThreadCountAndTheSets) {
+  const SyntheticData s = frames(2, 5, false);
+  TrainParams p;
+  p.K = 100;
+  const Forest f = train_forest(s.data, p);
+  const std::size_t C = f.classes.size();
+  std::vector<Pixel> pixels;
+  Rng rng(11);
+  for (int i = 0; i < 1000; ++i) pixels.push_back({rng.uniform_int(0, 71), rng.uniform_int(0, 51)});
+  const std::size_t n = pixels.size(), half = 389;  // sets of 250 with one thread, of 67 with eight
+  for (const std::string& target : Classifier::simd_targets()) {
+    SCOPED_TRACE("SIMD target " + target);
+    Classifier clf(f);
+    clf.set_simd_target(target);
+    auto label = [&](int threads, bool halves, std::vector<std::uint8_t>& labels, std::vector<float>& dists) {
+      labels.assign(n, 0);
+      dists.assign(n * C, 0.0f);
+      tbb::task_arena arena(threads);
+      arena.execute([&] {
+        if (!halves) return clf.classify_pixels(s.data.frames[1], pixels, labels, dists);
+        const std::span<const Pixel> all(pixels);
+        clf.classify_pixels(s.data.frames[1], all.first(half), std::span(labels).first(half), std::span(dists).first(half * C));
+        clf.classify_pixels(s.data.frames[1], all.subspan(half), std::span(labels).subspan(half), std::span(dists).subspan(half * C));
+      });
+    };
+    std::vector<std::uint8_t> one, eight, split;
+    std::vector<float> d_one, d_eight, d_split;
+    label(1, false, one, d_one);
+    label(8, false, eight, d_eight);
+    label(2, true, split, d_split);
+    EXPECT_EQ(one, eight);
+    EXPECT_EQ(one, split);
+    EXPECT_EQ(0, std::memcmp(d_one.data(), d_eight.data(), d_one.size() * sizeof(float)));
+    EXPECT_EQ(0, std::memcmp(d_one.data(), d_split.data(), d_one.size() * sizeof(float)));
+  }
+}
+
+// Short lists, around a vector's lanes (the vector walk takes sets of at least one vector of pixels and
+// walks the trees' (pixel, tree) items one after the other, wrapping from one tree into the next within
+// a vector), for forests of one and of three trees: each pixel as posterior() gives it, on every target.
+TEST(Classifier, ShortPixelListsAgreeWithSinglePixels) {
+  const SyntheticData s = frames(2, 7, false);
+  for (const int trees : {1, 3}) {
+    TrainParams p;
+    p.K = 60;
+    p.M = trees;
+    const Forest f = train_forest(s.data, p);
+    const std::size_t C = f.classes.size();
+    Classifier clf(f);
+    for (const std::string& target : Classifier::simd_targets()) {
+      clf.set_simd_target(target);
+      for (const std::size_t n : {1, 7, 8, 15, 16, 17, 31, 33, 65, 100}) {
+        SCOPED_TRACE("SIMD target " + target + ", " + std::to_string(trees) + " trees, " + std::to_string(n) + " pixels");
+        Rng rng(n);
+        std::vector<Pixel> pixels;
+        for (std::size_t i = 0; i < n; ++i) pixels.push_back({rng.uniform_int(0, 71), rng.uniform_int(0, 51)});
+        std::vector<std::uint8_t> labels(n);
+        std::vector<float> dists(n * C), one(C);
+        clf.classify_pixels(s.data.frames[0], pixels, labels, dists);
+        for (std::size_t i = 0; i < n; ++i) {
+          ASSERT_EQ(clf.posterior(s.data.frames[0], pixels[i].x, pixels[i].y, one.data()), labels[i]);
+          ASSERT_EQ(0, std::memcmp(one.data(), &dists[i * C], C * sizeof(float)));
+        }
+      }
+    }
+  }
 }
 
 // classify_frame keeps a padded copy of the frame's tables per thread: frames classified from a

@@ -169,8 +169,9 @@ class Classifier {
   /// compact nodes, the inside ones without clipping: a tile (whole frames, where each node gets many
   /// neighbouring pixels; `tile` gives its place, every pixel inside) node by node (partition_tree,
   /// or partition_chunks with a SIMD target), a list of pixels (classify_pixels' few scattered pixels:
-  /// tile null) with several pixels in flight, each to its leaf (route_tree, or the target's route
-  /// for forests without texton tests). The leaf distributions are then summed tree by tree (the same
+  /// tile null) with several pixels in flight, each to its leaf (route_tree, tree by tree; or, for
+  /// forests without texton tests, the target's walk: every tree's pixels in one walk, each lane taking
+  /// the next (pixel, tree) as soon as its own reaches a leaf). The leaf distributions are then summed tree by tree (the same
   /// float sums as posterior()) and give the labels. Out: s.labels[i], s.dists[i * C + c] (if
   /// with_dists).
   void classify_set(const FrameData& frame, const Tables& tables, Scratch& s, std::size_t n, std::size_t inside,
