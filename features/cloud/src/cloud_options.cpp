@@ -151,6 +151,12 @@ const Table<TableParams>& table_params_table() {
     t.number("min_rise", "--min-rise",
              "grabcut-sfm, --support table: a cluster is an object when it reaches this many slabs above the table",
              [](auto& p) -> auto& { return p.min_rise; }, 0.0, 1000.0);
+    t.number("chain_rise", "--chain-rise",
+             "grabcut-sfm, --support table: slabs; a cluster whose points this high above the table fall apart into "
+             "two or more clusters (1.5 x the cluster tolerance apart, each of --min-cluster-size) is split into "
+             "those, its lower points joining the nearest within the tolerance (stereo errors on the table chain "
+             "neighbouring objects; 0: no split)",
+             [](auto& p) -> auto& { return p.chain_rise; }, 0.0, 1000.0);
     return t;
   }();
   return table;
