@@ -316,34 +316,13 @@ std::vector<int> euclidean_clusters(const std::vector<Eigen::Vector3f>& points, 
     }
     return a;
   };
-  // Voxel grid of the tolerance's size: neighbours within the tolerance lie in the 27 surrounding cells.
-  const auto cell_of = [&](const Eigen::Vector3f& p) {
-    return Eigen::Vector3i(int(std::floor(p.x() / tolerance)), int(std::floor(p.y() / tolerance)),
-                           int(std::floor(p.z() / tolerance)));
-  };
-  const auto key = [](const Eigen::Vector3i& c) {
-    return (std::uint64_t(std::uint32_t(c.x()) & 0x1FFFFF) << 42) | (std::uint64_t(std::uint32_t(c.y()) & 0x1FFFFF) << 21) |
-           std::uint64_t(std::uint32_t(c.z()) & 0x1FFFFF);
-  };
-  std::vector<std::pair<std::uint64_t, int>> cells(n);
-  for (std::size_t i = 0; i < n; ++i) cells[i] = {key(cell_of(points[i])), int(i)};
-  std::sort(cells.begin(), cells.end());
-  const double t2 = tolerance * tolerance;
-  for (std::size_t i = 0; i < n; ++i) {
-    const Eigen::Vector3i c = cell_of(points[i]);
-    for (int dx = -1; dx <= 1; ++dx)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dz = -1; dz <= 1; ++dz) {
-          const std::uint64_t kk = key(c + Eigen::Vector3i(dx, dy, dz));
-          auto it = std::lower_bound(cells.begin(), cells.end(), std::make_pair(kk, -1));
-          for (; it != cells.end() && it->first == kk; ++it) {
-            const std::size_t j = std::size_t(it->second);
-            if (j <= i || (points[i] - points[j]).squaredNorm() > t2) continue;
-            const int a = find(int(i)), b = find(int(j));
-            if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
-          }
-        }
-  }
+  const detail::VoxelGrid grid(points, tolerance);
+  for (std::size_t i = 0; i < n; ++i)
+    grid.for_each_near(points[i], [&](std::size_t j) {
+      if (j <= i) return;
+      const int a = find(int(i)), b = find(int(j));
+      if (a != b) parent[std::size_t(std::max(a, b))] = std::min(a, b);
+    });
   std::vector<int> size(n, 0);
   for (std::size_t i = 0; i < n; ++i) ++size[std::size_t(find(int(i)))];
   std::vector<int> label(n, -1), id(n, -1);

@@ -5,6 +5,7 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <string>
 
 #include <Eigen/Dense>
@@ -28,6 +29,7 @@ constexpr double kPaperPlaneDistance = 0.05;  // metres, the support Plane defau
 constexpr double kPaperClusterTolerance = 0.03;
 constexpr int kPaperMinClusterSize = 10;
 constexpr int kSpacingNeighbour = 4;  // the cloud's spacing: distance to the 4th nearest neighbour
+constexpr double kPartGap = 1.5;  // tolerances: a cluster's higher parts this far apart are different objects
 
 /// The frame: its pose, intrinsics and size, and what the steps read off them.
 struct View {
@@ -221,6 +223,76 @@ struct Clusters {
   std::vector<float> centres;  ///< count x 3
 };
 
+/// Labels renumbered 0..m-1 in the order of each label's first point (-1 stays).
+void number_by_first_point(std::vector<int>& label) {
+  std::map<int, int> id;
+  for (int& l : label)
+    if (l >= 0) l = id.emplace(l, int(id.size())).first->second;
+}
+
+/// The parts of one Euclidean cluster (the points `members`): its points at least `lift` above `plane`
+/// (n . X + d, n up) clustered alone at kPartGap x `tolerance` (a single object's higher points, sparse,
+/// fall apart at the tolerance itself: a box's top from its faces), the parts those of `min_size` or more
+/// points; with two or more,
+/// every other point of the cluster joins the part of its nearest part point within `tolerance`, or
+/// none (-1). Per member its part; one part (all 0) when the higher points make fewer than two.
+std::vector<int> cluster_parts(const Cloud& points, const std::vector<std::size_t>& members, const Eigen::Vector4d& plane,
+                               double lift, double tolerance, int min_size) {
+  Cloud high;
+  std::vector<std::size_t> high_member;
+  for (std::size_t m = 0; m < members.size(); ++m)
+    if (plane.head<3>().dot(points[members[m]].cast<double>()) + plane[3] >= lift) {
+      high.push_back(points[members[m]]);
+      high_member.push_back(m);
+    }
+  const std::vector<int> high_part = euclidean_clusters(high, kPartGap * tolerance, min_size);
+  if (high.empty() || *std::max_element(high_part.begin(), high_part.end()) < 1) return std::vector<int>(members.size(), 0);
+  std::vector<int> part(members.size(), -1);
+  Cloud anchors;
+  std::vector<int> anchor_part;
+  for (std::size_t h = 0; h < high.size(); ++h)
+    if (high_part[h] >= 0) {
+      part[high_member[h]] = high_part[h];
+      anchors.push_back(high[h]);
+      anchor_part.push_back(high_part[h]);
+    }
+  const detail::VoxelGrid grid(anchors, tolerance);
+  for (std::size_t m = 0; m < members.size(); ++m) {
+    if (part[m] >= 0) continue;
+    const Eigen::Vector3f& q = points[members[m]];
+    double best = std::numeric_limits<double>::infinity();
+    grid.for_each_near(q, [&](std::size_t a) {
+      const double d2 = (q - anchors[a]).squaredNorm();
+      if (d2 < best) best = d2, part[m] = anchor_part[a];
+    });
+  }
+  return part;
+}
+
+/// Euclidean clusters, each split where its points at least `lift` above `plane` fall apart into two or
+/// more clusters of `min_size` (cluster_parts): the lower points, the table's stereo errors around the
+/// objects, chain two neighbouring objects into one cluster, but do not join them. Labels as
+/// euclidean_clusters.
+std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& plane, double lift, double tolerance,
+                                    int min_size) {
+  const std::vector<int> whole = euclidean_clusters(points, tolerance, min_size);
+  std::vector<std::vector<std::size_t>> members;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (whole[i] < 0) continue;
+    if (std::size_t(whole[i]) >= members.size()) members.resize(std::size_t(whole[i]) + 1);
+    members[std::size_t(whole[i])].push_back(i);
+  }
+  std::vector<int> label(points.size(), -1);
+  int first = 0;  // parts of cluster k are first + 0, 1, ...
+  for (const auto& m : members) {
+    const std::vector<int> part = cluster_parts(points, m, plane, lift, tolerance, min_size);
+    for (std::size_t j = 0; j < m.size(); ++j) label[m[j]] = part[j] < 0 ? -1 : first + part[j];
+    first += *std::max_element(part.begin(), part.end()) + 1;
+  }
+  number_by_first_point(label);
+  return label;
+}
+
 /// Step 2: Euclidean clusters at the cloud's own spacing (or the given tolerance), or 001's 3D k-means.
 Clusters cluster_step(const Cloud& rest, const GrabCutSfmParams& p, GrabCutSfmReport& rep) {
   Clusters c;
@@ -240,7 +312,10 @@ Clusters cluster_step(const Cloud& rest, const GrabCutSfmParams& p, GrabCutSfmRe
   rep.min_cluster_size = p.min_cluster_size > 0 ? p.min_cluster_size
                          : relative ? std::max(kPaperMinClusterSize, int(p.min_cluster_share * double(rest.size())))
                                     : kPaperMinClusterSize;
-  c.label = euclidean_clusters(rest, rep.cluster_tolerance, rep.min_cluster_size);
+  c.label = relative && p.table.chain_rise > 0 && !rep.planes.empty()
+                ? unchained_clusters(rest, rep.planes[0], p.table.chain_rise * rep.plane_distance, rep.cluster_tolerance,
+                                  rep.min_cluster_size)
+                : euclidean_clusters(rest, rep.cluster_tolerance, rep.min_cluster_size);
   for (int l : c.label) c.count = std::max(c.count, std::size_t(l + 1));
   if (c.count == 0)
     throw Error("", "cloud", "no Euclidean cluster of " + std::to_string(rep.min_cluster_size) + " or more points among the " +

@@ -38,12 +38,6 @@ int main(int argc, char** argv) {
       "1..--objects objects) to -o.",
       "segment-cloud"};
   segment_cloud::SegmentCloudOptions o;
-  segment_cloud::add_io_options(app, o);
-  segment_cloud::add_mrf_options(app, o);
-  segment_cloud::add_centroid_options(app, o);
-  segment_cloud::add_grabcut_sfm_options(app, o);
-  segment_cloud::add_grabcut_sfm_overrides(app, o);
-  segment_cloud::add_grabcut_sfm_ranges(app);
-  segment_cloud::add_choices(app);
+  segment_cloud::add_options(app, o);
   return smseg::run_tool(app, argc, argv, o.threads, [&] { return segment_cloud::run_method(app, o); });
 }

@@ -738,3 +738,32 @@ TEST(NearestInstance, IsTheObjectWithTheSmallestMedianDepth) {
   const cv::Mat largest = largest_region((inst == 2) | ((inst == 1) & (depth > 1.f)));
   EXPECT_EQ(cv::countNonZero(largest), 12);  // object 2 (12 pixels) over object 1 (7)
 }
+
+TEST(GrabCutSfm, PointsLowOnTheTableDoNotChainTwoObjectsIntoOneCluster) {
+  // The table of room_with_a_table, box 1 and a third box of its size beside it, joined by a patch of
+  // points 4 cm above the table top (stereo errors on the table between them): one Euclidean cluster
+  // with chain_rise 0; with the default, their points above 3 slabs are two clusters, and so are they.
+  auto cloud = room_with_a_table(3);
+  for (double a = 0; a <= 0.2; a += 0.02)
+    for (double h = 0; h <= 0.2; h += 0.02) {
+      cloud.emplace_back(float(0.05 + a), float(0.75 + h), -0.1f);  // box 3's front face and top
+      cloud.emplace_back(float(0.05 + a), 0.95f, float(-0.1 + h));
+    }
+  for (double x = -0.1; x <= 0.05; x += 0.01)
+    for (double z = -0.1; z <= 0.1; z += 0.01) cloud.emplace_back(float(x), 0.79f, float(z));
+  Pose pose = camera(0.23);
+  pose.t = {0, 1.15, -1.5};
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  const cv::Mat image(120, 160, CV_8UC3, cv::Scalar(90, 120, 150));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  GrabCutSfmReport unchained, chained;
+  grabcut_sfm(cloud, k, pose, image, p, &unchained);
+  p.table.chain_rise = 0;
+  grabcut_sfm(cloud, k, pose, image, p, &chained);
+  ASSERT_TRUE(chained.table.found);
+  EXPECT_EQ(unchained.cluster_sizes.size(), chained.cluster_sizes.size() + 1);
+  const int largest = *std::max_element(chained.cluster_sizes.begin(), chained.cluster_sizes.end());
+  EXPECT_GT(largest, 2 * 242);  // both boxes and the patch
+  EXPECT_LT(*std::max_element(unchained.cluster_sizes.begin(), unchained.cluster_sizes.end()), largest / 2 + 100);
+}

@@ -6,6 +6,24 @@
 
 namespace segment_cloud {
 
+const smseg::options::Table<CentroidRun>& centroid_run_table() {
+  using smseg::cloud::option_fields::one_of;
+  static const smseg::options::Table<CentroidRun> table = [] {
+    smseg::options::Table<CentroidRun> t("centroid-mincut", smseg::cloud::kSegmentCloudSurfaces);
+    t.include(smseg::cloud::centroid_mincut_params_table(), [](auto& r) -> auto& { return r.mc; });
+    one_of(t, "solver", "--solver", "centroid-mincut: maxflow or pcl", [](auto& r) -> auto& { return r.solver; },
+           {"maxflow", "pcl"});
+    one_of(t, "up", "--up", "centroid-mincut (pcl): the cloud's up axis, x, y or z", [](auto& r) -> auto& { return r.up; },
+           {"x", "y", "z"});
+    t.number("truth_object", "--truth-object",
+             "centroid-mincut: the ground-truth label of the object, for F1 (when the cloud has labels)",
+             [](auto& r) -> auto& { return r.truth_object; }, 0, 1000000)
+        .only(smseg::options::kCommandLine);  // the summary gives it beside the F1, not in the params
+    return t;
+  }();
+  return table;
+}
+
 /// segment-cloud --method centroid-mincut on a cloud file.
 int run_centroid_mincut(const CentroidRun& run) {
   using namespace smseg;
@@ -38,15 +56,7 @@ int run_centroid_mincut(const CentroidRun& run) {
                   {"version", 1},
                   {"input", input},
                   {"method", method},
-                  {"params",
-                   {{"radius", mc.radius},
-                    {"neighbours", mc.neighbours},
-                    {"sigma", mc.sigma},
-                    {"sigma_used", rep.sigma},
-                    {"lambda", mc.lambda},
-                    {"solver", solver},
-                    {"source_weight", mc.source_weight},
-                    {"up", up}}},
+                  {"params", centroid_run_table().to_json(run)},
                   {"points", cloud.size()},
                   {"centroid", {rep.centroid.x(), rep.centroid.y(), rep.centroid.z()}},
                   {"seeds", rep.seeds},
@@ -67,6 +77,7 @@ int run_centroid_mincut(const CentroidRun& run) {
     summary["f1_background"] = nan_null(cloud::f1_score(truth, labels, 0));
     line += ", F1 (object) " + fmt(f1);
   }
+  summary["params"]["sigma_used"] = rep.sigma;
   write_json_atomic(out + ".json", summary);
   std::cout << line << " -> " << out << "\n";
   return 0;

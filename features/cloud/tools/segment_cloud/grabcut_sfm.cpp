@@ -229,50 +229,6 @@ Truth load_truth(const GrabCutSfmCli& o, const Frame& f) {
   return {};
 }
 
-Json params_json(const GrabCutSfmCli& o) {
-  const auto& p = o.params;
-  return {{"support", o.support},
-          {"plane_distance", p.plane_distance},
-          {"plane_iterations", p.plane_iterations},
-          {"k", p.k},
-          {"attempts", p.attempts},
-          {"kmeans_iterations", p.kmeans_iterations},
-          {"min_cluster_points", p.min_cluster_points},
-          {"outlier_threshold", p.outlier_threshold},
-          {"ransac_iterations", p.ransac_iterations},
-          {"box_margin", p.box_margin},
-          {"grabcut_iterations", p.grabcut_iterations},
-          {"frustum_only", p.frustum_only},
-          {"max_distance", p.max_distance},
-          {"window", o.window},
-          {"dense_cloud", o.dense_cloud},
-          {"plane_window", o.plane_window},
-          {"planes", p.planes},
-          {"plane_min_share", p.plane_min_share},
-          {"height_band", p.height_band},
-          {"max_tilt", p.max_tilt},
-          {"up", o.up},
-          {"box_to_plane", p.box_to_plane},
-          {"support_radius", p.support_radius},
-          {"cluster", p.euclidean ? "euclidean" : "kmeans"},
-          {"cluster_tolerance", p.cluster_tolerance},
-          {"tolerance_share", p.tolerance_share},
-          {"min_cluster_size", p.min_cluster_size},
-          {"min_cluster_share", p.min_cluster_share},
-          {"table",
-           {{"slab_share", p.table.slab_share},
-            {"min_share", p.table.min_share},
-            {"min_points", p.table.min_points},
-            {"min_width_share", p.table.min_width_share},
-            {"min_standing_share", p.table.min_standing_share},
-            {"edge_margin", p.table.edge_margin},
-            {"min_rise", p.table.min_rise},
-            {"max_refit_tilt", p.table.max_refit_tilt},
-            {"min_prominence", p.table.min_prominence}}},
-          {"nearest", o.nearest},
-          {"seed", p.seed}};
-}
-
 /// What GrabCutSFM found, step by step (planes or table, clusters, boxes, seconds).
 Json report_json(const GrabCutSfmCli& o, const smseg::cloud::GrabCutSfmReport& rep) {
   Json clusters = Json::array();
@@ -360,6 +316,89 @@ std::string summary_line(int frame, const smseg::cloud::GrabCutSfmReport& rep) {
 
 }  // namespace
 
+namespace {
+
+/// The truth to score against (the command line's only: the summary says what it was as "truth").
+void declare_truth(options::Table<GrabCutSfmCli>& t) {
+  using smseg::cloud::option_fields::one_of;
+  t.text("truth_label", "--truth-label", "grabcut-sfm: F1 against the frame's pixels of this class (void ignored)",
+         [](auto& o) -> auto& { return o.truth_label; })
+      .only(options::kCommandLine);
+  one_of(t, "truth_region", "--truth-region",
+         "grabcut-sfm, --truth-label: largest (the class's largest 8-connected region; its other pixels "
+         "count as background) or all",
+         [](auto& o) -> auto& { return o.truth_region; }, {"largest", "all"}, options::kCommandLine);
+  t.text("truth_instance", "--truth-instance",
+         "grabcut-sfm: F1 against an object of the frame's instance image (synthetic tabletop): nearest "
+         "(smallest median ground-truth depth), all, or an object id",
+         [](auto& o) -> auto& { return o.truth_instance; })
+      .only(options::kCommandLine);
+  t.text("truth_mask", "--truth-mask", "grabcut-sfm: F1 against this 8-bit mask image (non-zero = object)",
+         [](auto& o) -> auto& { return o.truth_mask; })
+      .only(options::kCommandLine);
+  t.number("truth_value", "--truth-value", "grabcut-sfm, --truth-mask: object = pixels of this value (0: any non-zero)",
+           [](auto& o) -> auto& { return o.truth_value; }, 0, 255)
+      .only(options::kCommandLine);
+}
+
+/// The cloud clustered: the frame's dense depth, the tracks around it, or the whole cloud.
+void declare_cloud(options::Table<GrabCutSfmCli>& t) {
+  smseg::cloud::option_fields::number_without_default(
+      t, "dense_cloud", "--dense-cloud",
+      "grabcut-sfm, stereo sequences: cluster the frame's own dense depth (eight-path SGBM, as extract-features "
+      "--dense), one point every this many pixels, instead of the tracked cloud",
+      [](auto& o) -> auto& { return o.dense_cloud; }, 1, 64);
+  t.number("window", "--window",
+           "grabcut-sfm: cluster the tracks of WORK/tracks.json seen within this many frames of --frame "
+           "(one point per track, its mean world position there) instead of the whole cloud (-1; 001 uses "
+           "one reconstruction)",
+           [](auto& o) -> auto& { return o.window; }, -1, 100000);
+  t.number("plane_window", "--plane-window",
+           "grabcut-sfm: fit the first (supporting) plane to the tracks seen within this many frames of --frame "
+           "(as --window) and remove its inliers from the clustered cloud, e.g. with --dense-cloud, whose "
+           "depth sees more floor than table top from above a table (-1: the clustered cloud's own plane)",
+           [](auto& o) -> auto& { return o.plane_window; }, -1, 100000);
+}
+
+/// The words that choose: the support, the up direction, the clustering, the nearest cluster (the
+/// summary records them resolved: "auto" as what it stood for).
+void declare_choices(options::Table<GrabCutSfmCli>& t) {
+  using smseg::cloud::option_fields::one_of;
+  one_of(t, "support", "--support",
+         "grabcut-sfm: table (the highest horizontal patch with points standing on it, every distance relative "
+         "to the scene; keeps the points standing on it) or plane (001: the dominant RANSAC plane, distances in "
+         "metres)",
+         [](auto& o) -> auto& { return o.support; }, {"table", "plane"});
+  one_of(t, "up", "--plane-up",
+         "grabcut-sfm: the up direction the supporting plane faces: estimate (from the work folder's camera "
+         "path and tracks, as extract-features --gravity estimate), camera (the frame's up axis), world (world "
+         "+Y: work folders made with --gravity estimate), auto (table: estimate; plane: camera)",
+         [](auto& o) -> auto& { return o.up; }, {"auto", "camera", "world", "estimate"});
+  one_of(t, "cluster", "--cluster",
+         "grabcut-sfm: kmeans (001, --k clusters), euclidean (--cluster-tolerance) or auto (table: euclidean, "
+         "plane: kmeans)",
+         [](auto& o) -> auto& { return o.cluster; }, {"auto", "kmeans", "euclidean"})
+      .written_as([](const GrabCutSfmCli& o) { return Json(o.params.euclidean ? "euclidean" : "kmeans"); });
+  one_of(t, "nearest", "--nearest",
+         "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001), its points' median "
+         "distance (median) or median depth along the optical axis (depth); auto: table: depth, plane: centre",
+         [](auto& o) -> auto& { return o.nearest; }, {"auto", "centre", "median", "depth"});
+}
+
+}  // namespace
+
+const options::Table<GrabCutSfmCli>& grabcut_sfm_cli_table() {
+  static const options::Table<GrabCutSfmCli> table = [] {
+    options::Table<GrabCutSfmCli> t("grabcut-sfm", smseg::cloud::kSegmentCloudSurfaces);
+    declare_truth(t);
+    declare_cloud(t);
+    declare_choices(t);
+    t.include(smseg::cloud::grabcut_sfm_params_table(), [](auto& o) -> auto& { return o.params; });
+    return t;
+  }();
+  return table;
+}
+
 /// GrabCutSFM on one frame of a work folder, its two baselines, F1 against a truth mask when given;
 /// writes the mask (out), OUT-stem.overlay.png, the baselines' masks and out + ".json".
 int run_grabcut_sfm(const GrabCutSfmCli& cli) {
@@ -392,7 +431,7 @@ int run_grabcut_sfm(const GrabCutSfmCli& cli) {
   Json summary = {{"format", "smseg-segment-cloud"}, {"version", 1}, {"method", "grabcut-sfm"},
                   {"sequence", o.sequence}, {"work", o.work}, {"cloud", cloud_path}, {"frame", o.frame},
                   {"intrinsics", {{"fx", k.fx}, {"fy", k.fy}, {"cx", k.cx}, {"cy", k.cy}, {"focal_source", f.focal_source}}},
-                  {"params", params_json(o)}, {"mask_pixels", cv::countNonZero(mask)}};
+                  {"params", grabcut_sfm_cli_table().to_json(o)}, {"mask_pixels", cv::countNonZero(mask)}};
   summary.update(report_json(o, rep));
   summary["seconds"]["cloud"] = cloud_seconds;  // reading or computing the cloud (the dense depth), before "total"
   std::string line = summary_line(o.frame, rep);

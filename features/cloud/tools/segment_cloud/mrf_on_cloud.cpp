@@ -38,6 +38,14 @@ void score_against_labels(const smseg::cloud::ColouredCloud& cloud, const smseg:
   summary["confusion"] = confusion;
 }
 
+/// The run's parameters: the seeds, the MRF's and the plane seeding's (also with a seed file).
+smseg::Json params_json(const MrfCloudRun& run) {
+  smseg::Json params = smseg::cloud::mrf_params_table().to_json(run.mrf);
+  params.update(smseg::cloud::plane_seed_params_table().to_json(run.plane));
+  params["seeds"] = run.seeds;
+  return params;
+}
+
 }  // namespace
 
 /// segment-cloud --method mrf with --seeds plane or a seed file, on a cloud file.
@@ -76,16 +84,7 @@ int run_mrf_on_cloud(const MrfCloudRun& run) {
                   {"version", 1},
                   {"input", input},
                   {"method", method},
-                  {"params",
-                   {{"seeds", seeds},
-                    {"neighbours", mrf.neighbours},
-                    {"components", mrf.components},
-                    {"lambda", mrf.lambda},
-                    {"iterations", mrf.max_iterations},
-                    {"tolerance", mrf.tolerance},
-                    {"plane_distance", plane.plane_distance},
-                    {"colour_tolerance", plane.colour_tolerance},
-                    {"min_cluster", plane.min_cluster}}},
+                  {"params", params_json(run)},
                   {"points", cloud.size()},
                   {"labels", rep.labels},
                   {"seeds", seeds_json},

@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <string>
 
+#include "smseg/cloud/cloud_options.hpp"
 #include "smseg/cloud/cloud_segment.hpp"
 #include "smseg/cloud/cloud_view.hpp"
 #include "smseg/cloud/grabcut_sfm.hpp"
@@ -48,11 +49,14 @@ int run_mrf_on_cloud(const MrfCloudRun& run);
 
 /// --method centroid-mincut on a cloud file (centroid_mincut.cpp).
 struct CentroidRun {
-  std::string input, out, solver, up;  ///< solver: maxflow or pcl; up: x, y or z
+  std::string input, out;
+  std::string solver = "maxflow", up = "y";  ///< solver: maxflow or pcl; up: x, y or z
   int truth_object = 1;
   smseg::cloud::CentroidMinCutParams mc;
 };
 int run_centroid_mincut(const CentroidRun& run);
+/// Its options: the method's parameters, the solver, the up axis, the truth (centroid_mincut.cpp).
+const smseg::options::Table<CentroidRun>& centroid_run_table();
 
 /// What --seeds saliency needs besides the MRF parameters.
 struct SaliencyRun {
@@ -66,6 +70,8 @@ struct SaliencyRun {
   smseg::cloud::ProjectionParams projection;
 };
 int run_saliency_mrf(const SaliencyRun& run, const smseg::cloud::MrfParams& mrf);  ///< saliency_mrf.cpp
+/// Its options: the saliency map and regions, the seeds' split, the z-buffer (saliency_mrf.cpp).
+const smseg::options::Table<SaliencyRun>& saliency_run_table();
 
 struct GrabCutSfmCli {
   std::string sequence, work, cloud, out;  // cloud: empty = WORK/cloud.pcd
@@ -81,28 +87,25 @@ struct GrabCutSfmCli {
   smseg::cloud::GrabCutSfmParams params;
 };
 int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp
+/// Its options: the truth, the cloud, the words that choose the support, clusters, nearest and up, and
+/// the method's parameters; find_table()'s rules are in the summary but take their flags from
+/// cloud::table_params_table() (grabcut_sfm.cpp).
+const smseg::options::Table<GrabCutSfmCli>& grabcut_sfm_cli_table();
 
 /// Everything segment-cloud's command line fills (options.cpp).
 struct SegmentCloudOptions {
-  std::string input, out, method = "centroid-mincut", solver = "maxflow", up = "y", seeds = "plane";
-  smseg::cloud::CentroidMinCutParams mc;
+  std::string input, out, method = "centroid-mincut", seeds = "plane";
+  CentroidRun centroid;
   smseg::cloud::TabletopCloudOptions tab;
   smseg::cloud::MrfParams mrf;
   smseg::cloud::PlaneSeedParams plane;
-  double mrf_lambda = smseg::cloud::MrfParams{}.lambda;
-  int make_tabletop = 0, threads = 0, truth_object = 1;
+  int make_tabletop = 0, threads = 0;
   SaliencyRun sal;
   GrabCutSfmCli gc;
 };
-void add_io_options(CLI::App& app, SegmentCloudOptions& o);        ///< the cloud, -o, --method, --make-tabletop, ...
-void add_mrf_options(CLI::App& app, SegmentCloudOptions& o);       ///< --method mrf, its plane and saliency seeds
-void add_centroid_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method centroid-mincut
-void add_grabcut_sfm_options(CLI::App& app, SegmentCloudOptions& o);  ///< --method grabcut-sfm, the truth
-void add_grabcut_sfm_overrides(CLI::App& app, SegmentCloudOptions& o);  ///< grabcut-sfm's tuning options
-/// The ranges of grabcut-sfm's numeric options (after add_grabcut_sfm_options and its overrides).
-void add_grabcut_sfm_ranges(CLI::App& app);
-/// The names each naming option takes (--method, --solver, --cluster, ...), checked by the parser.
-void add_choices(CLI::App& app);
+/// The command line: the run's inputs and outputs (the cloud, -o, --method, --make-tabletop, --sequence,
+/// ...), then every method's options from their tables.
+void add_options(CLI::App& app, SegmentCloudOptions& o);
 /// Runs the method the options ask for (or writes a synthetic tabletop cloud); the exit status.
 int run_method(const CLI::App& app, SegmentCloudOptions& o);
 

@@ -80,25 +80,10 @@ cv::Mat saliency_picture(const SalientRegions& sr) {
 }
 
 Json saliency_params_json(const SaliencyRun& run, const MrfParams& mrf) {
-  return {{"seeds", "saliency"},
-          {"saliency", run.saliency.method},
-          {"saliency_threshold", run.saliency.threshold},
-          {"background", run.saliency.background},
-          {"min_area", run.saliency.min_area},
-          {"max_area", run.saliency.max_area},
-          {"saliency_step", run.saliency.step},
-          {"saliency_blur", run.saliency.blur},
-          {"saliency_scale", run.saliency.scale},
-          {"min_seed_points", run.min_seed_points},
-          {"seed_split", run.split_distance},
-          {"seed_split_colour", run.split_colour},
-          {"splat_radius", run.projection.splat_radius},
-          {"depth_tolerance", run.projection.depth_tolerance},
-          {"neighbours", mrf.neighbours},
-          {"components", mrf.components},
-          {"lambda", mrf.lambda},
-          {"iterations", mrf.max_iterations},
-          {"tolerance", mrf.tolerance}};
+  Json params = saliency_run_table().to_json(run);
+  params.update(mrf_params_table().to_json(mrf));
+  params["seeds"] = "saliency";
+  return params;
 }
 
 /// Per seed label its salient region, points and position; the labels' picture colours.
@@ -171,6 +156,25 @@ ViewCamera frame_camera(const SaliencyInput& in) {
 }
 
 }  // namespace
+
+const options::Table<SaliencyRun>& saliency_run_table() {
+  static const options::Table<SaliencyRun> table = [] {
+    options::Table<SaliencyRun> t("mrf saliency seeds", kSegmentCloudSurfaces);
+    t.include(saliency_params_table(), [](auto& r) -> auto& { return r.saliency; });
+    t.number("min_seed_points", "--min-seed-points",
+             "mrf saliency seeds: a salient region seeds a label when it holds this many visible points",
+             [](auto& r) -> auto& { return r.min_seed_points; }, 1, 1000000);
+    t.number("seed_split", "--seed-split",
+             "mrf saliency seeds: split each region's points into groups linked within this distance (metres) "
+             "and --seed-split-colour; each group seeds a label (0: one label per region)",
+             [](auto& r) -> auto& { return r.split_distance; }, 0.0, 1000.0);
+    t.number("seed_split_colour", "--seed-split-colour", "mrf saliency seeds: RGB distance within one group",
+             [](auto& r) -> auto& { return r.split_colour; }, 0.000001, 1000.0);
+    t.include(projection_params_table(), [](auto& r) -> auto& { return r.projection; });
+    return t;
+  }();
+  return table;
+}
 
 /// segment-cloud --method mrf --seeds saliency: the cloud seen from one frame, seeded by the frame's
 /// salient regions (paper 000), scored against the frame's instance image (or the cloud's labels).

@@ -77,6 +77,11 @@ struct TableParams {
   double edge_margin = 1;            ///< slabs: the objects kept stand this far inside the table's outline (GrabCutSFM;
                                      ///< its edge and what stands beyond it, a wall, are not objects on it)
   double min_rise = 3;               ///< an object's cluster reaches this many slabs above the table (GrabCutSFM)
+  double chain_rise = 3;             ///< slabs: a cluster whose points this high above the table fall apart
+                                     ///< into two or more clusters (1.5 x the tolerance apart, each of the
+                                     ///< smallest cluster's size) is split into those, its lower points joining
+                                     ///< the nearest within the tolerance: stereo errors on the table chain
+                                     ///< neighbouring objects (GrabCutSFM; 0: no split)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
   double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
                                      ///< and below it, and exceeds that mean by min_share (its own points)
