@@ -15,8 +15,7 @@ namespace smseg::stacks {
 const std::vector<std::string>& appearance_feature_names() {
   // New channels go at the end: stored work folders name theirs, and read them by their place here.
   static const std::vector<std::string> names{"fL",   "fA",   "fB",  "fG0", "fG1", "fG2",
-                                              "fG3",  "fRow", "fCol", "fLn", "fAn", "fBn",
-                                              "fCh",  "fV1",  "fV2"};
+                                              "fG3",  "fRow", "fCol", "fLn", "fAn", "fBn"};
   return names;
 }
 
@@ -133,43 +132,6 @@ void append_normalized_colour(cv::Mat L, cv::Mat A, cv::Mat B, std::vector<cv::M
   for (const cv::Mat& m : {L, A, B}) out.push_back(frame_z_score(m));
 }
 
-// Chroma, the distance of (a*, b*) from grey, x sqrt 2 (about [0, 1]): a window's mean says how saturated
-// it is, which a* and b* apart cannot (signs are saturated red, blue, yellow against grey streets).
-void append_chroma(cv::Mat A, cv::Mat B, std::vector<cv::Mat>& out) {  // by value: `out` holds them
-  cv::Mat chroma(A.size(), CV_64F);
-  constexpr double kGrey = 128.0 / 255.0;
-  for (int y = 0; y < A.rows; ++y) {
-    const double *a = A.ptr<double>(y), *b = B.ptr<double>(y);
-    double* c = chroma.ptr<double>(y);
-    for (int x = 0; x < A.cols; ++x) c[x] = std::min(1.0, std::numbers::sqrt2 * std::hypot(a[x] - kGrey, b[x] - kGrey));
-  }
-  out.push_back(chroma);
-}
-
-// Vertical lines (poles, posts, a pedestrian's legs): how much more the greyscale image curves across
-// than along, sigma^2 (|Ixx| - |Iyy|) of the image blurred at sigma (scale-normalised, so a bar about
-// 2 sigma wide answers most), / 4 (the 3x3 second-derivative kernel's gain), clipped to [0, 1]. One
-// raster per scale: thin (sigma 1.5 px) and wide (4 px) at 480 x 360.
-void append_vertical_lines(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
-  cv::Mat gray8, gray;
-  cv::cvtColor(bgr, gray8, cv::COLOR_BGR2GRAY);
-  gray8.convertTo(gray, CV_64F, 1.0 / 255.0);
-  for (const double sigma : {1.5, 4.0}) {
-    cv::Mat blurred, ixx, iyy;
-    cv::GaussianBlur(gray, blurred, cv::Size(0, 0), sigma, sigma, cv::BORDER_REPLICATE);
-    cv::Sobel(blurred, ixx, CV_64F, 2, 0, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-    cv::Sobel(blurred, iyy, CV_64F, 0, 2, 3, 1.0, 0.0, cv::BORDER_REPLICATE);
-    cv::Mat line(bgr.size(), CV_64F);
-    const double gain = sigma * sigma / 4.0;
-    for (int y = 0; y < bgr.rows; ++y) {
-      const double *xx = ixx.ptr<double>(y), *yy = iyy.ptr<double>(y);
-      double* l = line.ptr<double>(y);
-      for (int x = 0; x < bgr.cols; ++x) l[x] = std::clamp(gain * (std::abs(xx[x]) - std::abs(yy[x])), 0.0, 1.0);
-    }
-    out.push_back(line);
-  }
-}
-
 void append_position(cv::Size size, std::vector<cv::Mat>& out) {
   cv::Mat row(size, CV_64F), col(size, CV_64F);
   for (int y = 0; y < size.height; ++y) {
@@ -194,8 +156,6 @@ void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
   append_oriented_gradients(bgr, out);
   append_position(bgr.size(), out);
   append_normalized_colour(out[lab], out[lab + 1], out[lab + 2], out);
-  append_chroma(out[lab + 1], out[lab + 2], out);
-  append_vertical_lines(bgr, out);
 }
 
 }  // namespace smseg::stacks

@@ -12,10 +12,6 @@
 //   fLn fAn fBn       the colour against the frame's own: fL, fA, fB each as a z-score over the frame
 //                     (0.5 + z / 6, clipped to [0, 1]), so that a surface reads alike under another
 //                     light's level, colour cast and contrast (CamVid's dusk run)
-//   fCh               chroma, the distance of (a*, b*) from grey x sqrt 2, clipped to [0, 1]: how
-//                     saturated a window is (signs), which fA and fB apart do not say
-//   fV1 fV2           vertical lines (poles, posts, legs): sigma^2 (|Ixx| - |Iyy|) / 4 of the greyscale
-//                     image blurred at sigma 1.5 and 4 px, clipped to [0, 1]
 // None of them reads the structure or motion: forests that use them are "S+M + appearance" in the
 // CamVid figures (docs/camvid.md), and `train-forest --features` leaves them out for S+M-only runs.
 
@@ -26,8 +22,7 @@
 
 namespace smseg::stacks {
 
-/// {"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol", "fLn", "fAn", "fBn", "fCh", "fV1", "fV2"},
-/// in raster order.
+/// {"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol", "fLn", "fAn", "fBn"}, in raster order.
 const std::vector<std::string>& appearance_feature_names();
 
 /// Whether `name` is one of appearance_feature_names().
