@@ -4,7 +4,6 @@
 #include <array>
 #include <cmath>
 #include <numbers>
-#include <utility>
 
 #include <opencv2/imgproc.hpp>
 
@@ -13,9 +12,7 @@
 namespace smseg::stacks {
 
 const std::vector<std::string>& appearance_feature_names() {
-  // New channels go at the end: stored work folders name theirs, and read them by their place here.
-  static const std::vector<std::string> names{"fL",   "fA",   "fB",  "fG0", "fG1", "fG2",
-                                              "fG3",  "fRow", "fCol", "fLn", "fAn", "fBn"};
+  static const std::vector<std::string> names{"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol"};
   return names;
 }
 
@@ -90,48 +87,6 @@ void append_oriented_gradients(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
   for (cv::Mat& b : bins) out.push_back(b);
 }
 
-/// The mean and standard deviation of a raster's values, summed in raster order (the same bits on every
-/// machine).
-std::pair<double, double> mean_and_deviation(const cv::Mat& m) {
-  double sum = 0, squares = 0;
-  for (int y = 0; y < m.rows; ++y) {
-    const double* v = m.ptr<double>(y);
-    for (int x = 0; x < m.cols; ++x) sum += v[x];
-  }
-  const double mean = sum / static_cast<double>(m.total());
-  for (int y = 0; y < m.rows; ++y) {
-    const double* v = m.ptr<double>(y);
-    for (int x = 0; x < m.cols; ++x) squares += (v[x] - mean) * (v[x] - mean);
-  }
-  return {mean, std::sqrt(squares / static_cast<double>(m.total()))};
-}
-
-/// `v` mapped into [0, 1] by 0.5 + scale * (v - centre), clipped.
-cv::Mat centred(const cv::Mat& m, double centre, double scale) {
-  cv::Mat out(m.size(), CV_64F);
-  for (int y = 0; y < m.rows; ++y) {
-    const double* v = m.ptr<double>(y);
-    double* o = out.ptr<double>(y);
-    for (int x = 0; x < m.cols; ++x) o[x] = std::clamp(0.5 + scale * (v[x] - centre), 0.0, 1.0);
-  }
-  return out;
-}
-
-/// A raster as a z-score over the frame, 0.5 + z / 6 clipped to [0, 1] (three deviations either side); a
-/// flat raster is 0.5 everywhere.
-cv::Mat frame_z_score(const cv::Mat& m) {
-  const auto [mean, deviation] = mean_and_deviation(m);
-  return centred(m, mean, deviation > 1e-9 ? 1.0 / (6.0 * deviation) : 0.0);
-}
-
-// The frame's colour against its own statistics, so that the same surface reads alike at noon and at
-// dusk: each of L*, a*, b* as a z-score over the frame. The mean takes out the light's level and colour
-// cast (grey world); the deviation the contrast, which dimmer light compresses in a* and b* as in L*.
-// The rasters are taken by value (headers sharing the data): `out` may hold them, and grows here.
-void append_normalized_colour(cv::Mat L, cv::Mat A, cv::Mat B, std::vector<cv::Mat>& out) {
-  for (const cv::Mat& m : {L, A, B}) out.push_back(frame_z_score(m));
-}
-
 void append_position(cv::Size size, std::vector<cv::Mat>& out) {
   cv::Mat row(size, CV_64F), col(size, CV_64F);
   for (int y = 0; y < size.height; ++y) {
@@ -151,11 +106,9 @@ void append_position(cv::Size size, std::vector<cv::Mat>& out) {
 void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
   if (bgr.empty() || bgr.type() != CV_8UC3)
     throw Error("", "appearance", "needs a colour (8-bit, 3-channel) image");
-  const std::size_t lab = out.size();
   append_lab(bgr, out);
   append_oriented_gradients(bgr, out);
   append_position(bgr.size(), out);
-  append_normalized_colour(out[lab], out[lab + 1], out[lab + 2], out);
 }
 
 }  // namespace smseg::stacks

@@ -103,8 +103,8 @@ const options::Table<FeatureOptions>& feature_options_table() {
         .only(options::kCommandLine | options::kFile | options::kPython);  // configs: per side, their own key
     t.flag("appearance", "--appearance",
            "also the image's own channels, after the six: fL fA fB (Lab colour), fG0..fG3 (gradient\n"
-           "magnitude by orientation), fRow fCol (position) and fLn fAn fBn (Lab against the frame's own\n"
-           "statistics); train-forest --features fH,fC,fOx,fOy,fD,fR leaves them out (structure and motion only)",
+           "magnitude by orientation) and fRow fCol (position); train-forest --features fH,fC,fOx,fOy,fD,fR\n"
+           "leaves them out (structure and motion only)",
            [](auto& o) -> auto& { return o.appearance; })
         .recorded_unless([](const F& o) { return !o.appearance; });
     t.flag("dense", "--dense",

@@ -32,12 +32,12 @@ double at(const std::vector<cv::Mat>& r, const std::string& name, int y, int x) 
 
 }  // namespace
 
-TEST(Appearance, TwelveRastersOfTheImageSizeInZeroToOne) {
+TEST(Appearance, NineRastersOfTheImageSizeInZeroToOne) {
   cv::Mat bgr(24, 40, CV_8UC3);
   cv::randu(bgr, 0, 256);
   const auto r = rasters_of(bgr);
   ASSERT_EQ(r.size(), appearance_feature_names().size());
-  ASSERT_EQ(r.size(), 12u);
+  ASSERT_EQ(r.size(), 9u);
   for (const cv::Mat& m : r) {
     ASSERT_EQ(m.size(), bgr.size());
     ASSERT_EQ(m.type(), CV_64FC1);
@@ -102,29 +102,6 @@ TEST(Appearance, PositionIsTheRowAndColumnFraction) {
   EXPECT_DOUBLE_EQ(at(r, "fCol", 3, 49), 49.5 / 50);
 }
 
-TEST(Appearance, NormalizedColourIsTheSameUnderADimmerTintedLight) {
-  // A frame, and the same frame under a dimmer, bluer light: fL and fB move, fLn and fBn hardly.
-  cv::Mat day(30, 40, CV_8UC3);
-  cv::randu(day, 40, 200);
-  cv::Mat dusk;
-  day.convertTo(dusk, CV_8UC3, 0.5);
-  dusk.forEach<cv::Vec3b>([](cv::Vec3b& p, const int*) { p[0] = cv::saturate_cast<uchar>(p[0] + 20); });
-  const auto a = rasters_of(day), b = rasters_of(dusk);
-  double raw_l = 0, norm_l = 0, raw_b = 0, norm_b = 0;
-  for (int y = 0; y < 30; ++y)
-    for (int x = 0; x < 40; ++x) {
-      raw_l += std::abs(at(a, "fL", y, x) - at(b, "fL", y, x));
-      norm_l += std::abs(at(a, "fLn", y, x) - at(b, "fLn", y, x));
-      raw_b += std::abs(at(a, "fB", y, x) - at(b, "fB", y, x));
-      norm_b += std::abs(at(a, "fBn", y, x) - at(b, "fBn", y, x));
-    }
-  EXPECT_LT(norm_l, 0.25 * raw_l);
-  EXPECT_LT(norm_b, 0.25 * raw_b);
-  // A flat frame is the middle of every normalized channel.
-  const auto flat = rasters_of(cv::Mat(4, 4, CV_8UC3, cv::Scalar(10, 80, 200)));
-  for (const char* name : {"fLn", "fAn", "fBn"}) EXPECT_DOUBLE_EQ(at(flat, name, 2, 2), 0.5) << name;
-}
-
 TEST(Appearance, AGreyOrEmptyImageIsRefused) {
   std::vector<cv::Mat> out;
   EXPECT_THROW(append_appearance_rasters(cv::Mat(4, 4, CV_8UC1, cv::Scalar(0)), out), Error);
@@ -145,7 +122,7 @@ TEST(Appearance, ExtractWritesThemAfterTheSixAndRecordsTheOption) {
   EXPECT_THROW(extract_features(seq, dir / "plain", eo), Error);  // made with other options: --force
   extract_features(seq, dir / "app", eo);
   const StackManifest m = load_stack_manifest(dir / "app");
-  ASSERT_EQ(m.features.size(), 18u);
+  ASSERT_EQ(m.features.size(), 15u);
   EXPECT_TRUE(std::equal(structure_feature_names().begin(), structure_feature_names().end(), m.features.begin()));
   EXPECT_TRUE(std::equal(appearance_feature_names().begin(), appearance_feature_names().end(), m.features.begin() + 6));
   EXPECT_EQ(m.options["features"]["appearance"], true);

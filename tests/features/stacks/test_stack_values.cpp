@@ -142,7 +142,7 @@ TEST_F(ValuesFixture, NonFiniteValuesAndWrongCountsAreRefused) {
   EXPECT_NE(open_error(3).find("channel 0 pixel (6, 4) is NaN"), std::string::npos) << open_error(3);
   bad.pop_back();
   write_frame_values(work, 3, m.size, bad, gray, labels);
-  EXPECT_NE(open_error(3).find("holds 17 channels, the work folder's stacks.json says 18"), std::string::npos);
+  EXPECT_NE(open_error(3).find("holds 14 channels, the work folder's stacks.json says 15"), std::string::npos);
   write_frame_values(work, 3, m.size, rasters, gray, cv::Mat());  // a labelled frame without its labels
   EXPECT_NE(open_error(3).find("images field is 1, expected 3 (gray stored, labels stored)"), std::string::npos)
       << open_error(3);
@@ -163,7 +163,7 @@ TEST_F(ValuesFixture, ALabelOutOfRangeNamesTheValuesFile) {
 }
 
 TEST_F(ValuesFixture, AppearanceChannelsComeFromTheColourImageOnlyWhenExact) {
-  // Frame 3 holds the colour image instead of the appearance channels: a smaller file.
+  // Frame 3 holds the colour image instead of the nine appearance channels: a smaller file.
   EXPECT_LT(fs::file_size(values_path(work, 3)), fs::file_size(values_path(work, 0)) / 2);
   // A raster that is not what the colour image makes (one value changed) is stored as it is.
   std::vector<cv::Mat> changed = rasters;

@@ -9,9 +9,6 @@
 //                     mean is a 4-bin histogram of oriented gradients
 //   fRow fCol         the pixel's position, (y + 0.5) / H and (x + 0.5) / W: a window's mean is where
 //                     it lies in the image (a location prior; CamVid's sky is on top, its road below)
-//   fLn fAn fBn       the colour against the frame's own: fL, fA, fB each as a z-score over the frame
-//                     (0.5 + z / 6, clipped to [0, 1]), so that a surface reads alike under another
-//                     light's level, colour cast and contrast (CamVid's dusk run)
 // None of them reads the structure or motion: forests that use them are "S+M + appearance" in the
 // CamVid figures (docs/camvid.md), and `train-forest --features` leaves them out for S+M-only runs.
 
@@ -22,7 +19,7 @@
 
 namespace smseg::stacks {
 
-/// {"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol", "fLn", "fAn", "fBn"}, in raster order.
+/// {"fL", "fA", "fB", "fG0", "fG1", "fG2", "fG3", "fRow", "fCol"}, in raster order.
 const std::vector<std::string>& appearance_feature_names();
 
 /// Whether `name` is one of appearance_feature_names().
