@@ -22,7 +22,7 @@ import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
     ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, Potts smoothing"),
-    ("combined", "combined", ["combined", "combined_context"], "S+M + appearance + auto-context + smoothing"),
+    ("combined", "combined", ["combined_m20"], "S+M + appearance, M = 20, smoothing"),
     ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
     ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),
     ("sm_path", "sm_path", ["sm_path"], "S+M as sm, + fZC distance to the camera path"),
@@ -30,6 +30,9 @@ RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add 
     ("combined_forest", "combined_forest", ["combined"], "S+M + appearance"),
     ("combined_smooth", "combined_smooth", ["combined"], "S+M + appearance + smoothing"),
     ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
+    ("combined_context_smooth", "combined_context_smooth", ["combined", "combined_context"],
+     "S+M + appearance + auto-context + smoothing"),
+    ("combined_forest_m20", "combined_forest_m20", ["combined_m20"], "S+M + appearance, M = 20"),
 ]
 
 def write_json_atomic(path, value):
@@ -96,6 +99,7 @@ def summary(out, train, test, kt, trees, cross_validation=None):
             "eval_ms_per_frame": 1000.0 * r["seconds_per_frame"],
             "smooth_ms_per_frame": 1000.0 * r.get("smooth_seconds_per_frame", 0.0),
             "test_frames": len(r["per_frame"]),
+            "trees": r["params"]["trees"],
         }
     classes = list(runs["sm"]["per_class"].keys())
     pct = lambda v: f"{100.0 * v:5.1f}"
@@ -106,8 +110,9 @@ def summary(out, train, test, kt, trees, cross_validation=None):
                     + [pct(run["per_class"][c]["accuracy"]) for c in classes]
                     + [f"{run['train_seconds']:.0f}", f"{run['train_peak_rss_mb']:.0f}"])
     widths = [max(len(str(x[i])) for x in [head] + rows) for i in range(len(head))]
-    print(f"CamVid: trained on {train}, tested on {test} ({runs['sm']['test_frames']} frames), Kt = {kt}, M = {trees};"
-          " accuracies in %, per-class columns are per-class accuracy")
+    other = sorted({f"{name}: {run['trees']}" for name, run in runs.items() if run["trees"] != trees})
+    print(f"CamVid: trained on {train}, tested on {test} ({runs['sm']['test_frames']} frames), Kt = {kt}, M = {trees}"
+          + (f" ({', '.join(other)})" if other else "") + "; accuracies in %, per-class columns are per-class accuracy")
     for row in [head] + rows:
         print("  ".join(str(v).rjust(w) if i else str(v).ljust(w) for i, (v, w) in enumerate(zip(row, widths))))
     folds = fold_means(cross_validation)
