@@ -58,14 +58,19 @@ print("cross-validation.json: ok")
 PY
 grep -q "| six | 1 |" "$tmp/out/cross-validation.md" || { echo "FAIL: no table row for six at power 1"; exit 1; }
 
+refused() {  # CONFIG PATTERN WHAT: cross-validate with CONFIG on OUT exits 1 with one line matching PATTERN
+  local code
+  set +e
+  SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$1" 2>"$tmp/err.txt"
+  code=$?
+  set -e
+  [[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "$2" "$tmp/err.txt" ||
+    { echo "FAIL: $3 gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
+}
+
 # A config naming an unknown key is one line naming the file and key, exit 1.
 echo '{"runs": {"a": {"train": []}}, "folds": 3}' >"$tmp/bad.json"
-set +e
-SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/bad.json" 2>"$tmp/err.txt"
-code=$?
-set -e
-[[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "bad.json: folds: unknown key" "$tmp/err.txt" ||
-  { echo "FAIL: bad config gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
+refused "$tmp/bad.json" "bad.json: folds: unknown key" "bad config"
 echo "bad config: ok"
 
 # A work folder whose extraction was killed (stacks.json written, frames missing, no finished marker) is
@@ -82,10 +87,5 @@ echo "killed extraction resumed: ok"
 # Another config's extract options on the same OUT: refused in one line (its folders were made otherwise).
 /usr/bin/python3 -c 'import json,sys; c=json.load(open(sys.argv[1])); c["extract"]=["--appearance"]; print(json.dumps(c))' \
   "$tmp/config.json" >"$tmp/other.json"
-set +e
-SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/other.json" 2>"$tmp/err.txt"
-code=$?
-set -e
-[[ $code -eq 1 && $(wc -l <"$tmp/err.txt") -eq 1 ]] && grep -q "extract.json: .* use another OUT" "$tmp/err.txt" ||
-  { echo "FAIL: other extract options gave exit $code: $(cat "$tmp/err.txt")"; exit 1; }
+refused "$tmp/other.json" "extract.json: .* use another OUT" "other extract options"
 echo "other extract options: ok"
