@@ -98,9 +98,12 @@ BENCHMARK(BM_DelaunayOnly)->Unit(benchmark::kMillisecond);
 // One frame's plane sweep (val frame 60 against frames 60 - gap and 60 + gap, with the poses and focal
 // of the cached val extraction). gap 2 is what sweep_neighbours picks at 15 Hz (0.5 m, 90 planes);
 // gap 15 puts the neighbours ~4 m away, as at 1 Hz, where the sweep takes its cap of 256 planes.
+// scale_pct: the sweep's resolution in percent (--sweep-scale; 50 sweeps 240x180 images).
 void BM_PlaneSweepCamVid(benchmark::State& state) {
   if (camvid_bench::unavailable()) return camvid_bench::skip(state);
   const int f = 60, gap = static_cast<int>(state.range(0));
+  PlaneSweepOptions options;
+  options.scale = state.range(1) / 100.0;
   const TracksFile tracks = smseg::stacks::read_tracks(camvid_bench::val_work() / "tracks.json");
   const Sequence seq = load_sequence(camvid_bench::kCache / "sequences" / camvid_bench::kValRun);
   const auto pose = [&](int g) { return tracks.result.poses.at(std::size_t(g - tracks.result.first_frame)); };
@@ -108,10 +111,10 @@ void BM_PlaneSweepCamVid(benchmark::State& state) {
   const std::vector<SweepView> views{{seq.load_left_gray(f - gap), pose(f - gap)},
                                      {seq.load_left_gray(f + gap), pose(f + gap)}};
   const cv::Mat reference = seq.load_left_gray(f);
-  state.counters["planes"] = sweep_plane_count(pose(f), views, *camera.fx, PlaneSweepOptions{});
-  for (auto _ : state) benchmark::DoNotOptimize(plane_sweep_depth(reference, pose(f), views, camera));
+  state.counters["planes"] = sweep_plane_count(pose(f), views, *camera.fx * options.scale, options);
+  for (auto _ : state) benchmark::DoNotOptimize(plane_sweep_depth(reference, pose(f), views, camera, options));
 }
-BENCHMARK(BM_PlaneSweepCamVid)->Arg(2)->Arg(15)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PlaneSweepCamVid)->ArgsProduct({{2, 15}, {100, 50}})->ArgNames({"gap", "scale_pct"})->Unit(benchmark::kMillisecond);
 
 // The dense channels of one val frame from its plane-sweep depth (neighbours 15 frames away, as the
 // benchmark's 4 m sweep): Arg 0 measures fZC to the camera's own centre, Arg 1 to the path of the next

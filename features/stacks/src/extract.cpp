@@ -352,7 +352,9 @@ class ImageRasters {
     const SweepNeighbourOptions choice{opt_.features.sweep_reach, opt_.features.sweep_baseline};
     for (int g : sweep_neighbours(f, sweep_.usable, video_.poses, choice))
       views.push_back({seq_.load_left_gray(g), video_.poses[g]});
-    return plane_sweep_depth(seq_.load_left_gray(f), video_.poses[f], views, sweep_.calibration, PlaneSweepOptions{});
+    PlaneSweepOptions sweep;
+    sweep.scale = opt_.features.sweep_scale;
+    return plane_sweep_depth(seq_.load_left_gray(f), video_.poses[f], views, sweep_.calibration, sweep);
   }
 
   const sequence::Sequence& seq_;

@@ -151,6 +151,7 @@ void PlaneSweepOptions::validate() const {
   if (!(min_score_range >= 0 && min_score_range <= 2))
     throw Error("", "plane_sweep.min_score_range", "must be in [0, 2]");
   if (consistency_planes < 0) throw Error("", "plane_sweep.consistency_planes", "must be >= 0");
+  if (!(scale >= 0.1 && scale <= 1)) throw Error("", "plane_sweep.scale", "must be in 0.1..1");
 }
 
 int sweep_plane_count(const sequence::Pose& reference_pose, const std::vector<SweepView>& neighbours, double focal,
@@ -163,16 +164,12 @@ int sweep_plane_count(const sequence::Pose& reference_pose, const std::vector<Sw
   return static_cast<int>(std::clamp(wanted, double(o.min_planes), double(o.max_planes)));
 }
 
-cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
-                          const PlaneSweepOptions& o) {
-  o.validate();
-  if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
-  if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
-    throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
-  for (const auto& v : neighbours)
-    if (v.gray.size() != reference_gray.size() || v.gray.type() != CV_8UC1)
-      throw Error("", "plane_sweep", "every neighbour image must be 8-bit grey of the reference's size");
+namespace {
+
+// The sweep at the images' own resolution (scale ignored).
+cv::Mat sweep_at_own_resolution(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                           const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
+                           const PlaneSweepOptions& o) {
   cv::Mat depth(reference_gray.size(), CV_32FC1, cv::Scalar(0));
   if (neighbours.size() < 2) return depth;  // no consistency check possible: nothing is trusted
 
@@ -226,6 +223,52 @@ cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& r
     }
   }
   return depth;
+}
+
+// `depth` brought to `size`: bilinear where the four source pixels around a pixel all have a depth,
+// else the nearest source pixel's depth (0 stays "none").
+cv::Mat depth_to_size(const cv::Mat& depth, cv::Size size) {
+  cv::Mat valid, smooth, nearest, all_valid;
+  cv::threshold(depth, valid, 0, 1, cv::THRESH_BINARY);
+  cv::resize(depth, smooth, size, 0, 0, cv::INTER_LINEAR);
+  cv::resize(valid, all_valid, size, 0, 0, cv::INTER_LINEAR);
+  cv::resize(depth, nearest, size, 0, 0, cv::INTER_NEAREST);
+  // A bilinear weight sum of exactly 1 means every contributing source pixel was valid.
+  cv::Mat mixed = cv::Mat(all_valid < 1.0f - 1e-6f);
+  nearest.copyTo(smooth, mixed);
+  return smooth;
+}
+
+}  // namespace
+
+cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
+                          const PlaneSweepOptions& o) {
+  o.validate();
+  if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
+  if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
+    throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
+  for (const auto& v : neighbours)
+    if (v.gray.size() != reference_gray.size() || v.gray.type() != CV_8UC1)
+      throw Error("", "plane_sweep", "every neighbour image must be 8-bit grey of the reference's size");
+  const cv::Size full = reference_gray.size();
+  const cv::Size small(std::max(1, int(std::lround(full.width * o.scale))), std::max(1, int(std::lround(full.height * o.scale))));
+  if (small == full || neighbours.size() < 2) return sweep_at_own_resolution(reference_gray, reference_pose, neighbours, camera, o);
+  const auto shrink = [&](const cv::Mat& gray) {
+    cv::Mat out;
+    cv::resize(gray, out, small, 0, 0, cv::INTER_AREA);
+    return out;
+  };
+  std::vector<SweepView> small_views;
+  for (const auto& v : neighbours) small_views.push_back({shrink(v.gray), v.pose});
+  // Pixel centres map as (x + 0.5) * s - 0.5 under the resize.
+  const double sx = double(small.width) / full.width, sy = double(small.height) / full.height;
+  sequence::Calibration small_camera = camera;
+  small_camera.fx = *camera.fx * sx;
+  small_camera.fy = camera.fy.value_or(*camera.fx) * sy;
+  small_camera.cx = (camera.cx + 0.5) * sx - 0.5;
+  small_camera.cy = (camera.cy + 0.5) * sy - 0.5;
+  return depth_to_size(sweep_at_own_resolution(shrink(reference_gray), reference_pose, small_views, small_camera, o), full);
 }
 
 std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<sequence::Pose>& poses,

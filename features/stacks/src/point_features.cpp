@@ -123,6 +123,11 @@ const options::Table<FeatureOptions>& feature_options_table() {
     t.number("sweep_reach", "--sweep-reach", "--dense, monocular: frames either side the plane sweep looks for its neighbours in",
              [](auto& o) -> auto& { return o.sweep_reach; }, 1, 1000)
         .recorded_unless_default();
+    t.number("sweep_scale", "--sweep-scale",
+             "--dense, monocular: the plane sweep's resolution against the frame's (0.5: half the width and\n"
+             "height, about an eighth of the time; the depth is brought back to the frame's size)",
+             [](auto& o) -> auto& { return o.sweep_scale; }, 0.1, 1.0)
+        .recorded_unless_default();
     t.choice("height_reference", "--height-reference",
              "what fH and fZH measure heights from: plane (the run's ground plane, world Y), camera (the\n"
              "ground under each frame's camera: its height relative to the camera plus the cameras' median\n"
@@ -147,6 +152,8 @@ void FeatureOptions::validate() const {
     throw Error("", "--sweep-baseline", "must be in 0.05..1000 metres (got " + std::to_string(sweep_baseline) + ")");
   if (sweep_reach < 1 || sweep_reach > 1000)
     throw Error("", "--sweep-reach", "must be in 1..1000 frames (got " + std::to_string(sweep_reach) + ")");
+  if (!(sweep_scale >= 0.1 && sweep_scale <= 1))
+    throw Error("", "--sweep-scale", "must be in 0.1..1 (got " + std::to_string(sweep_scale) + ")");
 }
 
 void CausalPointAttributes::add_frame(const sequence::Pose& pose, const std::vector<Observation>& obs, FrameAttributes& out) {

@@ -266,6 +266,42 @@ TEST(PlaneSweep, CorridorAndLabFromTheirPosesAgainstTruth) {
   fs::remove_all(dir);
 }
 
+// The sweep at half resolution (--sweep-scale 0.5), the same frames as above: a depth on more pixels
+// (42-53 % against 36-43 %), the lab as accurate (median relative error 4-5 %), the corridor's small
+// frames less so (11-13 % against 8-9 %); every depth brought back to the frame's size is 0 or within
+// the sweep's range (bilinear only between valid depths, never with "none").
+TEST(PlaneSweep, HalfResolutionStaysAccurateAndNeverBlendsWithNoDepth) {
+  const fs::path dir = test::temp_dir("plane_sweep_half");
+  for (const std::string scene : {"corridor", "lab"}) {
+    const Sequence seq = thirteen_frames(scene, dir / scene);
+    PlaneSweepOptions full, half;
+    full.min_depth = half.min_depth = 0.5;
+    full.max_depth = half.max_depth = 20;
+    half.scale = 0.5;
+    for (int f : {3, 6, 9}) {
+      const std::vector<SweepView> views{{seq.load_left_gray(f - 3), seq.gt_poses[f - 3]},
+                                         {seq.load_left_gray(f + 3), seq.gt_poses[f + 3]}};
+      const cv::Mat depth = plane_sweep_depth(seq.load_left_gray(f), seq.gt_poses[f], views, seq.calibration, half);
+      ASSERT_EQ(depth.size(), seq.load_left_gray(f).size());
+      const DepthScore h = score(depth, seq.load_gt_depth(f));
+      const DepthScore w = score(plane_sweep_depth(seq.load_left_gray(f), seq.gt_poses[f], views, seq.calibration, full),
+                                 seq.load_gt_depth(f));
+      std::cout << scene << " frame " << f << ": half resolution valid " << h.valid_share << ", median relative error "
+                << h.median_relative_error << " (full: " << w.valid_share << ", " << w.median_relative_error << ")\n";
+      EXPECT_GE(h.valid_share, 0.3) << scene << " frame " << f;
+      EXPECT_LT(h.median_relative_error, 0.15) << scene << " frame " << f;
+      for (auto it = depth.begin<float>(); it != depth.end<float>(); ++it) {
+        if (*it == 0) continue;
+        ASSERT_TRUE(*it >= half.min_depth * 0.999f && *it <= half.max_depth * 1.001f) << *it;
+      }
+    }
+  }
+  PlaneSweepOptions bad;
+  bad.scale = 0.05;
+  EXPECT_THROW(bad.validate(), Error);
+  fs::remove_all(dir);
+}
+
 // A camera that does not move fits every plane equally: nothing may come out valid. One neighbour
 // alone cannot be checked: nothing either.
 TEST(PlaneSweep, StillCameraOrOneNeighbourGivesNoDepth) {

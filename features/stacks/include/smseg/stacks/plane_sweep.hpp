@@ -20,6 +20,13 @@
 //     pattern seen from two sides rarely gives the same wrong depth in both).
 // Near the focus of expansion of a forward-moving camera the parallax vanishes and the scores are
 // flat: those pixels rarely pass the checks, which is what the validity mask is for.
+//
+// `scale` < 1 sweeps images shrunk by that factor (area averaging; the camera's focal length and
+// principal point scaled with them, so the number of planes falls with the pixels a plane step moves)
+// and brings the depth back to the reference's size: bilinear where the four source pixels around a
+// pixel all have a depth, else the nearest one's (so a depth is never blended with "none"). The
+// window, texture and score thresholds apply at the sweep's resolution. Each warp is most of the
+// sweep's time (docs/real-scale.md), so 0.5 costs about an eighth of 1.
 
 #include <vector>
 
@@ -39,6 +46,7 @@ struct PlaneSweepOptions {
   double min_texture = 3.0;     ///< grey-level standard deviation of the reference window
   double min_score_range = 0.2; ///< best minus worst plane score: flat scores (no parallax) say nothing
   int consistency_planes = 2;   ///< each neighbour's best plane within this many planes of the joint one
+  double scale = 1.0;           ///< resolution of the sweep against the images' (0.1..1, see above)
   void validate() const;        ///< Error("", "plane_sweep.<field>", reason)
 };
 

@@ -74,6 +74,8 @@ struct FeatureOptions {
   /// neighbours at their baseline, so that its depth is measured as theirs is (docs/camvid.md).
   double sweep_baseline = 0.5;
   int sweep_reach = 4;
+  /// Resolution of the plane sweep against the frame's (PlaneSweepOptions::scale).
+  double sweep_scale = 1.0;
   void validate() const;    ///< Error naming the option when out of range
 };
 
