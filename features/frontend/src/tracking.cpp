@@ -1,4 +1,5 @@
 #include "smseg/frontend/tracking.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 
 #include "smseg/common/names.hpp"
 #include "smseg/frontend/stereo.hpp"
@@ -219,15 +220,7 @@ FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& kps, const 
 
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
                                  const sequence::Calibration& calib) {
-  if (disparity.type() != CV_32FC1) throw Error("", "disparity", "expected CV_32FC1");
-  std::vector<float> sampled;
-  sampled.reserve(pixels.size());
-  for (const cv::Point2f& p : pixels) {
-    const int x = std::clamp(static_cast<int>(std::lround(p.x)), 0, disparity.cols - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(p.y)), 0, disparity.rows - 1);
-    sampled.push_back(disparity.at<float>(y, x));
-  }
-  return observe_sampled(pixels, sampled, labels, calib);
+  return observe_sampled(pixels, FrameDisparity(disparity).sample(pixels), labels, calib);
 }
 
 FrameObservations observe_sampled(const std::vector<cv::Point2f>& pixels, const std::vector<float>& disparities,
