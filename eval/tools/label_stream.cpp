@@ -61,7 +61,7 @@ void add_options(CLI::App& app, Args& a) {
 // Resolves and checks what the command line gave (UsageError); the frame range for a sequence folder.
 stacks::FrameRange validate(Args& a) {
   if (a.front_end.front_end.stereo.method == frontend::StereoMethod::Given)
-    throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm or sgbm");
+    throw UsageError("", "--stereo", "given disparities cannot be streamed: use bm, sparse or sgbm");
   validate_options(stacks::extract_options_table().option_names(), [&] {
     a.front_end.resolve();
     a.front_end.front_end.validate();

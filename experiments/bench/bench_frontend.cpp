@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "smseg/frontend/motion.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 
 namespace fs = std::filesystem;
 using namespace smseg::sequence;
@@ -91,6 +92,22 @@ void BM_BlockMatching(benchmark::State& st) {
   st.SetLabel(o.lr_max_diff >= 0 ? "with left-right check" : "no left-right check");
 }
 BENCHMARK(BM_BlockMatching)->Arg(1)->Arg(0)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+// The sparse matcher as the front end uses it: the pair prefiltered, then N corners sampled (with the
+// mirrored left-right check), against BM_BlockMatching's dense pass.
+void BM_SparseMatching(benchmark::State& st) {
+  const cv::Mat l = left_of(0), r = right_of(0);
+  StereoOptions o;
+  o.method = StereoMethod::Sparse;
+  TrackingOptions t;
+  t.detector = KeypointMethod::Gftt;
+  t.max_keypoints = static_cast<int>(st.range(0));
+  std::vector<cv::Point2f> pixels;
+  for (const auto& k : detect_keypoints(l, t).keypoints) pixels.push_back(k.pt);
+  for (auto _ : st) benchmark::DoNotOptimize(prepare_disparity(l, r, o).sample(pixels));
+  st.counters["points"] = static_cast<double>(pixels.size());
+}
+BENCHMARK(BM_SparseMatching)->Arg(200)->Arg(800)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 void BM_SemiGlobalMatching(benchmark::State& st) {
   const cv::Mat l = left_of(0), r = right_of(0);

@@ -247,7 +247,7 @@ void read_frames_and_features(const Raw& raw, const Experiment& ex, Point& p) {
 
 // One side's front end ("train" or "test"): train_X / test_X override X.
 FrontEnd side_front_end(const Raw& raw, const std::string& side) {
-  const std::vector<std::string> stereo_methods{"bm", "sgbm"}, trackers{"klt", "descriptors"};
+  const std::vector<std::string> stereo_methods{"bm", "sgbm", "sparse"}, trackers{"klt", "descriptors"};
   std::vector<std::string> motions;  // the front ends' names (front_ends.hpp)
   for (const stacks::FrontEnd* f : stacks::front_ends()) motions.emplace_back(f->name());
   FrontEnd fe;

@@ -115,7 +115,8 @@ std::vector<StereoOptions> stereo_matchers(const std::vector<std::string>& metho
   for (const auto& m : methods) {
     const StereoMethod sm = frontend::parse_stereo_method(m, "--methods");
     if (sm == StereoMethod::Given) throw Error("", "--methods", "'given' has nothing to evaluate here");
-    opts.push_back(sm == StereoMethod::BM ? bm : sgbm);
+    opts.push_back(sm == StereoMethod::SGBM ? sgbm : bm);
+    opts.back().method = sm;  // sparse: bm's options, matched pixel by pixel
     opts.back().validate();
   }
   return opts;

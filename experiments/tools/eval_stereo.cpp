@@ -41,7 +41,7 @@ int main(int argc, char** argv) {
                                      data + ")");
   app.add_option("-o,--output", out, "results JSON file (default: none, table on stdout only)");
   app.add_option("--markdown", markdown, "also write the Markdown table to this file (default: none)");
-  app.add_option("--methods", methods, "matchers to evaluate, any of bm sgbm (default: bm sgbm)");
+  app.add_option("--methods", methods, "matchers to evaluate, any of bm sgbm sparse (default: bm sgbm)");
   app.add_option("--threshold", threshold, "bad-pixel threshold in pixels (default 2)")
       ->check(options::in_range(0.0, 1000.0));
   app.add_option("--bm-block", bm.block_size, "BM block size, odd (default " + std::to_string(bm.block_size) + ")")

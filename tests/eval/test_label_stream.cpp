@@ -29,6 +29,7 @@ struct StreamCase {
   frontend::KeypointMethod detector;
   int grid = 0;
   bool textons = false;
+  frontend::StereoMethod stereo = frontend::StereoMethod::BM;
   friend void PrintTo(const StreamCase& c, std::ostream* os) { *os << c.name; }
 };
 
@@ -85,6 +86,7 @@ class LabelStream : public ::testing::TestWithParam<StreamCase> {
     frontend::FrontEndOptions fe;
     fe.tracker = c.tracker;
     fe.tracking.detector = c.detector;
+    fe.stereo.method = c.stereo;
     fe.progress = false;
     return fe;
   }
@@ -123,29 +125,34 @@ INSTANTIATE_TEST_SUITE_P(
                                  frontend::KeypointMethod::Sift, 0, true},
                       StreamCase{"descriptors_grid", frontend::FrameTracker::Descriptors, frontend::KeypointMethod::Sift,
                                  20, false},
-                      StreamCase{"klt_gftt_pixel", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 0, false}),
+                      StreamCase{"klt_gftt_pixel", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 0, false},
+                      StreamCase{"klt_gftt_sparse_grid", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 20,
+                                 false, frontend::StereoMethod::Sparse}),
     [](const ::testing::TestParamInfo<StreamCase>& i) { return i.param.name; });
 
 TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
   for (const auto tracker : {frontend::FrameTracker::Descriptors, frontend::FrameTracker::Klt}) {
-    StreamCase c{"", tracker,
-                 tracker == frontend::FrameTracker::Klt ? frontend::KeypointMethod::Gftt : frontend::KeypointMethod::Sift};
-    const frontend::FrontEndOptions fe = front_end(c);
-    const frontend::FrontEndResult whole = frontend::run_stereo_front_end(*seq, fe);
-    frontend::StereoFrontEndStream stream(seq->calibration, seq->camera_height, fe, "seq");
-    std::vector<frontend::StereoFrontEndStream::Prepared> first;
-    for (int f = 0; f < frontend::kOffsetFrames; ++f)
-      first.push_back(stream.prepare(seq->load_left_gray(f), seq->load_right_gray(f)));
-    std::vector<frontend::StreamFrame> frames = stream.calibrate(std::move(first));
-    EXPECT_EQ(stream.disparity_offset(), whole.summary.disparity_offset);
-    for (int f = 0; f < seq->frame_count(); ++f) {
-      if (f >= frontend::kOffsetFrames) frames.push_back(stream.push(seq->load_left_gray(f), seq->load_right_gray(f)));
-      const frontend::StreamFrame& fr = frames[f];
-      EXPECT_EQ(fr.pose.R, whole.poses[f].R) << frontend::frame_tracker_name(tracker) << ", frame " << f;
-      EXPECT_EQ(fr.pose.t, whole.poses[f].t) << frontend::frame_tracker_name(tracker) << ", frame " << f;
-      if (f > 0) {
-        EXPECT_EQ(fr.motion->inliers, whole.pair_motions[f - 1].inliers);
-        EXPECT_EQ(fr.motion->bridged, whole.pair_motions[f - 1].bridged);
+    for (const auto stereo : {frontend::StereoMethod::BM, frontend::StereoMethod::Sparse}) {
+      StreamCase c{"", tracker,
+                   tracker == frontend::FrameTracker::Klt ? frontend::KeypointMethod::Gftt : frontend::KeypointMethod::Sift,
+                   0, false, stereo};
+      const frontend::FrontEndOptions fe = front_end(c);
+      const frontend::FrontEndResult whole = frontend::run_stereo_front_end(*seq, fe);
+      frontend::StereoFrontEndStream stream(seq->calibration, seq->camera_height, fe, "seq");
+      std::vector<frontend::StereoFrontEndStream::Prepared> first;
+      for (int f = 0; f < frontend::kOffsetFrames; ++f)
+        first.push_back(stream.prepare(seq->load_left_gray(f), seq->load_right_gray(f)));
+      std::vector<frontend::StreamFrame> frames = stream.calibrate(std::move(first));
+      EXPECT_EQ(stream.disparity_offset(), whole.summary.disparity_offset);
+      for (int f = 0; f < seq->frame_count(); ++f) {
+        if (f >= frontend::kOffsetFrames) frames.push_back(stream.push(seq->load_left_gray(f), seq->load_right_gray(f)));
+        const frontend::StreamFrame& fr = frames[f];
+        EXPECT_EQ(fr.pose.R, whole.poses[f].R) << frontend::frame_tracker_name(tracker) << ", frame " << f;
+        EXPECT_EQ(fr.pose.t, whole.poses[f].t) << frontend::frame_tracker_name(tracker) << ", frame " << f;
+        if (f > 0) {
+          EXPECT_EQ(fr.motion->inliers, whole.pair_motions[f - 1].inliers);
+          EXPECT_EQ(fr.motion->bridged, whole.pair_motions[f - 1].bridged);
+        }
       }
     }
   }
@@ -260,7 +267,8 @@ TEST_F(LabelStream, FramesWithoutATrackedPointAreSaid) {
 
 // On real video: KITTI seq2's first frames (its right image is offset: the stream self-calibrates on its
 // first 11 frames as extract-features does) labelled per pixel by a stand-in forest of their size
-// (KITTI has no labels: trained on a synthetic corridor rendered at 1241x376) equal the files' labels.
+// (KITTI has no labels: trained on a synthetic corridor rendered at 1241x376) equal the files' labels,
+// with dense block matching and with the sparse matcher.
 TEST(LabelStreamKitti, SameLabelsAsCausalExtractionOnRealFrames) {
   const fs::path kitti = fs::path(SMSEG_SHARED_DIR) / "data" / "kitti-stereo" / "seq2";
   if (!fs::exists(kitti / "calib.txt")) GTEST_SKIP() << "no shared KITTI slice at " << kitti;
@@ -283,19 +291,24 @@ TEST(LabelStreamKitti, SameLabelsAsCausalExtractionOnRealFrames) {
 
   const int frames = frontend::kOffsetFrames + 4;
   eo.frames = stacks::FrameRange::parse("0:" + std::to_string(frames), "frames");
-  stacks::extract_features(seq, dir / "work", eo);
-  const auto files = stacks::open_stacks({dir / "work"}, eo.frames, false, false, forest.features);
-  ASSERT_EQ(static_cast<int>(files.dataset.frames.size()), frames);
-  eval::StreamOptions opt;
-  opt.front_end.progress = false;
-  eval::StreamLabeller stream(forest, "forest.json", seq.calibration, seq.camera_height, seq.size, opt, "seq2");
-  int points = 0;
-  const std::vector<cv::Mat> streamed = stream_labels(stream, seq, frames, points);
-  EXPECT_GT(stream.disparity_offset(), 0.5) << "seq2's offset, self-calibrated";
-  EXPECT_GT(points, 100 * (frames - frontend::kOffsetFrames));
   const forest::Classifier classifier(forest);
-  for (int f = 0; f < frames; ++f)
-    ASSERT_EQ(cv::countNonZero(eval::label_frame(classifier, files.dataset.frames[f], opt.eval, f) != streamed[f]), 0)
-        << "frame " << f;
+  for (const auto stereo : {frontend::StereoMethod::BM, frontend::StereoMethod::Sparse}) {
+    const std::string method = frontend::stereo_method_name(stereo);
+    eo.front_end.stereo.method = stereo;
+    stacks::extract_features(seq, dir / ("work-" + method), eo);
+    const auto files = stacks::open_stacks({dir / ("work-" + method)}, eo.frames, false, false, forest.features);
+    ASSERT_EQ(static_cast<int>(files.dataset.frames.size()), frames);
+    eval::StreamOptions opt;
+    opt.front_end.progress = false;
+    opt.front_end.stereo.method = stereo;
+    eval::StreamLabeller stream(forest, "forest.json", seq.calibration, seq.camera_height, seq.size, opt, "seq2");
+    int points = 0;
+    const std::vector<cv::Mat> streamed = stream_labels(stream, seq, frames, points);
+    EXPECT_GT(stream.disparity_offset(), 0.5) << method << ": seq2's offset, self-calibrated";
+    EXPECT_GT(points, 100 * (frames - frontend::kOffsetFrames)) << method;
+    for (int f = 0; f < frames; ++f)
+      ASSERT_EQ(cv::countNonZero(eval::label_frame(classifier, files.dataset.frames[f], opt.eval, f) != streamed[f]), 0)
+          << method << ", frame " << f;
+  }
   fs::remove_all(dir);
 }

@@ -12,6 +12,7 @@
 #include <tbb/task_arena.h>
 
 #include "smseg/frontend/motion.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 #include "smseg/common/progress.hpp"
 
 namespace smseg::frontend {
@@ -87,7 +88,8 @@ namespace {
 
 /// Per frame: the left image, its disparity, the keypoints and the labels.
 struct FrameInput {
-  cv::Mat left, disparity, labels;
+  cv::Mat left, labels;
+  FrameDisparity disparity;
   FrameKeypoints keypoints;
 };
 
@@ -131,11 +133,11 @@ struct FrameStage {
     auto t0 = Clock::now();
     in.left = seq.load_left_gray(f);
     if (o.stereo.method == StereoMethod::Given) {
-      in.disparity = frame_disparity(seq, f, o.stereo);
+      in.disparity = FrameDisparity(frame_disparity(seq, f, o.stereo));
     } else {
       try {
         // As computed: the offset is added to the observations once it is known (apply_offset).
-        in.disparity = compute_disparity(in.left, seq.load_right_gray(f), o.stereo);
+        in.disparity = prepare_disparity(in.left, seq.load_right_gray(f), o.stereo);
       } catch (const Error& e) {
         if (!e.file().empty()) throw;
         throw Error(seq.manifest.string(), "frames[" + std::to_string(f) + "]", e.what());

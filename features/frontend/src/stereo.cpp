@@ -1,7 +1,9 @@
 #include "smseg/frontend/stereo.hpp"
 
 #include "smseg/common/names.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <string>
@@ -54,13 +56,16 @@ cv::Ptr<cv::StereoMatcher> make_matcher(const StereoOptions& o) {
   return sg;
 }
 
-// Fixed-point (x16) CV_16S disparity -> CV_32F pixels, -1 where invalid or <= 0.
-cv::Mat fixed_to_float(const cv::Mat& raw) {
+// Fixed-point (x16) CV_16S disparity -> CV_32F pixels, -1 where invalid or <= 0. The matchers mark
+// invalid pixels (min_disparity - 1) x 16, which is positive from min_disparity 2 on; their smallest
+// real value is above it (min_disparity x 16 less half a pixel's sub-pixel step).
+cv::Mat fixed_to_float(const cv::Mat& raw, int min_disparity) {
+  const int invalid = std::max(0, (min_disparity - 1) * 16);
   cv::Mat out(raw.size(), CV_32FC1);
   for (int y = 0; y < raw.rows; ++y) {
     const auto* r = raw.ptr<std::int16_t>(y);
     auto* o = out.ptr<float>(y);
-    for (int x = 0; x < raw.cols; ++x) o[x] = r[x] > 0 ? static_cast<float>(r[x]) / 16.0f : kInvalidDisparity;
+    for (int x = 0; x < raw.cols; ++x) o[x] = r[x] > invalid ? static_cast<float>(r[x]) / 16.0f : kInvalidDisparity;
   }
   return out;
 }
@@ -68,8 +73,10 @@ cv::Mat fixed_to_float(const cv::Mat& raw) {
 }  // namespace
 
 namespace {
-constexpr std::array<EnumName<StereoMethod>, 3> kStereoMethodNames{
-    {{StereoMethod::BM, "bm"}, {StereoMethod::SGBM, "sgbm"}, {StereoMethod::Given, "given"}}};
+constexpr std::array<EnumName<StereoMethod>, 4> kStereoMethodNames{{{StereoMethod::BM, "bm"},
+                                                                     {StereoMethod::SGBM, "sgbm"},
+                                                                     {StereoMethod::Given, "given"},
+                                                                     {StereoMethod::Sparse, "sparse"}}};
 }  // namespace
 
 namespace {
@@ -94,8 +101,12 @@ void StereoOptions::validate() const {
   if (min_disparity < 0 || min_disparity > 1000)
     bad_option("min_disparity", "must be in 0..1000, got " + std::to_string(min_disparity));
   if (block_size % 2 == 0) bad_option("block_size", "must be odd, got " + std::to_string(block_size));
-  if (method == StereoMethod::BM && (block_size < 5 || block_size > 255))
-    bad_option("block_size", "must be in 5..255 for bm, got " + std::to_string(block_size));
+  const bool block_matching = method == StereoMethod::BM || method == StereoMethod::Sparse;
+  if (block_matching && (block_size < 5 || block_size > 255))
+    bad_option("block_size", "must be in 5..255 for " + std::string(stereo_method_name(method)) + ", got " +
+                                 std::to_string(block_size));
+  if (method == StereoMethod::Sparse && lr_check == LeftRightCheck::Matcher)
+    bad_option("lr_check", "matcher is bm's own check from the whole map's costs; sparse makes the mirrored one");
   if (method == StereoMethod::SGBM && (block_size < 1 || block_size > 21))
     bad_option("block_size", "must be in 1..21 for sgbm, got " + std::to_string(block_size));
   if (texture_threshold < 0) bad_option("texture_threshold", "must be >= 0");
@@ -136,6 +147,7 @@ cv::Mat compute_disparity(const cv::Mat& left_in, const cv::Mat& right_in, const
     throw Error("", "right image",
                 "size " + std::to_string(right.cols) + "x" + std::to_string(right.rows) + " differs from the left " +
                     std::to_string(left.cols) + "x" + std::to_string(left.rows));
+  if (o.method == StereoMethod::Sparse) return SparseBlockMatcher(left, right, o).dense();
   auto matcher = make_matcher(o);
   // BM and SGBM leave the first min_disparity + num_disparities columns without a disparity (their search
   // would leave the image). Padding both images on the left by that much (edge replicated, textureless)
@@ -146,7 +158,7 @@ cv::Mat compute_disparity(const cv::Mat& left_in, const cv::Mat& right_in, const
     cv::copyMakeBorder(a, pa, 0, 0, pad, 0, cv::BORDER_REPLICATE);
     cv::copyMakeBorder(b, pb, 0, 0, pad, 0, cv::BORDER_REPLICATE);
     matcher->compute(pa, pb, raw);
-    return fixed_to_float(raw(cv::Rect(pad, 0, a.cols, a.rows)));
+    return fixed_to_float(raw(cv::Rect(pad, 0, a.cols, a.rows)), o.min_disparity);
   };
   cv::Mat dl = match(left, right);
   if (o.method == StereoMethod::BM && o.lr_check == LeftRightCheck::Mirrored && o.lr_max_diff >= 0) {

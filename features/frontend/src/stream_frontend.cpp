@@ -30,7 +30,7 @@ StereoFrontEndStream::StereoFrontEndStream(const sequence::Calibration& calibrat
     : calib_(calibration), opt_(options) {
   opt_.validate();
   if (opt_.stereo.method == StereoMethod::Given)
-    throw Error(source, "stereo", "disparities given with a sequence cannot be streamed: use bm or sgbm");
+    throw Error(source, "stereo", "disparities given with a sequence cannot be streamed: use bm, sparse or sgbm");
   if (!calib_.fx || !(*calib_.fx > 0)) throw Error(source, "calibration.fx", "the stereo front end needs the focal length");
   if (!calib_.baseline || !(*calib_.baseline > 0))
     throw Error(source, "calibration.baseline", "the stereo front end needs the stereo baseline");
@@ -52,7 +52,7 @@ StereoFrontEndStream::Prepared StereoFrontEndStream::prepare(const cv::Mat& left
   Prepared p;
   p.left = left.clone();  // kept as the previous image (klt): the caller may reuse its buffer
   auto t0 = Clock::now();
-  p.disparity = compute_disparity(left, right, opt_.stereo);  // the offset is added to the observations (emit)
+  p.disparity = prepare_disparity(left, right, opt_.stereo);  // the offset is added to the observations (emit)
   p.ms.disparity = ms_since(t0);
   t0 = Clock::now();
   p.keypoints = detect_keypoints(left, opt_.tracking);

@@ -1,4 +1,5 @@
 #include "smseg/frontend/tracking.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 
 #include "smseg/common/names.hpp"
 #include "smseg/frontend/stereo.hpp"
@@ -219,25 +220,29 @@ FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& kps, const 
 
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
                                  const sequence::Calibration& calib) {
-  if (disparity.type() != CV_32FC1) throw Error("", "disparity", "expected CV_32FC1");
+  return observe_sampled(pixels, FrameDisparity(disparity).sample(pixels), labels, calib);
+}
+
+FrameObservations observe_sampled(const std::vector<cv::Point2f>& pixels, const std::vector<float>& disparities,
+                                  const cv::Mat& labels, const sequence::Calibration& calib) {
+  if (disparities.size() != pixels.size()) throw Error("", "disparity", "one disparity per pixel needed");
   if (!calib.fx || !calib.baseline) throw Error("", "calibration", "stereo needs fx and the baseline");
   const double fx = *calib.fx, fy = calib.fy.value_or(fx), B = *calib.baseline;
   FrameObservations f;
   const std::size_t n = pixels.size();
-  f.pixels.resize(n);
+  f.pixels = pixels;
   f.disparities.resize(n);
   f.points.assign(n, Eigen::Vector3d::Zero());
   f.labels.assign(n, -1);
   for (std::size_t i = 0; i < n; ++i) {
     const cv::Point2f p = pixels[i];
-    f.pixels[i] = p;
-    const int x = std::clamp(static_cast<int>(std::lround(p.x)), 0, disparity.cols - 1);
-    const int y = std::clamp(static_cast<int>(std::lround(p.y)), 0, disparity.rows - 1);
-    const float d = disparity.at<float>(y, x);
+    const float d = disparities[i];
     const bool ok = std::isfinite(d) && d > 0;
     f.disparities[i] = ok ? d : kInvalidDisparity;
     if (ok) f.points[i] = backproject(p.x, p.y, d, fx, fy, calib.cx, calib.cy, B);
     if (!labels.empty()) {
+      const int x = std::clamp(static_cast<int>(std::lround(p.x)), 0, labels.cols - 1);
+      const int y = std::clamp(static_cast<int>(std::lround(p.y)), 0, labels.rows - 1);
       const std::uint8_t l = labels.at<std::uint8_t>(y, x);
       f.labels[i] = l == sequence::kVoid ? -1 : l;
     }

@@ -38,8 +38,10 @@ void declare_choices(options::Table<E>& t) {
           "label-stream runs on a mono sequence: with --causal its labels)",
           [](auto& o) -> auto& { return o.motion; }, front_end_choices(), &motion_name, &options::as_written)
       .only(kCommandLine | kPython);
-  t.named("stereo", "--stereo", "disparity (bm: block matching, sgbm: semi-global, given: from the sequence)",
-          [](auto& o) -> auto& { return o.front_end.stereo.method; }, "bm | sgbm | given",
+  t.named("stereo", "--stereo",
+          "disparity (bm: block matching, sgbm: semi-global, given: from the sequence, sparse: bm's matching and\n"
+          "checks at the tracked points only, without bm's speckle filter; no dense pass)",
+          [](auto& o) -> auto& { return o.front_end.stereo.method; }, "bm | sgbm | given | sparse",
           +[](const std::string& s, const std::string& f) { return frontend::parse_stereo_method(s, f); },
           +[](const frontend::StereoMethod& m) { return std::string(frontend::stereo_method_name(m)); })
       .only(kCommandLine | kPython);

@@ -169,6 +169,24 @@ TEST(Stereo, LeftRightCheckRemovesTheOccludedBand) {
   EXPECT_LT(plane_stats(d_with(fg_inner), dfg, 0).median_error, 0.5);
 }
 
+// The matchers mark unmatched pixels (min_disparity - 1) x 16, a positive number from min_disparity 2
+// on: they must come out invalid, not as disparity min_disparity - 1.
+TEST(Stereo, UnmatchedPixelsAreInvalidWithAMinimumDisparity) {
+  const cv::Mat tex = texture(W + 64, H, 6);
+  const double d = 14.5;
+  const cv::Mat left = shifted(tex, W, H, 0), right = shifted(tex, W, H, d);
+  for (const StereoMethod m : {StereoMethod::BM, StereoMethod::SGBM}) {
+    StereoOptions o;
+    o.method = m;
+    o.block_size = m == StereoMethod::BM ? 11 : 5;
+    o.min_disparity = 4;
+    const cv::Mat disp = compute_disparity(left, right, o);
+    EXPECT_EQ(cv::countNonZero((disp > 0) & (disp < o.min_disparity - 0.5)), 0) << stereo_method_name(m);
+    EXPECT_GT(cv::countNonZero(disp <= 0), 0) << stereo_method_name(m) << ": the image border stays unmatched";
+    EXPECT_LT(plane_stats(disp, d, o.num_disparities + o.block_size + o.min_disparity).median_error, 0.5);
+  }
+}
+
 TEST(Stereo, LeftRightCheckOnHandMadeMaps) {
   cv::Mat dl = (cv::Mat_<float>(1, 6) << -1, 1, 2, 2, 3, 5);
   const cv::Mat dr = (cv::Mat_<float>(1, 6) << 1, 2, 2, 9, -1, 1);

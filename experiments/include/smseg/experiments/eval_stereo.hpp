@@ -31,8 +31,9 @@ struct StereoEvaluation {
   std::vector<StereoEvalRow> rows;  ///< scene-major: rows[s * matchers.size() + m]
 };
 
-/// The matchers named in `methods` (bm, sgbm; Error naming --methods otherwise), each validated: BM
-/// as `bm`, SGBM as `sgbm` with BM's uniqueness ratio, left-right tolerance and speckle window.
+/// The matchers named in `methods` (bm, sgbm, sparse; Error naming --methods otherwise), each
+/// validated: BM and sparse as `bm`, SGBM as `sgbm` with BM's uniqueness ratio, left-right tolerance
+/// and speckle window.
 std::vector<frontend::StereoOptions> stereo_matchers(const std::vector<std::string>& methods,
                                                      const frontend::StereoOptions& bm, frontend::StereoOptions sgbm);
 

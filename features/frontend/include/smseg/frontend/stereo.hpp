@@ -8,6 +8,8 @@
 // right disparity at x - d agrees within `lr_max_diff` pixels), then speckle removal (the "surface
 // validation" of Triclops). Semi-global matching (StereoSGBM, its own left-right check through
 // disp12MaxDiff) is the alternative, and a precomputed disparity from the sequence is the third source.
+// Sparse is BM matched only at the pixels the front end reads (sparse_stereo.hpp): the same
+// disparities there, without the speckle filter.
 //
 // Disparity maps in memory: CV_32FC1 in pixels, left image, d = x_left - x_right; -1 where invalid
 // (every value <= 0 means "no depth").
@@ -25,9 +27,9 @@ namespace smseg::frontend {
 
 inline constexpr float kInvalidDisparity = -1.0f;
 
-enum class StereoMethod { BM, SGBM, Given };
+enum class StereoMethod { BM, SGBM, Given, Sparse };
 
-/// "bm" | "sgbm" | "given"; anything else is an Error naming `field`.
+/// "bm" | "sgbm" | "given" | "sparse"; anything else is an Error naming `field`.
 StereoMethod parse_stereo_method(const std::string& name, const std::string& field = "stereo.method");
 const char* stereo_method_name(StereoMethod m);
 
@@ -57,7 +59,7 @@ struct StereoOptions {
 };
 
 /// Disparity of the left image from a rectified pair (CV_8UC1 or CV_8UC3, equal sizes) with
-/// options.method BM or SGBM. Error for mismatched sizes, wrong types, or method Given.
+/// options.method BM, SGBM or Sparse (every pixel matched one by one: slow, for tests and eval-stereo). Error for mismatched sizes, wrong types, or method Given.
 cv::Mat compute_disparity(const cv::Mat& left, const cv::Mat& right, const StereoOptions& options);
 
 /// Invalidates (sets to -1) every left pixel whose disparity d is not confirmed by the right-image

@@ -21,6 +21,7 @@
 
 #include "smseg/frontend/disparity_offset.hpp"
 #include "smseg/frontend/motion.hpp"
+#include "smseg/frontend/sparse_stereo.hpp"
 #include "smseg/frontend/tracking.hpp"
 #include "smseg/sequence/sequence.hpp"
 
@@ -60,7 +61,8 @@ class StereoFrontEndStream {
   /// The work of a stereo pair that needs no earlier frame (disparity, keypoints): callable from any
   /// thread, for several pairs at once (a pipeline), while advance() runs on an earlier one.
   struct Prepared {
-    cv::Mat left, disparity;
+    cv::Mat left;
+    FrameDisparity disparity;  ///< the dense map, or the sparse matcher's pair matched at the tracked points
     FrameKeypoints keypoints;
     StreamFrontEndTimes ms;
   };

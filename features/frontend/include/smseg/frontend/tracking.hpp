@@ -137,6 +137,9 @@ FrameObservations observe_keypoints(const std::vector<cv::KeyPoint>& keypoints, 
                                     const cv::Mat& labels, const sequence::Calibration& calib);
 FrameObservations observe_points(const std::vector<cv::Point2f>& pixels, const cv::Mat& disparity, const cv::Mat& labels,
                                  const sequence::Calibration& calib);
+/// The same with each pixel's disparity given (disparities[i] for pixels[i], <= 0 or not finite: none).
+FrameObservations observe_sampled(const std::vector<cv::Point2f>& pixels, const std::vector<float>& disparities,
+                                  const cv::Mat& labels, const sequence::Calibration& calib);
 
 /// What each filter removed, in observations ("points") and tracks.
 struct FilterCounts {
