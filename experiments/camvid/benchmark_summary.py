@@ -9,7 +9,8 @@
                                                           prints the table of OUT/eval/*/results.json
                                                           and writes OUT/summary.json; with a
                                                           cross_validate.py record, each run's fold
-                                                          means (prior power 0) beside its figures
+                                                          means at the run's own class prior power
+                                                          beside its figures
 """
 import argparse
 import json
@@ -22,7 +23,7 @@ import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
     ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, Potts smoothing"),
-    ("combined", "combined", ["combined_m20"], "S+M + appearance, M = 20, smoothing"),
+    ("combined", "combined", ["combined_m20"], "S+M + appearance, M = 20, smoothing, prior-corrected"),
     ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
     ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),
     ("sm_path", "sm_path", ["sm_path"], "S+M as sm, + fZC distance to the camera path"),
@@ -33,6 +34,7 @@ RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add 
     ("combined_context_smooth", "combined_context_smooth", ["combined", "combined_context"],
      "S+M + appearance + auto-context + smoothing"),
     ("combined_forest_m20", "combined_forest_m20", ["combined_m20"], "S+M + appearance, M = 20"),
+    ("combined_smooth_m20", "combined_smooth_m20", ["combined_m20"], "S+M + appearance, M = 20, smoothing"),
 ]
 
 def write_json_atomic(path, value):
@@ -64,11 +66,16 @@ def load(path):
 
 
 def fold_means(path):
-    """Each run's fold means and spreads at prior power 0 from a cross_validate.py record ({} without)."""
+    """Each run's fold means and spreads per class prior power ("0", "0.5", ...) from a cross_validate.py
+    record ({} without)."""
     if not path:
         return {}
-    record = load(path)
-    return {name: per_power["0"] for name, per_power in record.get("summary", {}).items() if "0" in per_power}
+    return load(path).get("summary", {})
+
+
+def at_power(per_power, power):
+    """The fold means of a run evaluated at `power` (--prior-power), or None when the record lacks it."""
+    return per_power.get(f"{power:g}")
 
 
 def print_fold_means(runs, folds, test):
@@ -76,7 +83,7 @@ def print_fold_means(runs, folds, test):
     cell = lambda e, m: f"{100 * e[m]['mean']:.1f} ± {100 * e[m]['spread']:.1f}"
     print(f"Leave-one-run-out fold means ± spread (train and val runs, each held out at 1 Hz) beside {test}:")
     for name, run in runs.items():
-        e = folds.get(name)
+        e = at_power(folds.get(name, {}), run["prior_power"])
         cv = (f"{cell(e, 'global')} / {cell(e, 'class_average')} / {cell(e, 'mean_iou')}" if e else "not cross-validated")
         print(f"  {name:17s} folds {cv:40s}  {test} {100 * run['global_accuracy']:.1f} / "
               f"{100 * run['class_average_accuracy']:.1f} / {100 * run['mean_iou']:.1f}")
@@ -100,6 +107,7 @@ def summary(out, train, test, kt, trees, cross_validation=None):
             "smooth_ms_per_frame": 1000.0 * r.get("smooth_seconds_per_frame", 0.0),
             "test_frames": len(r["per_frame"]),
             "trees": r["params"]["trees"],
+            "prior_power": r["params"].get("prior_power", 0.0),  # eval-forest records it when it is not 0
         }
     classes = list(runs["sm"]["per_class"].keys())
     pct = lambda v: f"{100.0 * v:5.1f}"
@@ -118,9 +126,10 @@ def summary(out, train, test, kt, trees, cross_validation=None):
     folds = fold_means(cross_validation)
     if folds:
         print_fold_means(runs, folds, test)
-        for name, e in folds.items():
-            if name in runs:
-                runs[name]["fold_means"] = {m: e[m] for m in ("global", "class_average", "mean_iou")}
+        for name, run in runs.items():
+            e = at_power(folds.get(name, {}), run["prior_power"])
+            if e:
+                run["fold_means"] = {m: e[m] for m in ("global", "class_average", "mean_iou")}
     write_json_atomic(os.path.join(out, "summary.json"),
                       {"format": "smseg-camvid-benchmark", "version": 1, "train": train.split(","), "test": test,
                        "Kt": kt, "M": trees, "runs": runs})

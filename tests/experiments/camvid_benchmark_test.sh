@@ -24,7 +24,10 @@ import json, sys
 s = json.load(open(sys.argv[1]))
 assert s["train"] == ["train", "val"] and s["test"] == "test", s
 assert set(s["runs"]) == {"sm", "combined", "sm_six", "sm_dense", "sm_path", "sm_context", "combined_forest", "combined_smooth",
-                          "combined_context", "combined_context_smooth", "combined_forest_m20"}, s["runs"].keys()
+                          "combined_context", "combined_context_smooth", "combined_forest_m20",
+                          "combined_smooth_m20"}, s["runs"].keys()
+# The headline is evaluated at the cross-validation's class prior power; its twin without it at 0.
+assert s["runs"]["combined"]["prior_power"] == 0.25 and s["runs"]["combined_smooth_m20"]["prior_power"] == 0, s["runs"]
 assert s["runs"]["sm_context"]["train_seconds"] > s["runs"]["sm_six"]["train_seconds"], s["runs"]  # first forest + folds + second
 assert s["runs"]["combined_context"]["train_seconds"] > s["runs"]["combined_forest"]["train_seconds"], s["runs"]
 # SMSEG_M shrinks every forest, the headline's too; each run records the trees it used.
@@ -36,7 +39,7 @@ for name, r in s["runs"].items():
     assert all(0.0 <= c["accuracy"] <= 1.0 for c in r["per_class"].values()), name
     assert r["test_frames"] == 10, (name, r["test_frames"])
     assert r["train_seconds"] > 0 and r["train_peak_rss_mb"] > 10, (name, r)
-for name in ("sm", "sm_path", "combined", "combined_smooth", "combined_context_smooth"):  # the smoothed runs
+for name in ("sm", "sm_path", "combined", "combined_smooth", "combined_context_smooth", "combined_smooth_m20"):  # smoothed
     assert s["runs"][name]["smooth_ms_per_frame"] > 0, name
 for name in ("sm_six", "sm_dense", "sm_context", "combined_forest", "combined_context", "combined_forest_m20"):
     assert s["runs"][name]["smooth_ms_per_frame"] == 0, name
