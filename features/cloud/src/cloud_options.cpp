@@ -157,6 +157,17 @@ const Table<TableParams>& table_params_table() {
              "those, its lower points joining the nearest within the tolerance (stereo errors on the table chain "
              "neighbouring objects; 0: no split)",
              [](auto& p) -> auto& { return p.chain_rise; }, 0.0, 1000.0);
+    t.flag("join_through_feet", "--table-join-feet",
+           "grabcut-sfm, --support table: a candidate plane whose largest patch is no table is tried again with the "
+           "feet of the points above it joining its pieces (a table seen from low, cut up by the objects on it; "
+           "--table-join-feet=false: off)",
+           [](auto& p) -> auto& { return p.join_through_feet; });
+    t.number("chain_density", "--chain-density",
+             "grabcut-sfm, --support table: of the points --chain-rise slabs above the table, only those whose foot "
+             "cell (of the cluster tolerance) holds this x the cluster's median foot-cell count split it (an "
+             "object's faces pile points on their feet; the stereo errors carried between objects do not; 0: "
+             "every point above)",
+             [](auto& p) -> auto& { return p.chain_density; }, 0.0, 1000.0);
     return t;
   }();
   return table;

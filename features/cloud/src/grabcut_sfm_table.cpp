@@ -138,9 +138,11 @@ Eigen::Vector4d refit_plane(const std::vector<Eigen::Vector3f>& cloud, const Hei
   return Eigen::Vector4d(n.x(), n.y(), n.z(), -n.dot(mean));
 }
 
-/// The largest 8-connected patch of `feet` on a grid of `cell`: its points' indices into `feet`.
-std::vector<std::size_t> largest_patch(const std::vector<cv::Point2f>& feet, double cell) {
-  if (feet.empty()) return {};
+/// The largest 8-connected patch of `feet` on a grid of `cell`, counting only the first `counted` feet
+/// (a plane's own points; the others, feet of points standing above it, only join its cells): the
+/// indices of its counted feet.
+std::vector<std::size_t> largest_patch(const std::vector<cv::Point2f>& feet, std::size_t counted, double cell) {
+  if (counted == 0) return {};
   float x0 = feet[0].x, y0 = feet[0].y, x1 = x0, y1 = y0;
   for (const auto& f : feet) {
     x0 = std::min(x0, f.x), y0 = std::min(y0, f.y), x1 = std::max(x1, f.x), y1 = std::max(y1, f.y);
@@ -154,12 +156,12 @@ std::vector<std::size_t> largest_patch(const std::vector<cv::Point2f>& feet, dou
   cv::Mat labels;
   const int n = cv::connectedComponents(occupied, labels, 8, CV_32S);
   std::vector<int> points_in(std::size_t(n), 0);
-  for (const auto& f : feet) ++points_in[std::size_t(labels.at<int>(cell_of(f)))];
+  for (std::size_t i = 0; i < counted; ++i) ++points_in[std::size_t(labels.at<int>(cell_of(feet[i])))];
   int best = 1;
   for (int c = 2; c < n; ++c)
     if (points_in[std::size_t(c)] > points_in[std::size_t(best)]) best = c;
   std::vector<std::size_t> out;
-  for (std::size_t i = 0; i < feet.size(); ++i)
+  for (std::size_t i = 0; i < counted; ++i)
     if (labels.at<int>(cell_of(feet[i])) == best) out.push_back(i);
   return out;
 }
@@ -198,65 +200,100 @@ void TableParams::validate() const {
   if (!(max_refit_tilt >= 0 && max_refit_tilt <= 90)) throw Error("", "--table-max-tilt", "must be 0..90 degrees");
   if (!(edge_margin >= 0)) throw Error("", "--edge-margin", "must be >= 0");
   if (!(min_rise >= 0)) throw Error("", "--min-rise", "must be >= 0");
+  if (!(chain_rise >= 0)) throw Error("", "--chain-rise", "must be >= 0");
+  if (!(chain_density >= 0)) throw Error("", "--chain-density", "must be >= 0");
   if (!(min_depression >= 0)) throw Error("", "--table-min-depression", "must be >= 0");
   if (!(min_prominence >= 1)) throw Error("", "--table-prominence", "must be >= 1");
 }
 
+namespace {
+
+/// What find_table() examines once per candidate height.
+struct TableScan {
+  const std::vector<Eigen::Vector3f>& cloud;
+  const HeightProfile& hp;
+  const Eigen::Vector3d& camera;
+  const Eigen::Vector3d& up;
+  const TableParams& params;
+  double angular_spacing;
+  Eigen::Vector3d e1, e2;
+};
+
+/// The candidate plane at `height`: its largest patch, plane, hull, width, the points standing on it,
+/// and whether it is a table. With `join_through_feet` the feet of the points above the slab join the
+/// patch's cells (not its points or hull).
+TablePlane table_candidate(const TableScan& s, double height, bool join_through_feet) {
+  TablePlane t;
+  t.e1 = s.e1;
+  t.e2 = s.e2;
+  const std::vector<std::size_t> inliers = inliers_of(s.hp, height, s.params.slab_share);
+  std::vector<double> inlier_ranges;
+  std::vector<cv::Point2f> feet;
+  const auto add_foot = [&](std::size_t i) {
+    const Eigen::Vector3d p = s.cloud[s.hp.index[i]].cast<double>();
+    feet.emplace_back(float(t.e1.dot(p)), float(t.e2.dot(p)));
+  };
+  for (std::size_t i : inliers) {
+    add_foot(i);
+    inlier_ranges.push_back(s.hp.range[i]);
+  }
+  const double range = median_of(inlier_ranges);
+  t.thickness = s.params.slab_share * range;
+  const std::size_t own_feet = feet.size();
+  for (std::size_t i = 0; join_through_feet && i < s.hp.height.size(); ++i)
+    if (s.hp.height[i] - height > s.params.slab_share * s.hp.range[i]) add_foot(i);
+  // A plane seen at a grazing angle is sampled coarsely along the line of sight: one angular step of
+  // the cloud covers range x range / (the camera's height above it) of the plane, more than two slabs
+  // when the camera is low; the patch's cells span two such steps, or a table top falls apart in strips.
+  const double footprint = s.angular_spacing * range * range / std::max(s.up.dot(s.camera) - height, t.thickness);
+  const std::vector<std::size_t> patch = largest_patch(feet, own_feet, 2 * std::max(t.thickness, footprint));
+  std::vector<cv::Point2f> patch_feet;
+  for (std::size_t j : patch) patch_feet.push_back(feet[j]);
+  t.plane = refit_plane(s.cloud, s.hp, inliers, patch, s.up, s.params.max_refit_tilt);
+  t.inliers = int(patch.size());
+  t.width = patch_width(patch_feet);
+  cv::convexHull(patch_feet, t.hull);
+  t.camera_height = t.height_of(s.camera);
+  for (std::size_t i = 0; i < s.hp.height.size(); ++i) {
+    const Eigen::Vector3d p = s.cloud[s.hp.index[i]].cast<double>();
+    if (t.height_of(p) > t.thickness && t.under(p)) ++t.standing;
+  }
+  // The camera looks down at a table: its height above the plane is a share of the patch's distance
+  // (a wall's slice just below the camera's height, metres away, is seen nearly level).
+  t.found = t.camera_height >= s.params.min_depression * range && t.width >= s.params.min_width_share * t.camera_height &&
+            t.standing >= std::max(s.params.min_points, int(s.params.min_standing_share * t.inliers));
+  return t;
+}
+
+}  // namespace
+
 TablePlane find_table(const std::vector<Eigen::Vector3f>& cloud, const Eigen::Vector3d& camera,
                       const Eigen::Vector3d& up_in, const TableParams& params) {
   params.validate();
-  TablePlane best;
   const Eigen::Vector3d up = up_in.normalized();
-  plane_basis(up, &best.e1, &best.e2);
   const HeightProfile hp = below_camera(cloud, camera, up);
+  TableScan scan{cloud, hp, camera, up, params, angular_spacing_of(cloud, hp, camera), {}, {}};
+  plane_basis(up, &scan.e1, &scan.e2);
   const int min_count = std::max(params.min_points, int(params.min_share * double(hp.height.size())));
-  const double angular_spacing = angular_spacing_of(cloud, hp, camera);
   std::vector<std::pair<double, int>> peaks = height_peaks(hp, params.slab_share, min_count, params.min_prominence);
-  best.candidates = int(peaks.size());
   // Highest first: a table stands above the floor; an object's top, higher still, has nothing on it.
   std::sort(peaks.begin(), peaks.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
   TablePlane fallback;  // the candidate with most points, when none is a table
-  for (const auto& [height, count] : peaks) {
-    TablePlane t;
-    t.e1 = best.e1;
-    t.e2 = best.e2;
-    const std::vector<std::size_t> inliers = inliers_of(hp, height, params.slab_share);
-    std::vector<double> inlier_ranges;
-    std::vector<cv::Point2f> feet;
-    for (std::size_t i : inliers) {
-      const Eigen::Vector3d p = cloud[hp.index[i]].cast<double>();
-      feet.emplace_back(float(t.e1.dot(p)), float(t.e2.dot(p)));
-      inlier_ranges.push_back(hp.range[i]);
+  fallback.e1 = scan.e1;
+  fallback.e2 = scan.e2;
+  for (const auto& peak : peaks) {
+    TablePlane t = table_candidate(scan, peak.first, false);
+    // Objects on a table seen from low hide the table behind them and cut its top into pieces (the
+    // near strip, the parts beside and beyond them), none a table alone: the objects join them.
+    if (!t.found && params.join_through_feet) {
+      TablePlane joined = table_candidate(scan, peak.first, true);
+      if (joined.found) t = std::move(joined);
     }
-    const double range = median_of(inlier_ranges);
-    t.thickness = params.slab_share * range;
-    // A plane seen at a grazing angle is sampled coarsely along the line of sight: one angular step of
-    // the cloud covers range x range / (the camera's height above it) of the plane, more than two slabs
-    // when the camera is low; the patch's cells span two such steps, or a table top falls apart in strips.
-    const double footprint = angular_spacing * range * range / std::max(up.dot(camera) - height, t.thickness);
-    const std::vector<std::size_t> patch = largest_patch(feet, 2 * std::max(t.thickness, footprint));
-    std::vector<cv::Point2f> patch_feet;
-    for (std::size_t j : patch) patch_feet.push_back(feet[j]);
-    t.plane = refit_plane(cloud, hp, inliers, patch, up, params.max_refit_tilt);
-    t.inliers = int(patch.size());
-    t.width = patch_width(patch_feet);
-    cv::convexHull(patch_feet, t.hull);
-    t.camera_height = t.height_of(camera);
-    for (std::size_t i = 0; i < hp.height.size(); ++i) {
-      const Eigen::Vector3d p = cloud[hp.index[i]].cast<double>();
-      if (t.height_of(p) > t.thickness && t.under(p)) ++t.standing;
-    }
-    // The camera looks down at a table: its height above the plane is a share of the patch's distance
-    // (a wall's slice just below the camera's height, metres away, is seen nearly level).
-    t.found = t.camera_height >= params.min_depression * range && t.width >= params.min_width_share * t.camera_height &&
-              t.standing >= std::max(params.min_points, int(params.min_standing_share * t.inliers));
-    if (t.found) {
-      t.candidates = best.candidates;
-      return t;
-    }
+    t.candidates = int(peaks.size());
+    if (t.found) return t;
     if (t.inliers > fallback.inliers) fallback = t;
   }
-  fallback.candidates = best.candidates;
+  fallback.candidates = int(peaks.size());
   fallback.found = false;
   return fallback;
 }

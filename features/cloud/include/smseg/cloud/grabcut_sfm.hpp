@@ -82,6 +82,13 @@ struct TableParams {
                                      ///< smallest cluster's size) is split into those, its lower points joining
                                      ///< the nearest within the tolerance: stereo errors on the table chain
                                      ///< neighbouring objects (GrabCutSFM; 0: no split)
+  double chain_density = 0.5;        ///< of the points above chain_rise, only those whose foot cell (of the cluster
+                                     ///< tolerance) holds this x the cluster's median foot-cell count are split
+                                     ///< into clusters: an object's faces pile points on their feet, the stereo
+                                     ///< errors between objects do not (GrabCutSFM; 0: every point above)
+  bool join_through_feet = true;     ///< a candidate whose largest patch is no table is tried again with the feet of
+                                     ///< the points above it joining its pieces (a table seen from low, cut into
+                                     ///< pieces by the objects on it and the table they hide)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
   double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
                                      ///< and below it, and exceeds that mean by min_share (its own points)
