@@ -13,22 +13,24 @@ using namespace smseg;
 
 namespace {
 
+// One forest and one frame shared by the tests of this file (trained once); the work folder goes
+// with the process.
 struct Fixture {
-  fs::path work;
-  forest::Forest forest;
-  stacks::StackSet set;
+  fs::path work = eval_test::make_work("voting", 6);
+  forest::Forest forest = eval_test::train(work, 5);
+  stacks::StackSet set = stacks::open_stacks({work}, stacks::FrameRange{5, 6}, true, true, {});
+  Fixture() = default;
+  Fixture(const Fixture&) = delete;
+  Fixture& operator=(const Fixture&) = delete;
+  ~Fixture() {
+    std::error_code ignored;
+    fs::remove_all(work, ignored);
+  }
 };
 
-// One forest and one frame shared by the tests of this file (trained once).
 const Fixture& fixture() {
-  static const Fixture* f = [] {
-    auto* x = new Fixture;
-    x->work = eval_test::make_work("voting", 6);
-    x->forest = eval_test::train(x->work, 5);
-    x->set = stacks::open_stacks({x->work}, stacks::FrameRange{5, 6}, true, true, {});
-    return x;
-  }();
-  return *f;
+  static const Fixture f;
+  return f;
 }
 
 int majority(const std::vector<int>& votes, int classes) {

@@ -16,4 +16,14 @@ inline std::filesystem::path temp_dir(const std::string& name) {
   return d;
 }
 
+/// Removes its folder when it goes out of scope, so that a test leaves nothing behind (also when an
+/// ASSERT returns early).
+struct RemovedAtEnd {
+  std::filesystem::path path;
+  ~RemovedAtEnd() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+};
+
 }  // namespace smseg::test

@@ -47,6 +47,7 @@ fs::path make_kitti_slice(const std::string& name) {
 
 TEST(ImportKitti, OwnLayoutGivesCalibrationTimesAndWorldPoses) {
   const fs::path d = make_kitti_slice("kitti_own");
+  const smseg::test::RemovedAtEnd cleanup{d};
   const Sequence seq = import_kitti(d, d / "out", KittiImportOptions{});
   EXPECT_EQ(seq.kind, SequenceKind::Stereo);
   ASSERT_EQ(seq.frame_count(), 3);
@@ -78,6 +79,7 @@ TEST(ImportKitti, OwnLayoutGivesCalibrationTimesAndWorldPoses) {
 // are refused.
 TEST(ImportKitti, DisparityOffsetFromTheCalibrationOrTheOption) {
   const fs::path d = make_kitti_slice("kitti_offset");
+  const smseg::test::RemovedAtEnd cleanup{d};
   EXPECT_EQ(import_kitti(d, d / "zero", KittiImportOptions{}).calibration.disparity_offset, 0);
   write_text(d / "calib.txt",
              "P0: 100 0 12 0 0 100 6 0 0 0 1 0\n"
@@ -94,6 +96,7 @@ TEST(ImportKitti, DisparityOffsetFromTheCalibrationOrTheOption) {
 
 TEST(ImportKitti, BadFilesNameTheFileAndLine) {
   const fs::path d = make_kitti_slice("kitti_bad");
+  const smseg::test::RemovedAtEnd cleanup{d};
   auto message_of = [&] {
     try {
       import_kitti(d, d / "out", KittiImportOptions{});
@@ -124,6 +127,7 @@ TEST(ImportKitti, SharedSlicesImport) {
   const fs::path kitti = fs::path(SMSEG_SHARED_DIR) / "data" / "kitti-stereo";
   if (!fs::exists(kitti / "seq1" / "calib.txt")) GTEST_SKIP() << "no shared KITTI slices at " << kitti;
   const fs::path out = temp_dir("kitti_shared");
+  const smseg::test::RemovedAtEnd cleanup{out};
   const Sequence seq = import_kitti(kitti / "seq1", out, KittiImportOptions{});
   EXPECT_EQ(seq.frame_count(), 51);
   EXPECT_EQ(seq.size, cv::Size(1226, 370));
@@ -142,6 +146,7 @@ TEST(ImportKitti, SharedSlicesImport) {
 // the poses file's line, as the tracks reader refuses it; nothing is written.
 TEST(ImportKitti, PosesThatAreNotRotationsAreRefusedNamingTheLine) {
   const fs::path d = make_kitti_slice("kitti_not_rotation");
+  const smseg::test::RemovedAtEnd cleanup{d};
   const auto message_of = [&] {
     try {
       import_kitti(d, d / "out", KittiImportOptions{});
