@@ -123,6 +123,8 @@ struct StreamItem {
   StreamInput input;
   double read_ms = 0;
   frontend::StereoFrontEndStream::Prepared prepared;
+  cv::Mat labels;
+  StreamStageTimes times;
 };
 
 // A labeller that needs its calibration: the first frames read, prepared in parallel, calibrated on,
@@ -184,13 +186,19 @@ int run_stream(StreamLabeller& labeller, const StreamSource& source, const Strea
                                                });
                                                return item;
                                              }) &
+          tbb::make_filter<ItemPtr, ItemPtr>(tbb::filter_mode::serial_in_order,
+                                             [&](ItemPtr item) {
+                                               tbb::this_task_arena::isolate([&] {
+                                                 item->labels = labeller.label(std::move(item->prepared),
+                                                                               item->input.index, &item->times);
+                                               });
+                                               item->times.read = item->read_ms;
+                                               return item;
+                                             }) &
+          // The sink (the label PNG, the summary's figures) is its own in-order stage: it writes frame t
+          // while the labeller tracks frame t + 1, and sees the frames in order.
           tbb::make_filter<ItemPtr, void>(tbb::filter_mode::serial_in_order, [&](ItemPtr item) {
-            StreamStageTimes times;
-            cv::Mat labels;
-            tbb::this_task_arena::isolate(
-                [&] { labels = labeller.label(std::move(item->prepared), item->input.index, &times); });
-            times.read = item->read_ms;
-            sink(item->input, labels, times);
+            sink(item->input, item->labels, item->times);
             ++frames;
           }));
   return frames;

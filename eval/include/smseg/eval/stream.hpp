@@ -101,7 +101,8 @@ using StreamSource = std::function<bool(StreamInput&)>;
 using StreamSink = std::function<void(const StreamInput&, const cv::Mat& labels, const StreamStageTimes&)>;
 
 /// Runs a stream through the labeller as a pipeline: pairs are read in order, up to `in_flight` of
-/// them prepared (disparity, keypoints) in parallel, then labelled and handed to the sink in order.
+/// them prepared (disparity, keypoints) in parallel, then labelled in order and handed to the sink in
+/// order (the sink of one frame runs beside the labelling of the next).
 /// The labels are those of labeller.push() frame after frame, whatever the thread count. A labeller that
 /// needs its calibration gets the first frames first (read, then prepared in parallel). Returns the
 /// number of frames.
