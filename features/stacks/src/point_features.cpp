@@ -125,7 +125,7 @@ const options::Table<FeatureOptions>& feature_options_table() {
         .recorded_unless_default();
     t.number("sweep_scale", "--sweep-scale",
              "--dense, monocular: the plane sweep's resolution against the frame's (0.5: half the width and\n"
-             "height, about an eighth of the time; the depth is brought back to the frame's size)",
+             "height, a quarter to an eighth of the time; the depth is brought back to the frame's size)",
              [](auto& o) -> auto& { return o.sweep_scale; }, 0.1, 1.0)
         .recorded_unless_default();
     t.choice("height_reference", "--height-reference",
