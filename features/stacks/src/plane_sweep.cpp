@@ -168,8 +168,8 @@ namespace {
 
 // The sweep at the images' own resolution (scale ignored).
 cv::Mat sweep_at_own_resolution(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
-                           const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
-                           const PlaneSweepOptions& o) {
+                                const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
+                                const PlaneSweepOptions& o) {
   cv::Mat depth(reference_gray.size(), CV_32FC1, cv::Scalar(0));
   if (neighbours.size() < 2) return depth;  // no consistency check possible: nothing is trusted
 
@@ -239,21 +239,12 @@ cv::Mat depth_to_size(const cv::Mat& depth, cv::Size size) {
   return smooth;
 }
 
-}  // namespace
-
-cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
-                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
-                          const PlaneSweepOptions& o) {
-  o.validate();
-  if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
-  if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
-    throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
-  for (const auto& v : neighbours)
-    if (v.gray.size() != reference_gray.size() || v.gray.type() != CV_8UC1)
-      throw Error("", "plane_sweep", "every neighbour image must be 8-bit grey of the reference's size");
+// The sweep of images shrunk to `small` (area averaging), the camera scaled with them, its depth
+// brought back to the reference's size.
+cv::Mat sweep_shrunk(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                     const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
+                     const PlaneSweepOptions& o, cv::Size small) {
   const cv::Size full = reference_gray.size();
-  const cv::Size small(std::max(1, int(std::lround(full.width * o.scale))), std::max(1, int(std::lround(full.height * o.scale))));
-  if (small == full || neighbours.size() < 2) return sweep_at_own_resolution(reference_gray, reference_pose, neighbours, camera, o);
   const auto shrink = [&](const cv::Mat& gray) {
     cv::Mat out;
     cv::resize(gray, out, small, 0, 0, cv::INTER_AREA);
@@ -268,7 +259,27 @@ cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& r
   small_camera.fy = camera.fy.value_or(*camera.fx) * sy;
   small_camera.cx = (camera.cx + 0.5) * sx - 0.5;
   small_camera.cy = (camera.cy + 0.5) * sy - 0.5;
-  return depth_to_size(sweep_at_own_resolution(shrink(reference_gray), reference_pose, small_views, small_camera, o), full);
+  const cv::Mat depth = sweep_at_own_resolution(shrink(reference_gray), reference_pose, small_views, small_camera, o);
+  return depth_to_size(depth, full);
+}
+
+}  // namespace
+
+cv::Mat plane_sweep_depth(const cv::Mat& reference_gray, const sequence::Pose& reference_pose,
+                          const std::vector<SweepView>& neighbours, const sequence::Calibration& camera,
+                          const PlaneSweepOptions& o) {
+  o.validate();
+  if (!camera.fx || !(*camera.fx > 0)) throw Error("", "plane_sweep", "the camera needs a focal length");
+  if (reference_gray.empty() || reference_gray.type() != CV_8UC1)
+    throw Error("", "plane_sweep", "the reference image must be a non-empty 8-bit grey image");
+  for (const auto& v : neighbours)
+    if (v.gray.size() != reference_gray.size() || v.gray.type() != CV_8UC1)
+      throw Error("", "plane_sweep", "every neighbour image must be 8-bit grey of the reference's size");
+  const cv::Size full = reference_gray.size();
+  const cv::Size small(std::max(1, int(std::lround(full.width * o.scale))),
+                       std::max(1, int(std::lround(full.height * o.scale))));
+  if (small == full) return sweep_at_own_resolution(reference_gray, reference_pose, neighbours, camera, o);
+  return sweep_shrunk(reference_gray, reference_pose, neighbours, camera, o, small);
 }
 
 std::vector<int> sweep_neighbours(int f, const std::vector<bool>& usable, const std::vector<sequence::Pose>& poses,
