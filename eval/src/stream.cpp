@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <memory>
+#include <optional>
 
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_pipeline.h>
@@ -70,18 +71,18 @@ frontend::StereoFrontEndStream::Prepared StreamLabeller::prepare(const cv::Mat& 
   return mono_ ? mono_->prepare(left) : stereo_->prepare(left, right);
 }
 
-cv::Mat StreamLabeller::label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times) {
+StreamLabeller::Tracked StreamLabeller::track(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index) {
   const cv::Mat left = pair.left;
   if (left.size() != size_)
     throw Error("", "frame " + std::to_string(frame_index),
                 "is " + std::to_string(left.cols) + "x" + std::to_string(left.rows) + ", the stream is " +
                     std::to_string(size_.width) + "x" + std::to_string(size_.height));
   frame_ = mono_ ? mono_->advance(std::move(pair)) : stereo_->advance(std::move(pair));
-  return label_frame_(left, frame_index, times);
+  return tracked_(left, frame_index);
 }
 
-void StreamLabeller::calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first,
-                               const std::vector<int>& frame_indices, const Labelled& labelled) {
+std::vector<StreamLabeller::Tracked> StreamLabeller::calibrate(
+    std::vector<frontend::StereoFrontEndStream::Prepared>&& first, const std::vector<int>& frame_indices) {
   std::vector<cv::Mat> lefts;
   for (const auto& p : first) {
     if (p.left.size() != size_)
@@ -89,29 +90,41 @@ void StreamLabeller::calibrate(std::vector<frontend::StereoFrontEndStream::Prepa
     lefts.push_back(p.left);
   }
   std::vector<frontend::StreamFrame> frames = stereo_->calibrate(std::move(first));  // needs_calibration(): stereo
+  std::vector<Tracked> tracked;
   for (std::size_t i = 0; i < frames.size(); ++i) {
     frame_ = std::move(frames[i]);
-    StreamStageTimes times;
-    const cv::Mat labels = label_frame_(lefts[i], frame_indices[i], &times);
-    labelled(i, labels, times);
+    tracked.push_back(tracked_(lefts[i], frame_indices[i]));
   }
+  return tracked;
 }
 
-cv::Mat StreamLabeller::label_frame_(const cv::Mat& left, int frame_index, StreamStageTimes* times) {
+StreamLabeller::Tracked StreamLabeller::tracked_(const cv::Mat& left, int frame_index) {
+  Tracked t;
+  t.left = left;
+  t.frame_index = frame_index;
+  t.front_end_ms = frame_.ms;
+  const auto t0 = Clock::now();
+  t.points = features_.advance(frame_);
+  t.attributes_ms = ms_since(t0);
+  return t;
+}
+
+cv::Mat StreamLabeller::classify(const Tracked& frame, StreamStageTimes* times) const {
   auto t0 = Clock::now();
-  const std::vector<cv::Mat>& sats = features_.push(frame_);
-  const double features_ms = ms_since(t0);
+  TableBuffers& buffers = buffers_.local();
+  features_.tables(frame.points, buffers.rasters, buffers.sats);
+  const double tables_ms = ms_since(t0);
 
   forest::FrameData data;
   data.width = size_.width;
   data.height = size_.height;
-  for (int t : table_of_feature_) data.sats.push_back(sats[t].ptr<double>());
-  data.gray = left.ptr<std::uint8_t>();  // prepare() made a continuous copy
+  for (int t : table_of_feature_) data.sats.push_back(buffers.sats[t].ptr<double>());
+  data.gray = frame.left.ptr<std::uint8_t>();  // prepare() made a continuous copy
   t0 = Clock::now();
-  cv::Mat labels = label_frame(classifier_, data, eval_, frame_index);
+  cv::Mat labels = label_frame(classifier_, data, eval_, frame.frame_index);
   if (times) {
-    times->front_end = frame_.ms;
-    times->features = features_ms;
+    times->front_end = frame.front_end_ms;
+    times->features = frame.attributes_ms + tables_ms;
     times->classify = ms_since(t0);
   }
   return labels;
@@ -119,56 +132,99 @@ cv::Mat StreamLabeller::label_frame_(const cv::Mat& left, int frame_index, Strea
 
 namespace {
 
+using Prepared = frontend::StereoFrontEndStream::Prepared;
+
 struct StreamItem {
   StreamInput input;
   double read_ms = 0;
-  frontend::StereoFrontEndStream::Prepared prepared;
+  Prepared prepared;
+  std::optional<StreamLabeller::Tracked> tracked;  // none while it waits for the calibration
   cv::Mat labels;
   StreamStageTimes times;
+  // At the last of the calibration's first frames: the earlier ones, tracked with it, handed on before it.
+  std::vector<std::shared_ptr<StreamItem>> held;
+};
+using ItemPtr = std::shared_ptr<StreamItem>;
+
+// The stream's first frames, held until the calibration has them all, then tracked together.
+class CalibrationGate {
+ public:
+  explicit CalibrationGate(StreamLabeller& labeller) : labeller_(labeller), open_(!labeller.needs_calibration()) {}
+
+  // Tracks the item and hands it on; or holds it, handing on an empty item in its place (which
+  // nothing shares with it); at the last of the first frames, tracks them all and hands the earlier
+  // ones on with it.
+  ItemPtr track(const ItemPtr& item) {
+    if (open_) {
+      item->tracked = labeller_.track(std::move(item->prepared), item->input.index);
+      return item;
+    }
+    waiting_.push_back(item);
+    if (waiting_.size() < static_cast<std::size_t>(frontend::kOffsetFrames)) return std::make_shared<StreamItem>();
+    release(item);
+    return item;
+  }
+
+  // A stream that ended among its first frames: them, tracked (none otherwise).
+  std::vector<ItemPtr> release_rest() {
+    std::vector<ItemPtr> rest;
+    if (!waiting_.empty()) {
+      auto last = waiting_.back();
+      release(last);
+      rest = std::move(last->held);
+      rest.push_back(last);
+    }
+    return rest;
+  }
+
+ private:
+  void release(const ItemPtr& last) {
+    std::vector<Prepared> prepared;
+    std::vector<int> indices;
+    for (auto& w : waiting_) {
+      prepared.push_back(std::move(w->prepared));
+      indices.push_back(w->input.index);
+    }
+    std::vector<StreamLabeller::Tracked> tracked = labeller_.calibrate(std::move(prepared), indices);
+    for (std::size_t i = 0; i < waiting_.size(); ++i) waiting_[i]->tracked = std::move(tracked[i]);
+    waiting_.pop_back();
+    last->held = std::move(waiting_);
+    waiting_.clear();
+    open_ = true;
+  }
+
+  StreamLabeller& labeller_;
+  bool open_;
+  std::vector<ItemPtr> waiting_;
 };
 
-// A labeller that needs its calibration: the first frames read, prepared in parallel, calibrated on,
-// labelled and handed to the sink. False when the source ended among them.
-bool calibrate_on_first_frames(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, int& frames) {
-  std::vector<StreamItem> items;
-  bool more = true;
-  while (more && items.size() < static_cast<std::size_t>(frontend::kOffsetFrames)) {
-    StreamItem item;
-    item.input.arrived = Clock::now();
-    more = source(item.input);
-    item.read_ms = ms_since(item.input.arrived);
-    if (more) items.push_back(std::move(item));
-  }
-  tbb::parallel_for(std::size_t{0}, items.size(), [&](std::size_t i) {
-    tbb::this_task_arena::isolate([&] { items[i].prepared = labeller.prepare(items[i].input.left, items[i].input.right); });
+void classify(const StreamLabeller& labeller, StreamItem& item) {
+  item.labels = labeller.classify(*item.tracked, &item.times);
+  item.times.read = item.read_ms;
+}
+
+// The item's frames (the held ones first), classified in parallel.
+void classify_all(const StreamLabeller& labeller, StreamItem& item) {
+  if (!item.tracked) return;
+  tbb::parallel_for(std::size_t{0}, item.held.size() + 1, [&](std::size_t i) {
+    tbb::this_task_arena::isolate([&] { classify(labeller, i < item.held.size() ? *item.held[i] : item); });
   });
-  std::vector<frontend::StereoFrontEndStream::Prepared> prepared;
-  std::vector<int> indices;
-  for (auto& item : items) {
-    prepared.push_back(std::move(item.prepared));
-    indices.push_back(item.input.index);
-  }
-  labeller.calibrate(std::move(prepared), indices, [&](std::size_t i, const cv::Mat& labels, const StreamStageTimes& t) {
-    StreamStageTimes times = t;
-    times.read = items[i].read_ms;
-    sink(items[i].input, labels, times);
-    ++frames;
-  });
-  return more;
 }
 
 }  // namespace
 
 int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight) {
-  using Item = StreamItem;
-  using ItemPtr = std::shared_ptr<Item>;
   int frames = 0;
-  if (labeller.needs_calibration() && !calibrate_on_first_frames(labeller, source, sink, frames)) return frames;
+  const auto deliver = [&](const StreamItem& item) {
+    sink(item.input, item.labels, item.times);
+    ++frames;
+  };
+  CalibrationGate gate(labeller);
   tbb::parallel_pipeline(
       std::max<std::size_t>(1, in_flight),
       tbb::make_filter<void, ItemPtr>(tbb::filter_mode::serial_in_order,
                                       [&](tbb::flow_control& fc) {
-                                        auto item = std::make_shared<Item>();
+                                        auto item = std::make_shared<StreamItem>();
                                         item->input.arrived = Clock::now();
                                         if (!source(item->input)) {
                                           fc.stop();
@@ -188,19 +244,24 @@ int run_stream(StreamLabeller& labeller, const StreamSource& source, const Strea
                                              }) &
           tbb::make_filter<ItemPtr, ItemPtr>(tbb::filter_mode::serial_in_order,
                                              [&](ItemPtr item) {
-                                               tbb::this_task_arena::isolate([&] {
-                                                 item->labels = labeller.label(std::move(item->prepared),
-                                                                               item->input.index, &item->times);
-                                               });
-                                               item->times.read = item->read_ms;
+                                               ItemPtr out;
+                                               tbb::this_task_arena::isolate([&] { out = gate.track(item); });
+                                               return out;
+                                             }) &
+          tbb::make_filter<ItemPtr, ItemPtr>(tbb::filter_mode::parallel,
+                                             [&](ItemPtr item) {
+                                               classify_all(labeller, *item);
                                                return item;
                                              }) &
-          // The sink (the label PNG, the summary's figures) is its own in-order stage: it writes frame t
-          // while the labeller tracks frame t + 1, and sees the frames in order.
+          // The sink (the label PNG, the summary's figures) sees the frames in order.
           tbb::make_filter<ItemPtr, void>(tbb::filter_mode::serial_in_order, [&](ItemPtr item) {
-            sink(item->input, item->labels, item->times);
-            ++frames;
+            for (const ItemPtr& held : item->held) deliver(*held);
+            if (item->tracked) deliver(*item);
           }));
+  for (const ItemPtr& item : gate.release_rest()) {
+    classify(labeller, *item);
+    deliver(*item);
+  }
   return frames;
 }
 

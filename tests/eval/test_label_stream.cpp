@@ -45,8 +45,7 @@ std::vector<cv::Mat> stream_labels(eval::StreamLabeller& stream, const sequence:
     indices.push_back(f);
   }
   std::vector<cv::Mat> labels;
-  stream.calibrate(std::move(first), indices,
-                   [&](std::size_t, const cv::Mat& l, const eval::StreamStageTimes&) { labels.push_back(l); });
+  for (const auto& tracked : stream.calibrate(std::move(first), indices)) labels.push_back(stream.classify(tracked));
   for (int f = static_cast<int>(labels.size()); f < frames; ++f) {
     labels.push_back(stream.push(s.load_left_gray(f), s.load_right_gray(f), f));
     points += static_cast<int>(stream.last_frame().observations.size());
@@ -129,6 +128,46 @@ INSTANTIATE_TEST_SUITE_P(
                       StreamCase{"klt_gftt_sparse_grid", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 20,
                                  false, frontend::StereoMethod::Sparse}),
     [](const ::testing::TestParamInfo<StreamCase>& i) { return i.param.name; });
+
+// The pipeline (run_stream: frames tracked in order, classified in parallel, the first ones held for the
+// calibration) gives the labels of the labeller frame after frame, to the sink in order, whatever the
+// frames in flight; also for a video that ends among the calibration's first frames.
+TEST_F(LabelStream, PipelineGivesTheLabelsOfFrameAfterFrame) {
+  const StreamCase c{"klt_grid", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 20, false};
+  const forest::Forest forest = causal_forest(c, dir / "work-pipeline");
+  eval::StreamOptions so;
+  so.front_end = front_end(c);
+  so.eval.grid = c.grid;
+  so.eval.votes = 6;
+  for (const int frames : {seq->frame_count(), frontend::kOffsetFrames, frontend::kOffsetFrames - 5}) {
+    int points = 0;
+    eval::StreamLabeller one_by_one(forest, "forest.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+    const std::vector<cv::Mat> expected = stream_labels(one_by_one, *seq, frames, points);
+    for (const std::size_t in_flight : {1, 2, 5}) {
+      eval::StreamLabeller stream(forest, "forest.json", seq->calibration, seq->camera_height, seq->size, so, "seq");
+      int next = 0;
+      const eval::StreamSource source = [&](eval::StreamInput& in) {
+        if (next == frames) return false;
+        in.index = next;
+        in.left = seq->load_left_gray(next);
+        in.right = seq->load_right_gray(next);
+        ++next;
+        return true;
+      };
+      std::vector<int> order;
+      std::vector<cv::Mat> streamed;
+      const eval::StreamSink sink = [&](const eval::StreamInput& in, const cv::Mat& labels, const eval::StreamStageTimes&) {
+        order.push_back(in.index);
+        streamed.push_back(labels.clone());
+      };
+      ASSERT_EQ(eval::run_stream(stream, source, sink, in_flight), frames) << frames << " frames, " << in_flight;
+      for (int f = 0; f < frames; ++f) {
+        ASSERT_EQ(order[f], f) << frames << " frames, " << in_flight << " in flight: the sink's order";
+        ASSERT_EQ(cv::countNonZero(expected[f] != streamed[f]), 0) << frames << " frames, " << in_flight << ", frame " << f;
+      }
+    }
+  }
+}
 
 TEST_F(LabelStream, FrontEndFollowsTheWholeSequencePath) {
   for (const auto tracker : {frontend::FrameTracker::Descriptors, frontend::FrameTracker::Klt}) {

@@ -12,6 +12,7 @@
 #include <string>
 
 #include <opencv2/core.hpp>
+#include <tbb/enumerable_thread_specific.h>
 
 #include "smseg/eval/evaluate.hpp"
 #include "smseg/frontend/stream.hpp"
@@ -51,18 +52,38 @@ class StreamLabeller {
   /// stream ignores right_gray).
   frontend::StereoFrontEndStream::Prepared prepare(const cv::Mat& left_gray, const cv::Mat& right_gray) const;
 
-  /// Labels the next prepared pair, in order. `frame_index` keys the voting pixels (a sequence's
-  /// frame number, as eval-forest uses it). Returns the class positions (CV_8UC1).
-  cv::Mat label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr);
+  /// One frame after the in-order half of its work (tracking, motion, its points' causal attributes):
+  /// all classify() needs.
+  struct Tracked {
+    cv::Mat left;   ///< the prepared 8-bit grey left image
+    int frame_index = 0;
+    stacks::StreamFramePoints points;
+    frontend::StreamFrontEndTimes front_end_ms;
+    double attributes_ms = 0;
+  };
+
+  /// The in-order half of the next prepared pair's work: frame after frame, one at a time (the front
+  /// end and the causal attributes carry state). `frame_index` keys the voting pixels (a sequence's
+  /// frame number, as eval-forest uses it).
+  Tracked track(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index);
+
+  /// The rest of a tracked frame's work (its feature tables, classification, voting, smoothing): needs no
+  /// other frame, so a pipeline classifies frame t on one thread while track() runs on frame t + 1.
+  /// Returns the class positions (CV_8UC1).
+  cv::Mat classify(const Tracked& frame, StreamStageTimes* times = nullptr) const;
+
+  /// track() then classify().
+  cv::Mat label(frontend::StereoFrontEndStream::Prepared&& pair, int frame_index, StreamStageTimes* times = nullptr) {
+    return classify(track(std::move(pair), frame_index), times);
+  }
 
   /// With the stereo front end's disparity_offset auto, the stream first estimates its offset from its
   /// first frames (frontend::kOffsetFrames, or all of a shorter video): calibrate() takes them prepared,
-  /// in order, with their frame indices, and hands each one's labels to `labelled` in order (as label()
-  /// would: last_frame() is that frame's meanwhile); label() follows from the next one.
+  /// in order, with their frame indices, and returns them tracked (last_frame() is the last of them);
+  /// track() follows from the next one.
   bool needs_calibration() const { return stereo_ && stereo_->needs_calibration(); }
-  using Labelled = std::function<void(std::size_t i, const cv::Mat& labels, const StreamStageTimes& times)>;
-  void calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first, const std::vector<int>& frame_indices,
-                 const Labelled& labelled);
+  std::vector<Tracked> calibrate(std::vector<frontend::StereoFrontEndStream::Prepared>&& first,
+                                 const std::vector<int>& frame_indices);
   /// Pixels, once calibrated (a monocular stream: 0, it has no disparities).
   double disparity_offset() const { return stereo_ ? stereo_->disparity_offset() : 0.0; }
 
@@ -75,8 +96,8 @@ class StreamLabeller {
   const frontend::StreamFrame& last_frame() const { return frame_; }
 
  private:
-  // Features and classification of the front end's frame_ (whose left image is `left`).
-  cv::Mat label_frame_(const cv::Mat& left, int frame_index, StreamStageTimes* times);
+  // The front end's frame_ (whose left image is `left`) tracked: its points' attributes added.
+  Tracked tracked_(const cv::Mat& left, int frame_index);
 
   std::vector<int> table_of_feature_;  // per forest feature: its index in structure_feature_names()
   forest::Classifier classifier_;
@@ -86,6 +107,10 @@ class StreamLabeller {
   std::optional<sfm::MonoFrontEndStream> mono_;
   stacks::FeatureStream features_;
   frontend::StreamFrame frame_;
+  struct TableBuffers {
+    std::vector<cv::Mat> rasters, sats;
+  };
+  mutable tbb::enumerable_thread_specific<TableBuffers> buffers_;  // classify()'s, one set per thread
 };
 
 /// One stereo pair of a stream, as a source gives it.
@@ -100,12 +125,13 @@ using StreamSource = std::function<bool(StreamInput&)>;
 /// Takes each labelled frame, in order.
 using StreamSink = std::function<void(const StreamInput&, const cv::Mat& labels, const StreamStageTimes&)>;
 
-/// Runs a stream through the labeller as a pipeline: pairs are read in order, up to `in_flight` of
-/// them prepared (disparity, keypoints) in parallel, then labelled in order and handed to the sink in
-/// order (the sink of one frame runs beside the labelling of the next).
-/// The labels are those of labeller.push() frame after frame, whatever the thread count. A labeller that
-/// needs its calibration gets the first frames first (read, then prepared in parallel). Returns the
-/// number of frames.
+/// Runs a stream through the labeller as a pipeline of five stages: pairs are read in order, up to
+/// `in_flight` of them prepared (disparity, keypoints) in parallel, tracked in order, classified in
+/// parallel and handed to the sink in order. Only tracking runs one frame at a time: the tables and the
+/// forest of frame t run beside the tracking of frame t + 1, the sink of an earlier frame beside both.
+/// The labels are those of labeller.push() frame after frame, whatever the thread count. A labeller
+/// that needs its calibration holds its first frames in the tracking stage (the reading and preparing
+/// of the next go on) and tracks them all at the last of them. Returns the number of frames.
 int run_stream(StreamLabeller& labeller, const StreamSource& source, const StreamSink& sink, std::size_t in_flight = 3);
 
 }  // namespace smseg::eval
