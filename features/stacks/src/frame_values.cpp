@@ -208,17 +208,8 @@ class Reader {
   /// The next block's values, inflated into `planes` (sized here from the expected size, never from the
   /// file); returns the encoding.
   Encoding block(const std::string& what, std::string& planes) {
-    if (bytes_.size() - at_ < kBlockHeaderBytes) fail("ends inside the header of " + what + " (truncated?)");
-    const auto code = static_cast<unsigned char>(bytes_[at_]);
-    if (code > kFromColour) fail(what + " has unknown encoding " + std::to_string(code));
-    for (int b = 1; b < 8; ++b)
-      if (bytes_[at_ + b] != 0) fail(what + " has non-zero reserved bytes in its header");
-    const auto e = static_cast<Encoding>(code);
-    const std::uint64_t packed = get_le(bytes_.data() + at_ + 8, 8);
-    at_ += kBlockHeaderBytes;
-    if (packed > bytes_.size() - at_) fail(what + " says " + std::to_string(packed) + " bytes, the file ends before (truncated?)");
-    if ((e == kZero) != (packed == 0) || (e == kFromColour) != (packed == kDigestBytes))
-      fail(what + " has " + std::to_string(packed) + " packed bytes for its encoding");
+    std::uint64_t packed = 0;
+    const Encoding e = block_header(what, packed);
     const std::size_t n = std::size_t(ex_.size.width) * std::size_t(ex_.size.height);
     if (e == kFromColour) {
       planes.assign(bytes_.data() + at_, kDigestBytes);
@@ -230,6 +221,14 @@ class Reader {
     return e;
   }
 
+  /// Passes over the next block, its header checked but its values not unpacked (a channel the reader
+  /// did not ask for).
+  void skip(const std::string& what) {
+    std::uint64_t packed = 0;
+    block_header(what, packed);
+    at_ += packed;
+  }
+
   void end() const {
     if (at_ != bytes_.size()) fail("has " + std::to_string(bytes_.size() - at_) + " bytes after its last block");
   }
@@ -237,6 +236,22 @@ class Reader {
   [[noreturn]] void fail(const std::string& why) const { throw Error(file_.string(), "", why); }
 
  private:
+  // The next block's header, checked against the file's length; leaves at_ at its packed bytes.
+  Encoding block_header(const std::string& what, std::uint64_t& packed) {
+    if (bytes_.size() - at_ < kBlockHeaderBytes) fail("ends inside the header of " + what + " (truncated?)");
+    const auto code = static_cast<unsigned char>(bytes_[at_]);
+    if (code > kFromColour) fail(what + " has unknown encoding " + std::to_string(code));
+    for (int b = 1; b < 8; ++b)
+      if (bytes_[at_ + b] != 0) fail(what + " has non-zero reserved bytes in its header");
+    const auto e = static_cast<Encoding>(code);
+    packed = get_le(bytes_.data() + at_ + 8, 8);
+    at_ += kBlockHeaderBytes;
+    if (packed > bytes_.size() - at_) fail(what + " says " + std::to_string(packed) + " bytes, the file ends before (truncated?)");
+    if ((e == kZero) != (packed == 0) || (e == kFromColour) != (packed == kDigestBytes))
+      fail(what + " has " + std::to_string(packed) + " packed bytes for its encoding");
+    return e;
+  }
+
   void inflate_into(const std::string& what, std::uint64_t packed, std::string& planes) const {
     static thread_local const std::unique_ptr<ZSTD_DCtx, std::size_t (*)(ZSTD_DCtx*)> dctx(ZSTD_createDCtx(),
                                                                                          ZSTD_freeDCtx);
@@ -301,6 +316,7 @@ void channel_from_colour(Reader& reader, const std::string& what, const std::str
 
 void decode_channel(Reader& reader, std::size_t k, const Expected& ex, Decoding& d, double* sat) {
   const std::string what = "channel " + std::to_string(k);
+  if (!sat) return reader.skip(what);
   const Encoding e = reader.block(what, d.planes);
   const std::size_t n = d.raster.total();
   auto* v = d.raster.ptr<double>();
@@ -367,12 +383,20 @@ void decode(std::string_view bytes, const fs::path& file, const Expected& ex, co
   d.raster.create(ex.size, CV_64FC1);
   const std::size_t n = std::size_t(ex.size.area());
   if (reader.has_colour()) {
+    // Unpacked only when a channel asked for may be made from it.
+    bool wanted = false;
+    for (std::size_t k = 0; k < ex.channels; ++k) wanted = wanted || (out.sats[k] && appearance_index(ex.names[k]) >= 0);
     std::vector<cv::Mat> bgr(3);
     for (int c = 0; c < 3; ++c) {
+      const std::string what = std::string("colour plane ") + "BGR"[c];
+      if (!wanted) {
+        reader.skip(what);
+        continue;
+      }
       bgr[c].create(ex.size, CV_8UC1);
-      decode_image(reader, std::string("colour plane ") + "BGR"[c], d.planes, bgr[c].data, n);
+      decode_image(reader, what, d.planes, bgr[c].data, n);
     }
-    cv::merge(bgr, d.colour);
+    if (wanted) cv::merge(bgr, d.colour);
   }
   for (std::size_t k = 0; k < ex.channels; ++k) decode_channel(reader, k, ex, d, out.sats[k]);
   if (ex.images & kGrayImage) decode_image(reader, "gray", d.planes, out.gray, n);

@@ -49,7 +49,7 @@ struct Expected {
 /// Where decode puts the frame: one summed-area table per channel ((H+1) x (W+1) doubles each, built by
 /// cv::integral(raster, CV_64F)), and the images asked for (H x W bytes), all preallocated by the caller.
 struct Output {
-  std::vector<double*> sats;
+  std::vector<double*> sats;  ///< one per channel; nullptr: not asked for (its block is passed over, its header checked)
   std::uint8_t* gray = nullptr;
   std::uint8_t* labels = nullptr;
 };

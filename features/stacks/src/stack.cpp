@@ -10,7 +10,11 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <exception>
 #include <limits>
+#include <optional>
+
+#include <tbb/parallel_for.h>
 
 #include "frame_values.hpp"
 #include "smseg/common/digest.hpp"
@@ -315,7 +319,8 @@ FrameStack::FrameStack(FrameStack&&) noexcept = default;
 FrameStack& FrameStack::operator=(FrameStack&&) noexcept = default;
 FrameStack::~FrameStack() = default;
 
-FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels) {
+FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels, const std::vector<bool>& wanted) {
+  CV_Assert(wanted.empty() || wanted.size() == m.features.size());
   if (!m.has_frame(frame))
     throw Error(m.manifest_path().string(), "frames", "frame " + std::to_string(frame) + " has no feature stack");
   if (with_labels && !m.is_labelled(frame))
@@ -324,7 +329,7 @@ FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels)
   s.frame_ = frame;
   s.size_ = m.size;
   if (m.version != 1) {
-    s.open_values(m, frame, with_labels);
+    s.open_values(m, frame, with_labels, wanted);
     return s;
   }
   const std::size_t H = m.size.height, W = m.size.width;
@@ -345,14 +350,19 @@ FrameStack FrameStack::open(const StackManifest& m, int frame, bool with_labels)
 }
 
 // Version 2: the base's tables and images first (if any), then this folder's own channels, decoded
-// into one scratch mapping: tables, then greyscale, then labels.
-void FrameStack::open_values(const StackManifest& m, int frame, bool with_labels) {
+// into one scratch mapping: the wanted tables, then greyscale, then labels.
+void FrameStack::open_values(const StackManifest& m, int frame, bool with_labels, const std::vector<bool>& wanted) {
+  const auto is_wanted = [&](std::size_t f) { return wanted.empty() || wanted[f]; };
   if (m.base_manifest) {
-    FrameStack base = open(*m.base_manifest, frame, with_labels);
-    for (const std::string& name : m.base->features) {
-      const auto& bf = m.base_manifest->features;
-      sats_.push_back(base.sat(static_cast<int>(std::find(bf.begin(), bf.end(), name) - bf.begin())));
+    const auto& bf = m.base_manifest->features;
+    std::vector<bool> base_wanted(bf.size(), false);
+    std::vector<std::size_t> in_base;  // per base feature this folder reads: its index in the base
+    for (std::size_t f = 0; f < m.base->features.size(); ++f) {
+      in_base.push_back(static_cast<std::size_t>(std::find(bf.begin(), bf.end(), m.base->features[f]) - bf.begin()));
+      if (is_wanted(f)) base_wanted[in_base.back()] = true;
     }
+    FrameStack base = open(*m.base_manifest, frame, with_labels, base_wanted);
+    for (std::size_t i : in_base) sats_.push_back(base.sat(static_cast<int>(i)));
     gray_ = base.gray_;
     labels_ = base.labels_;
     for (auto& mapping : base.mappings_) mappings_.push_back(std::move(mapping));
@@ -362,14 +372,19 @@ void FrameStack::open_values(const StackManifest& m, int frame, bool with_labels
   ex.channels = m.own_features();
   ex.names.assign(m.features.end() - static_cast<std::ptrdiff_t>(ex.channels), m.features.end());
   if (!m.base_manifest) ex.images = values::kGrayImage | (m.is_labelled(frame) ? values::kLabelsImage : 0u);
+  const std::size_t first_own = m.features.size() - ex.channels;
+  std::size_t tables = 0;
+  for (std::size_t k = 0; k < ex.channels; ++k) tables += is_wanted(first_own + k) ? 1 : 0;
   const std::size_t H = m.size.height, W = m.size.width, table = (H + 1) * (W + 1) * sizeof(double);
   const std::size_t images = ((ex.images & values::kGrayImage) ? H * W : 0) + ((ex.images & values::kLabelsImage) ? H * W : 0);
   const fs::path file = values_path(m.work, frame);
   const std::string bytes = read_file(file, values::max_file_bytes(ex));
-  auto scratch = Mapping::scratch(ex.channels * table + images);
+  auto scratch = Mapping::scratch(tables * table + images);
   values::Output out;
-  for (std::size_t k = 0; k < ex.channels; ++k) out.sats.push_back(reinterpret_cast<double*>(scratch->writable() + k * table));
-  if (ex.images & values::kGrayImage) out.gray = reinterpret_cast<std::uint8_t*>(scratch->writable() + ex.channels * table);
+  std::size_t next = 0;
+  for (std::size_t k = 0; k < ex.channels; ++k)
+    out.sats.push_back(is_wanted(first_own + k) ? reinterpret_cast<double*>(scratch->writable() + next++ * table) : nullptr);
+  if (ex.images & values::kGrayImage) out.gray = reinterpret_cast<std::uint8_t*>(scratch->writable() + tables * table);
   if (ex.images & values::kLabelsImage) out.labels = out.gray + H * W;
   values::decode(bytes, file, ex, out);
   sats_.insert(sats_.end(), out.sats.begin(), out.sats.end());
@@ -448,6 +463,40 @@ void check_labels(const forest::FrameData& frame, const fs::path& file, std::siz
 
 }  // namespace
 
+namespace {
+
+// The frames (folder, frame) of `manifests`, each with the features of its folder's `feature_index` only,
+// opened in parallel (each decodes and sums its own file). The error of the first frame that fails, in
+// frame order, whatever the thread count.
+std::vector<FrameStack> open_frames(const std::vector<StackManifest>& manifests,
+                                    const std::vector<std::pair<int, int>>& frames,
+                                    const std::vector<std::vector<int>>& feature_index, bool with_labels) {
+  std::vector<std::vector<bool>> wanted;
+  for (std::size_t k = 0; k < manifests.size(); ++k) {
+    wanted.emplace_back(manifests[k].features.size(), false);
+    for (int i : feature_index[k]) wanted.back()[static_cast<std::size_t>(i)] = true;
+  }
+  std::vector<std::optional<FrameStack>> opened(frames.size());
+  std::vector<std::exception_ptr> errors(frames.size());
+  tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t i) {
+    const auto [k, f] = frames[i];
+    try {
+      opened[i].emplace(FrameStack::open(manifests[static_cast<std::size_t>(k)], f, with_labels,
+                                         wanted[static_cast<std::size_t>(k)]));
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  });
+  std::vector<FrameStack> stacks;
+  for (std::size_t i = 0; i < frames.size(); ++i) {
+    if (errors[i]) std::rethrow_exception(errors[i]);
+    stacks.push_back(std::move(*opened[i]));
+  }
+  return stacks;
+}
+
+}  // namespace
+
 StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range, bool labelled_only,
                      bool with_labels, const std::vector<std::string>& features) {
   if (works.empty()) throw Error("", "WORK", "name at least one work folder");
@@ -483,15 +532,13 @@ StackSet open_stacks(const std::vector<fs::path>& works, const FrameRange& range
   for (int i : feature_index.front()) set.dataset.features.push_back(set.manifests.front().features[i]);
   for (std::size_t k = 0; k < set.manifests.size(); ++k) {
     const StackManifest& m = set.manifests[k];
-    for (int f : labelled_only ? m.labelled_frames : m.frames) {
-      if (!range.contains(f)) continue;
-      set.stacks.push_back(FrameStack::open(m, f, with_labels));
-      set.origin.emplace_back(static_cast<int>(k), f);
-    }
+    for (int f : labelled_only ? m.labelled_frames : m.frames)
+      if (range.contains(f)) set.origin.emplace_back(static_cast<int>(k), f);
   }
-  if (set.stacks.empty())
+  if (set.origin.empty())
     throw Error(works.front().string(), "frames",
                 std::string("no ") + (labelled_only ? "labelled " : "") + "frame with a feature stack in " + range.str());
+  set.stacks = open_frames(set.manifests, set.origin, feature_index, with_labels);
   for (std::size_t i = 0; i < set.stacks.size(); ++i) {
     const forest::FrameData full = set.stacks[i].view();
     forest::FrameData d = full;

@@ -100,6 +100,49 @@ TEST_F(ValuesFixture, TablesAreExtractionsBitForBit) {
   }
 }
 
+// A reader that asks for some channels gets their very tables and no others (their blocks are passed
+// over; their headers still checked): with and without the colour image's channels among them.
+TEST_F(ValuesFixture, ChannelsAskedForComeBackBitForBitTheOthersAreNotBuilt) {
+  const StackManifest back = load_stack_manifest(work);
+  const std::size_t appearance = 6;  // the first appearance channel
+  for (const std::vector<std::size_t>& asked : {std::vector<std::size_t>{1, 4}, std::vector<std::size_t>{0, appearance + 2},
+                                                std::vector<std::size_t>{}}) {
+    std::vector<bool> wanted(back.features.size(), false);
+    for (std::size_t k : asked) wanted[k] = true;
+    for (int frame : {0, 3}) {
+      const FrameStack s = FrameStack::open(back, frame, frame == 3, wanted);
+      for (std::size_t k = 0; k < rasters.size(); ++k) {
+        if (!wanted[k]) {
+          EXPECT_EQ(s.sat(static_cast<int>(k)), nullptr) << k;
+          continue;
+        }
+        const cv::Mat want = summed_area_table(rasters[k]);
+        EXPECT_EQ(0, std::memcmp(s.sat(static_cast<int>(k)), want.ptr<double>(), want.total() * sizeof(double))) << k;
+      }
+      EXPECT_EQ(0, std::memcmp(s.gray(), gray.data, gray.total()));
+    }
+  }
+  // A block header damaged in a channel not asked for is still refused.
+  const fs::path file = values_path(work, 0);
+  std::string bad = smseg::read_file(file);
+  bad[24] = static_cast<char>(0x7f);  // the first block's encoding
+  smseg::write_file_atomic(file, bad);
+  std::vector<bool> only_last(back.features.size(), false);
+  only_last.back() = true;
+  const std::string e = smseg::test::error_of([&] { FrameStack::open(back, 0, false, only_last); });
+  EXPECT_EQ(e.rfind(file.string() + ": ", 0), 0u) << e;
+  EXPECT_NE(e.find("unknown encoding"), std::string::npos) << e;
+}
+
+// open_stacks opens the frames in parallel: of two damaged frames, the error names the first, always.
+TEST_F(ValuesFixture, OfTwoDamagedFramesTheFirstIsNamed) {
+  for (int frame : {0, 3}) smseg::write_file_atomic(values_path(work, frame), "not a values file");
+  for (int run = 0; run < 20; ++run) {
+    const std::string e = smseg::test::error_of([&] { open_stacks({work}, FrameRange{}, false, false, {}); });
+    ASSERT_EQ(e.rfind(values_path(work, 0).string() + ": ", 0), 0u) << e;
+  }
+}
+
 // A changed byte is refused in one line naming the file, unless it leaves what the file says unchanged
 // (zstd's frame header has bits that do not change the content its checksum covers): then the tables
 // are the same. A file cut short, or with a byte more, is always refused.

@@ -91,13 +91,15 @@ StackManifest load_stack_manifest(const fs::path& work);
 /// maps, so that `release` can drop them from memory as it does version 1's.
 class FrameStack {
  public:
-  static FrameStack open(const StackManifest& m, int frame, bool with_labels);
+  /// `wanted`: per feature of m (empty: all); the others' tables are not built (sat() gives nullptr) in
+  /// a version 2 folder, which then reads only the blocks asked for.
+  static FrameStack open(const StackManifest& m, int frame, bool with_labels, const std::vector<bool>& wanted = {});
   FrameStack(FrameStack&&) noexcept;
   FrameStack& operator=(FrameStack&&) noexcept;
   ~FrameStack();
 
   int frame() const { return frame_; }
-  const double* sat(int feature) const;  ///< (H+1) x (W+1) row-major
+  const double* sat(int feature) const;  ///< (H+1) x (W+1) row-major; nullptr if not wanted
   const std::uint8_t* gray() const;      ///< H x W
   const std::uint8_t* labels() const;    ///< H x W, or nullptr if not opened with labels
   /// The forest's view of this frame (borrowed pointers: keep the FrameStack alive). Its `release`
@@ -107,7 +109,7 @@ class FrameStack {
  private:
   struct Mapping;
   FrameStack() = default;
-  void open_values(const StackManifest& m, int frame, bool with_labels);
+  void open_values(const StackManifest& m, int frame, bool with_labels, const std::vector<bool>& wanted);
   int frame_ = -1;
   cv::Size size_;
   std::vector<const double*> sats_;
