@@ -102,7 +102,7 @@ extract() {  # SIDE SEQUENCE_FOLDER [extra options]
   local name
   name="$(basename "$seq")"
   mkdir -p "$out/work/$side" "$out/logs"
-  if ! "$bin/extract-features" "$seq" -o "$out/work/$side/$name" --appearance --dense --threads 1 -q "$@" \
+  if ! "$bin/extract-features" "$seq" -o "$out/work/$side/$name" --appearance --dense -q "$@" \
       >"$out/logs/extract-$side-$name.txt" 2>&1; then
     cat "$out/logs/extract-$side-$name.txt" >&2
     return 1
@@ -117,11 +117,17 @@ export bin out
 sweep_options() {  # SEQUENCE_FOLDER: extract-features options for its plane sweep
   python3 "$here/experiments/camvid/sweep_options.py" "$1"
 }
-# One line per extraction, without trailing blanks (xargs -L joins a line ending in one to the next).
+frame_count() {  # SEQUENCE_FOLDER
+  python3 -c 'import json, sys; print(len(json.load(open(sys.argv[1] + "/sequence.json"))["frames"]))' "$1"
+}
+# One line per extraction, without trailing blanks (xargs -L joins a line ending in one to the next), the
+# longest runs first so that the short ones fill in at the end. Each run may use every core (its plane
+# sweep is parallel over frames): when the other runs are done, the last one's frames take them all.
 {
-  for s in "$out"/sequences/train/*/; do echo train "${s%/}" --require-label $(sweep_options "$s"); done
-  for s in "$out"/sequences/test/*/; do echo test "${s%/}" $(sweep_options "$s"); done
-} | xargs -P "$jobs" -L 1 bash -c 'extract "$@"' _ || fail "extract-features failed (see $out/logs/)"
+  for s in "$out"/sequences/train/*/; do echo "$(frame_count "$s")" train "${s%/}" --require-label $(sweep_options "$s"); done
+  for s in "$out"/sequences/test/*/; do echo "$(frame_count "$s")" test "${s%/}" $(sweep_options "$s"); done
+} | sort -k1,1nr -s | cut -d' ' -f2- \
+  | xargs -P "$jobs" -L 1 bash -c 'extract "$@"' _ || fail "extract-features failed (see $out/logs/)"
 works_of() {  # SIDE: the work folders of this run's sequences of that side
   local s
   for s in "$out"/sequences/"$1"/*/; do printf '%s\n' "$out/work/$1/$(basename "$s")"; done
