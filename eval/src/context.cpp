@@ -181,11 +181,13 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
     out.options["context"] = context_record(forest_file, src.work, options, keep);
     Progress progress("add-context " + src.work.filename().string(), static_cast<long>(m.frames.size()),
                       options.progress);
+    std::vector<bool> read(m.features.size(), false);  // only the forest's tables are built
+    for (int i : src.reads) read[static_cast<std::size_t>(i)] = true;
     for (int f : m.frames) {
       progress.tick();
       if (!options.frames.contains(f)) continue;
       const bool labelled = m.is_labelled(f);
-      const stacks::FrameStack stack = stacks::FrameStack::open(m, f, labelled);
+      const stacks::FrameStack stack = stacks::FrameStack::open(m, f, labelled, read);
       forest::FrameData input = stack.view();
       input.sats.clear();
       for (int i : src.reads) input.sats.push_back(stack.sat(i));
