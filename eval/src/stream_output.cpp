@@ -30,7 +30,8 @@ const options::Table<LabelStreamOptions>& label_stream_options_table() {
              [](auto& o) -> auto& { return o.max_frames; }, 0, 1000000000);
     t.number("in_flight", "--in-flight",
              "frames in the pipeline at once (1: one at a time, the lowest latency; more: higher throughput "
-             "when disparity and keypoints take longer than the rest)",
+             "when a frame's parallel work (disparity, keypoints, feature tables, forest) takes longer than "
+             "its tracking)",
              [](auto& o) -> auto& { return o.in_flight; }, 1, 16);
     t.flag("no_labels", "--no-labels", "do not write OUT/labels/ (timing the rest alone)",
            [](auto& o) -> auto& { return o.no_labels; });
