@@ -162,6 +162,11 @@ const Table<TableParams>& table_params_table() {
            "feet of the points above it joining its pieces (a table seen from low, cut up by the objects on it; "
            "--table-join-feet=false: off)",
            [](auto& p) -> auto& { return p.join_through_feet; });
+    t.number("min_image_support", "--min-image-support",
+             "grabcut-sfm, --support table: the nearest cluster is taken when GrabCut's foreground holds more than "
+             "this share of its 2D inliers, else the next nearest is tried (the nearest when none is; a sheet of "
+             "stereo errors over a plain wall has no object under it; -1: the nearest, 001)",
+             [](auto& p) -> auto& { return p.min_image_support; }, -1.0, 0.999999);
     t.number("chain_density", "--chain-density",
              "grabcut-sfm, --support table: of the points --chain-rise slabs above the table, only those whose foot "
              "cell (of the cluster tolerance) holds this x the cluster's median foot-cell count split it (an "

@@ -436,15 +436,21 @@ std::vector<char> rising_clusters(const Cloud& rest, const Clusters& c, const Gr
   return rises;
 }
 
-/// Step 3: every cluster's projections and distance; the nearest with enough projections (001: its
-/// centre's distance). Returns, per chosen projection, its point in `rest`.
-std::vector<std::size_t> nearest_step(const Cloud& rest, const Clusters& c, const View& view,
-                                      const GrabCutSfmParams& p, GrabCutSfmReport& rep) {
+/// The clusters that may be chosen, nearest first, and per projection in the report its point in `rest`.
+struct Candidates {
+  std::vector<int> order;
+  std::vector<std::size_t> projected_point;
+};
+
+/// Step 3: every cluster's projections and distance; the candidates, those with enough projections,
+/// nearest first (001: by its centre's distance; 001 takes the nearest).
+Candidates nearest_step(const Cloud& rest, const Clusters& c, const View& view, const GrabCutSfmParams& p,
+                        GrabCutSfmReport& rep) {
   rep.cluster_sizes.assign(c.count, 0);
   rep.cluster_in_frame.assign(c.count, 0);
   rep.cluster_distances.assign(c.count, 0);
   std::vector<std::vector<double>> point_distances(p.median_distance ? c.count : 0);
-  std::vector<std::size_t> projected_point;  // per rep.projected, its point in `rest`
+  Candidates out;
   for (std::size_t i = 0; i < rest.size(); ++i) {
     if (c.label[i] < 0) continue;
     const std::size_t k = std::size_t(c.label[i]);
@@ -456,28 +462,33 @@ std::vector<std::size_t> nearest_step(const Cloud& rest, const Clusters& c, cons
     ++rep.cluster_in_frame[k];
     rep.projected.push_back(q);
     rep.projected_cluster.push_back(c.label[i]);
-    projected_point.push_back(i);
+    out.projected_point.push_back(i);
   }
   const std::vector<char> rises = rising_clusters(rest, c, p, rep);
-  double best = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < c.count; ++k) {
     if (!rises[k]) continue;
     const Eigen::Vector3d centre(c.centres[k * 3], c.centres[k * 3 + 1], c.centres[k * 3 + 2]);
     rep.cluster_distances[k] = p.median_distance ? median(point_distances[k]) : (centre - view.camera).norm();
-    if (rep.cluster_in_frame[k] >= p.min_cluster_points && rep.cluster_distances[k] < best) {
-      best = rep.cluster_distances[k];
-      rep.chosen = int(k);
-    }
+    if (rep.cluster_in_frame[k] >= p.min_cluster_points) out.order.push_back(int(k));
   }
-  if (rep.chosen < 0)
+  if (out.order.empty())
     throw Error("", "cloud",
                 "no cluster has " + std::to_string(p.min_cluster_points) +
                     " or more points in front of the camera inside the frame (is the pose right?)");
+  std::stable_sort(out.order.begin(), out.order.end(),
+                   [&](int a, int b) { return rep.cluster_distances[std::size_t(a)] < rep.cluster_distances[std::size_t(b)]; });
+  return out;
+}
+
+/// Cluster k chosen: its projections into the report; returns, per chosen projection, its point in `rest`.
+std::vector<std::size_t> choose_cluster(const Candidates& cand, int k, GrabCutSfmReport& rep) {
+  rep.chosen = k;
+  rep.chosen_points.clear();
   std::vector<std::size_t> chosen_point;
   for (std::size_t i = 0; i < rep.projected.size(); ++i)
-    if (rep.projected_cluster[i] == rep.chosen) {
+    if (rep.projected_cluster[i] == k) {
       rep.chosen_points.push_back(rep.projected[i]);
-      chosen_point.push_back(projected_point[i]);
+      chosen_point.push_back(cand.projected_point[i]);
     }
   return chosen_point;
 }
@@ -500,6 +511,7 @@ bool stands_on_plane(const Cloud& rest, const std::vector<std::size_t>& chosen_p
 void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
               const GrabCutSfmParams& p, GrabCutSfmReport& rep) {
   rep.chosen_inlier = compact_inliers_2d(rep.chosen_points, p.outlier_threshold, p.ransac_iterations, stage_seed(p.seed, 3));
+  rep.inliers_2d = rep.feet_in_box = 0;
   float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
   const auto grow = [&](const cv::Point2f& q) {
     x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
@@ -532,6 +544,19 @@ void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, c
   const int bx1 = std::min(view.size.width - 1, int(std::ceil(rep.inlier_box.br().x + mx)));
   const int by1 = std::min(view.size.height - 1, int(std::ceil(rep.inlier_box.br().y + my)));
   rep.box = cv::Rect(bx0, by0, std::max(0, bx1 - bx0), std::max(0, by1 - by0));
+}
+
+/// Whether GrabCut's foreground `mask` holds more than `min_share` of the chosen cluster's 2D inliers: a
+/// cluster of stereo errors (a plain wall given a nearer surface's depth) has no object under it, and
+/// GrabCut, finding nothing in its box unlike the pixels around it, keeps none of its pixels.
+bool image_supports(const cv::Mat& mask, const GrabCutSfmReport& rep, double min_share) {
+  if (min_share < 0) return true;
+  int kept = 0;
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i) {
+    const cv::Point p(int(rep.chosen_points[i].x), int(rep.chosen_points[i].y));
+    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(p) != 0) ++kept;
+  }
+  return kept > min_share * rep.inliers_2d;
 }
 
 /// The supporting plane step of either kind, timed; an error when too few points are left for k-means.
@@ -615,12 +640,31 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
   const Clusters clusters = cluster_step(rest, params, rep);
   rep.seconds_kmeans = seconds_since(t0);
   t0 = Clock::now();
-  const std::vector<std::size_t> chosen_point = nearest_step(rest, clusters, view, params, rep);
-  box_step(rest, chosen_point, view, params, rep);
+  const Candidates cand = nearest_step(rest, clusters, view, params, rep);
+  rep.chosen = cand.order[0];
+  // The nearest candidate, or (image support) the nearest whose GrabCut keeps its projections.
   rep.seconds_projection = seconds_since(t0);
-  t0 = Clock::now();
-  cv::Mat mask = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
-  rep.seconds_grabcut = seconds_since(t0);
+  cv::Mat mask;
+  GrabCutSfmReport nearest;
+  for (std::size_t c = 0; c < cand.order.size(); ++c) {
+    t0 = Clock::now();
+    box_step(rest, choose_cluster(cand, cand.order[c], rep), view, params, rep);
+    rep.seconds_projection += seconds_since(t0);
+    t0 = Clock::now();
+    cv::Mat m = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
+    rep.seconds_grabcut += seconds_since(t0);
+    if (c == 0) mask = m, nearest = rep;
+    if (image_supports(m, rep, params.support == SupportChoice::Table ? params.table.min_image_support : -1)) {
+      mask = m;
+      break;
+    }
+    rep.unsupported.push_back(rep.chosen);
+    if (c + 1 == cand.order.size()) {  // none is supported: the nearest, as without the rule
+      nearest.unsupported = rep.unsupported;
+      nearest.seconds_projection = rep.seconds_projection, nearest.seconds_grabcut = rep.seconds_grabcut;
+      rep = std::move(nearest);
+    }
+  }
   rep.seconds_total = seconds_since(t_start);
   if (report_out) *report_out = std::move(rep);
   return mask;

@@ -9,6 +9,7 @@
 #include <random>
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include "smseg/cloud/grabcut_sfm.hpp"
 
@@ -103,4 +104,44 @@ TEST(GrabCutSfm, ASheetOfErrorsAtTheTopsHeightDoesNotChainTwoBoxesIntoOneCluster
   EXPECT_GT(both, 200);  // both boxes' faces and near tops (their far rows, 4 cm apart, apart) and the row
   EXPECT_EQ(split.cluster_sizes.size(), chained.cluster_sizes.size() + 1);
   EXPECT_LT(*std::max_element(split.cluster_sizes.begin(), split.cluster_sizes.end()), both / 2 + 20);
+}
+
+TEST(GrabCutSfm, ANearerSheetWithNoObjectUnderItIsPassedOverForTheNextCluster) {
+  // A sheet of points standing on the table nearer than a box (a plain wall given the table edge's depth
+  // by the stereo): the nearest cluster, but the image under it is the wall's pattern, like the pixels
+  // around it, and GrabCut keeps none of it. The box, red in the image, is taken instead.
+  Cloud c = floor_and_table();
+  c.box(0.1);
+  for (double x = -0.45; x <= -0.25; x += 0.02)
+    for (double h = 0.03; h <= 0.13; h += 0.02) c.add(x, 0.75 + h, -0.3);
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  cv::Mat image(120, 160, CV_8UC3);
+  cv::RNG rng(3);
+  rng.fill(image, cv::RNG::UNIFORM, cv::Scalar(150, 160, 170), cv::Scalar(190, 200, 210));
+  std::vector<cv::Point> box_pixels;
+  for (double a = 0; a <= 0.2; a += 0.01)
+    for (double h = 0; h <= 0.2; h += 0.01) {
+      cv::Point2f px;
+      ASSERT_TRUE(project_point(Eigen::Vector3f(float(0.1 + a), float(0.75 + h), -0.1f), pose, k, &px));
+      box_pixels.emplace_back(px);
+    }
+  std::vector<cv::Point> hull;
+  cv::convexHull(box_pixels, hull);
+  cv::fillConvexPoly(image, hull, cv::Scalar(30, 30, 200));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  GrabCutSfmReport supported, nearest;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &supported);
+  p.table.min_image_support = -1;
+  grabcut_sfm(c.points, k, pose, image, p, &nearest);
+  ASSERT_TRUE(nearest.table.found);
+  EXPECT_NEAR(nearest.cluster_sizes[std::size_t(nearest.chosen)], 60, 10);  // the sheet (66 points, its lowest in the slab), nearest
+  EXPECT_TRUE(nearest.unsupported.empty());
+  ASSERT_EQ(supported.unsupported.size(), 1u);
+  EXPECT_EQ(supported.unsupported[0], nearest.chosen);
+  EXPECT_NE(supported.chosen, nearest.chosen);
+  cv::Mat red(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(red, hull, cv::Scalar(255));
+  EXPECT_GT(mask_f1(mask, red), 0.9);
 }

@@ -258,6 +258,7 @@ Json report_json(const GrabCutSfmCli& o, const smseg::cloud::GrabCutSfmReport& r
           {"feet_in_box", rep.feet_in_box},
           {"clusters", clusters},
           {"chosen", rep.chosen},
+          {"unsupported", rep.unsupported},
           {"chosen_projections", rep.chosen_points.size()},
           {"inliers_2d", rep.inliers_2d},
           {"inlier_box", rect_json(rep.inlier_box)},

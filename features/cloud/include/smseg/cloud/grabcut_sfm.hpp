@@ -89,6 +89,10 @@ struct TableParams {
   bool join_through_feet = true;     ///< a candidate whose largest patch is no table is tried again with the feet of
                                      ///< the points above it joining its pieces (a table seen from low, cut into
                                      ///< pieces by the objects on it and the table they hide)
+  double min_image_support = 0;      ///< GrabCutSFM: the nearest cluster is taken when GrabCut's foreground in its box
+                                     ///< holds more than this share of its 2D inliers, else the next nearest is
+                                     ///< tried (the nearest when none is): a sheet of stereo errors over a plain
+                                     ///< wall has no object under it (-1: the nearest, 001)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
   double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
                                      ///< and below it, and exceeds that mean by min_share (its own points)
@@ -203,6 +207,7 @@ struct GrabCutSfmReport {
                                           ///< the median of its points' with median_distance
   std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
   int chosen = -1;                      ///< the cluster used
+  std::vector<int> unsupported;         ///< nearer clusters passed over: GrabCut kept none of them (min_image_support)
   std::vector<cv::Point2f> projected;   ///< every clustered point projecting into the frame
   std::vector<int> projected_cluster;   ///< its cluster
   std::vector<cv::Point2f> chosen_points;  ///< the chosen cluster's projections in the frame
