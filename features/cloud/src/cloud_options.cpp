@@ -167,6 +167,12 @@ const Table<TableParams>& table_params_table() {
              "this share of its 2D inliers, else the next nearest is tried (the nearest when none is; a sheet of "
              "stereo errors over a plain wall has no object under it; -1: the nearest, 001)",
              [](auto& p) -> auto& { return p.min_image_support; }, -1.0, 0.999999);
+    t.flag("nearest_region", "--nearest-region",
+           "grabcut-sfm, --support table: when the chosen cluster's points inside GrabCut's foreground fall apart "
+           "into two or more clusters (of --min-cluster-size, at the cluster tolerance), the mask keeps only the "
+           "regions of the nearest one (two objects chained by stereo errors on the wall between them, which "
+           "GrabCut leaves out; --nearest-region=false: off)",
+           [](auto& p) -> auto& { return p.nearest_region; });
     t.number("chain_density", "--chain-density",
              "grabcut-sfm, --support table: of the points --chain-rise slabs above the table, only those whose foot "
              "cell (of the cluster tolerance) holds this x the cluster's median foot-cell count split it (an "

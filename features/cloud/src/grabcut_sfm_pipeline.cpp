@@ -7,9 +7,11 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <numeric>
 #include <string>
 
 #include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
 
 #include "grabcut_sfm_detail.hpp"
 #include "smseg/cloud/grabcut_sfm.hpp"
@@ -436,11 +438,17 @@ std::vector<char> rising_clusters(const Cloud& rest, const Clusters& c, const Gr
   return rises;
 }
 
+/// The mean of the middle half of the values (the median of 1 or 2): unlike the median, not stuck on one
+/// of the few depths a stereo's quantised disparities give a cluster.
+double interquartile_mean(std::vector<double> v) {
+  if (v.size() < 3) return median(v);
+  std::sort(v.begin(), v.end());
+  const std::ptrdiff_t quarter = std::ptrdiff_t(v.size() / 4);
+  return std::accumulate(v.begin() + quarter, v.end() - quarter, 0.0) / double(v.size() - 2 * std::size_t(quarter));
+}
+
 /// The clusters that may be chosen, nearest first, and per projection in the report its point in `rest`.
-struct Candidates {
-  std::vector<int> order;
-  std::vector<std::size_t> projected_point;
-};
+struct Candidates { std::vector<int> order; std::vector<std::size_t> projected_point; };
 
 /// Step 3: every cluster's projections and distance; the candidates, those with enough projections,
 /// nearest first (001: by its centre's distance; 001 takes the nearest).
@@ -468,7 +476,9 @@ Candidates nearest_step(const Cloud& rest, const Clusters& c, const View& view, 
   for (std::size_t k = 0; k < c.count; ++k) {
     if (!rises[k]) continue;
     const Eigen::Vector3d centre(c.centres[k * 3], c.centres[k * 3 + 1], c.centres[k * 3 + 2]);
-    rep.cluster_distances[k] = p.median_distance ? median(point_distances[k]) : (centre - view.camera).norm();
+    rep.cluster_distances[k] = !p.median_distance ? (centre - view.camera).norm()
+                               : p.median_depth   ? interquartile_mean(point_distances[k])
+                                                  : median(point_distances[k]);
     if (rep.cluster_in_frame[k] >= p.min_cluster_points) out.order.push_back(int(k));
   }
   if (out.order.empty())
@@ -552,11 +562,41 @@ void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, c
 bool image_supports(const cv::Mat& mask, const GrabCutSfmReport& rep, double min_share) {
   if (min_share < 0) return true;
   int kept = 0;
-  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i) {
-    const cv::Point p(int(rep.chosen_points[i].x), int(rep.chosen_points[i].y));
-    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(p) != 0) ++kept;
-  }
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
+    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(cv::Point(rep.chosen_points[i])) != 0) ++kept;
   return kept > min_share * rep.inliers_2d;
+}
+
+/// GrabCut's foreground left with the nearest object only: the chosen cluster's projections inside it are
+/// clustered again at the tolerance (the stereo errors on the plain wall between two objects, which
+/// chained them, lie outside it); when they fall into two or more clusters of the smallest cluster's
+/// size, the mask's regions (8-connected) holding the farther ones' points and none of the nearest's
+/// (by the interquartile mean of their depths) are dropped. Returns how many.
+int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
+                        const GrabCutSfmReport& rep) {
+  cv::Mat regions;
+  const int count = cv::connectedComponents(mask, regions, 8, CV_32S);
+  Cloud inside;
+  std::vector<int> region;
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
+    if (const int r = regions.at<int>(cv::Point(rep.chosen_points[i])); r > 0)
+      inside.push_back(rest[chosen_point[i]]), region.push_back(r);
+  const std::vector<int> part = euclidean_clusters(inside, rep.cluster_tolerance, rep.min_cluster_size);
+  const int parts = inside.empty() ? 0 : *std::max_element(part.begin(), part.end()) + 1;
+  if (parts < 2) return 0;
+  std::vector<std::vector<double>> depth(static_cast<std::size_t>(parts));
+  for (std::size_t i = 0; i < inside.size(); ++i)
+    if (part[i] >= 0) depth[std::size_t(part[i])].push_back((inside[i].cast<double>() - view.camera).dot(view.R.col(2)));
+  int nearest = 0;
+  for (int q = 1; q < parts; ++q)
+    if (interquartile_mean(depth[std::size_t(q)]) < interquartile_mean(depth[std::size_t(nearest)])) nearest = q;
+  std::vector<int> holds(std::size_t(count), 0);  // bit 1: the nearest part's points, bit 2: another's
+  for (std::size_t i = 0; i < inside.size(); ++i)
+    if (part[i] >= 0) holds[std::size_t(region[i])] |= part[i] == nearest ? 1 : 2;
+  int dropped = 0;
+  for (int r = 1; r < count; ++r)
+    if (holds[std::size_t(r)] == 2) mask.setTo(0, regions == r), ++dropped;
+  return dropped;
 }
 
 /// The supporting plane step of either kind, timed; an error when too few points are left for k-means.
@@ -648,13 +688,16 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
   GrabCutSfmReport nearest;
   for (std::size_t c = 0; c < cand.order.size(); ++c) {
     t0 = Clock::now();
-    box_step(rest, choose_cluster(cand, cand.order[c], rep), view, params, rep);
+    const std::vector<std::size_t> chosen_point = choose_cluster(cand, cand.order[c], rep);
+    box_step(rest, chosen_point, view, params, rep);
     rep.seconds_projection += seconds_since(t0);
     t0 = Clock::now();
     cv::Mat m = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
     rep.seconds_grabcut += seconds_since(t0);
     if (c == 0) mask = m, nearest = rep;
     if (image_supports(m, rep, params.support == SupportChoice::Table ? params.table.min_image_support : -1)) {
+      if (params.support == SupportChoice::Table && params.table.nearest_region)
+        rep.regions_dropped = keep_nearest_region(m, rest, chosen_point, view, rep);
       mask = m;
       break;
     }

@@ -29,11 +29,11 @@ struct Cloud {
   }
   /// A box standing on the table top (y = 0.75) from x0 to x0 + 0.2: its front face (z = -0.1) from
   /// `lowest` up, and its top (in rows 4 cm apart: seen from 0.4 m above the table, at a grazing angle).
-  void box(double x0, double lowest = 0) {
+  void box(double x0, double lowest = 0, double z0 = -0.1) {
     for (double a = 0; a <= 0.2; a += 0.02)
       for (double h = 0; h <= 0.2; h += 0.02) {
-        if (h >= lowest) add(x0 + a, 0.75 + h, -0.1);
-        if (h <= 0.1) add(x0 + a, 0.95, -0.1 + 2 * h);
+        if (h >= lowest) add(x0 + a, 0.75 + h, z0);
+        if (h <= 0.1) add(x0 + a, 0.95, z0 + 2 * h);
       }
   }
 };
@@ -59,6 +59,29 @@ Pose camera_at(double pitch, double x, double y, double z) {
     for (int q = 0; q < 3; ++q) p.R[std::size_t(r * 3 + q)] = R(r, q);
   p.t = {x, y, z};
   return p;
+}
+
+/// A wall's fine pattern, the same everywhere (GrabCut finds nothing in it unlike its surroundings).
+cv::Mat wall_image() {
+  cv::Mat image(120, 160, CV_8UC3);
+  cv::RNG rng(3);
+  rng.fill(image, cv::RNG::UNIFORM, cv::Scalar(150, 160, 170), cv::Scalar(190, 200, 210));
+  return image;
+}
+
+/// Paints the front face of Cloud::box(x0, 0, z0) seen from `pose` in `colour`; returns its outline.
+std::vector<cv::Point> paint_front(cv::Mat& image, const Pose& pose, const PinholeIntrinsics& k, double x0, double z0,
+                                   const cv::Scalar& colour) {
+  std::vector<cv::Point> corners, hull;
+  for (double a : {0.0, 0.2})
+    for (double h : {0.0, 0.2}) {
+      cv::Point2f px;
+      project_point(Eigen::Vector3f(float(x0 + a), float(0.75 + h), float(z0)), pose, k, &px);
+      corners.emplace_back(px);
+    }
+  cv::convexHull(corners, hull);
+  cv::fillConvexPoly(image, hull, colour);
+  return hull;
 }
 
 }  // namespace
@@ -116,19 +139,8 @@ TEST(GrabCutSfm, ANearerSheetWithNoObjectUnderItIsPassedOverForTheNextCluster) {
     for (double h = 0.03; h <= 0.13; h += 0.02) c.add(x, 0.75 + h, -0.3);
   const PinholeIntrinsics k{150, 150, 79.5, 59.5};
   const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
-  cv::Mat image(120, 160, CV_8UC3);
-  cv::RNG rng(3);
-  rng.fill(image, cv::RNG::UNIFORM, cv::Scalar(150, 160, 170), cv::Scalar(190, 200, 210));
-  std::vector<cv::Point> box_pixels;
-  for (double a = 0; a <= 0.2; a += 0.01)
-    for (double h = 0; h <= 0.2; h += 0.01) {
-      cv::Point2f px;
-      ASSERT_TRUE(project_point(Eigen::Vector3f(float(0.1 + a), float(0.75 + h), -0.1f), pose, k, &px));
-      box_pixels.emplace_back(px);
-    }
-  std::vector<cv::Point> hull;
-  cv::convexHull(box_pixels, hull);
-  cv::fillConvexPoly(image, hull, cv::Scalar(30, 30, 200));
+  cv::Mat image = wall_image();
+  const std::vector<cv::Point> hull = paint_front(image, pose, k, 0.1, -0.1, cv::Scalar(30, 30, 200));
   GrabCutSfmParams p;
   p.up = Eigen::Vector3d::UnitY();
   GrabCutSfmReport supported, nearest;
@@ -144,4 +156,64 @@ TEST(GrabCutSfm, ANearerSheetWithNoObjectUnderItIsPassedOverForTheNextCluster) {
   cv::Mat red(image.size(), CV_8UC1, cv::Scalar(0));
   cv::fillConvexPoly(red, hull, cv::Scalar(255));
   EXPECT_GT(mask_f1(mask, red), 0.9);
+}
+
+TEST(GrabCutSfm, TwoObjectsChainedByErrorsOnTheWallBetweenThemKeepOnlyTheNearersRegion) {
+  // A red box and, 15 cm farther, a green one, one cluster through a row of points at their top's height
+  // between them (the wall's pixels given their depth by the stereo; the splits of the clusters off). The
+  // box takes both; GrabCut keeps both boxes, not the wall between them, and the cluster's points in its
+  // foreground fall apart into the two boxes: only the nearer one's region is kept.
+  Cloud c = floor_and_table();
+  c.box(-0.3);
+  c.box(0.05, 0, 0.05);
+  for (double t = 0; t <= 1; t += 0.07) c.add(-0.1 + 0.15 * t, 0.93, -0.1 + 0.15 * t);
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  cv::Mat image = wall_image();
+  const std::vector<cv::Point> near = paint_front(image, pose, k, -0.3, -0.1, cv::Scalar(30, 30, 200));
+  paint_front(image, pose, k, 0.05, 0.05, cv::Scalar(40, 180, 40));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  p.median_distance = p.median_depth = true;
+  p.table.chain_rise = 0;
+  GrabCutSfmReport kept, both;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &kept);
+  p.table.nearest_region = false;
+  const cv::Mat whole = grabcut_sfm(c.points, k, pose, image, p, &both);
+  cv::Mat truth(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(truth, near, cv::Scalar(255));
+  EXPECT_EQ(both.regions_dropped, 0);
+  EXPECT_EQ(kept.regions_dropped, 1);
+  EXPECT_LT(mask_f1(whole, truth), 0.8);  // both boxes
+  EXPECT_GT(mask_f1(mask, truth), 0.9);
+}
+
+TEST(GrabCutSfm, TheNearestClusterByTheMiddleHalfOfItsDepthsNotTheMedianAlone) {
+  // Two patches of points facing the camera (one every 2 cm), most of each at one depth as a stereo's
+  // quantised disparities give: the left one 60 % at D and the rest 8 mm behind, the right one 60 % 1 mm
+  // behind D and the rest 9 mm in front. The left one's median is nearer by 1 mm; the mean of the middle
+  // half of the right one's depths is nearer by 4 mm, the right one chosen.
+  Cloud c = floor_and_table();
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
+  const Eigen::Vector3d camera(0, 1.15, -1.5);
+  const double depth = 1.6, step = 0.0125;
+  for (int side : {-1, 1})
+    for (int i = 0; i < 12; ++i)
+      for (int j = 0; j < 8; ++j) {
+        const double d = i % 5 < 3 ? depth + (side > 0 ? 0.001 : 0) : depth + (side > 0 ? -0.009 : 0.008);
+        const Eigen::Vector3d ray(side * (0.1 + i * step), -0.02 - j * step, 1);
+        c.points.push_back((camera + R * (d * ray)).cast<float>());
+      }
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  p.median_distance = p.median_depth = true;
+  p.table.min_image_support = -1;
+  GrabCutSfmReport rep;
+  grabcut_sfm(c.points, k, pose, wall_image(), p, &rep);
+  ASSERT_EQ(rep.cluster_sizes.size(), 2u);
+  double u = 0;
+  for (const auto& q : rep.chosen_points) u += q.x;
+  EXPECT_GT(u / double(rep.chosen_points.size()), k.cx);  // the right one
 }
