@@ -173,12 +173,10 @@ const Table<TableParams>& table_params_table() {
            "regions of the nearest one (two objects chained by stereo errors on the wall between them, which "
            "GrabCut leaves out; --nearest-region=false: off)",
            [](auto& p) -> auto& { return p.nearest_region; });
-    t.number("chain_density", "--chain-density",
-             "grabcut-sfm, --support table: of the points --chain-rise slabs above the table, only those whose foot "
-             "cell (of the cluster tolerance) holds this x the cluster's median foot-cell count split it (an "
-             "object's faces pile points on their feet; the stereo errors carried between objects do not; 0: "
-             "every point above)",
-             [](auto& p) -> auto& { return p.chain_density; }, 0.0, 1000.0);
+    t.number("mask_depth_share", "--mask-depth-share",
+             "grabcut-sfm, --support table: GrabCut's foreground loses the pixels whose cloud depth lies beyond (1 + "
+             "this) x the 90th percentile of the chosen points' depths (a farther object or the wall; 0: none)",
+             [](auto& p) -> auto& { return p.mask_depth_share; }, 0.0, 1000.0);
     return t;
   }();
   return table;

@@ -2,7 +2,6 @@
 // (a table found relative to the scene, or 001's dominant plane), the clusters, the nearest one, its box,
 // GrabCut. The building blocks are in grabcut_sfm.cpp, the table in grabcut_sfm_table.cpp.
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -33,7 +32,6 @@ constexpr double kPaperClusterTolerance = 0.03;
 constexpr int kPaperMinClusterSize = 10;
 constexpr int kSpacingNeighbour = 4;  // the cloud's spacing: distance to the 4th nearest neighbour
 constexpr double kHighPartGap = 1.5;  // tolerances: a cluster's higher parts this far apart are different objects
-constexpr double kPartGap = 2.0;  // tolerances: the same for the points piled on their feet (sparser than all of them)
 
 /// The frame: its pose, intrinsics and size, and what the steps read off them.
 struct View {
@@ -273,94 +271,12 @@ std::vector<int> high_parts(const Cloud& points, const std::vector<std::size_t>&
   return part;
 }
 
-/// Per member of a cluster, how many of its points have their foot on `plane` in the same cell of
-/// `cell` metres: an object's faces pile their points on few cells; a thin sheet of stereo errors
-/// beside or above an object (its depth carried over a plain wall behind it) does not.
-std::vector<int> foot_cell_counts(const Cloud& points, const std::vector<std::size_t>& members, const Eigen::Vector4d& plane,
-                                  double cell) {
-  std::vector<std::array<int, 3>> key(members.size());
-  std::map<std::array<int, 3>, int> count;
-  for (std::size_t m = 0; m < members.size(); ++m) {
-    const Eigen::Vector3d q = points[members[m]].cast<double>();
-    const Eigen::Vector3d foot = q - (plane.head<3>().dot(q) + plane[3]) * plane.head<3>();
-    for (int j = 0; j < 3; ++j) key[m][std::size_t(j)] = int(std::floor(foot[j] / cell));
-    ++count[key[m]];
-  }
-  std::vector<int> out(members.size());
-  for (std::size_t m = 0; m < members.size(); ++m) out[m] = count[key[m]];
-  return out;
-}
-
-/// Every member without a part (-1) takes the part of the nearest member with one, nearest in hops of
-/// `tolerance` through the cluster (breadth first from every part at once); none when unreachable.
-void grow_parts(const Cloud& points, const std::vector<std::size_t>& members, double tolerance, std::vector<int>& part) {
-  Cloud cluster;
-  for (std::size_t m : members) cluster.push_back(points[m]);
-  const detail::VoxelGrid grid(cluster, tolerance);
-  std::vector<std::size_t> queue;
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (part[m] >= 0) queue.push_back(m);
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const std::size_t m = queue[head];
-    grid.for_each_near(cluster[m], [&](std::size_t j) {
-      if (part[j] >= 0) return;
-      part[j] = part[m];
-      queue.push_back(j);
-    });
-  }
-}
-
-/// The parts of one Euclidean cluster (the points `members`): its anchors, the points at least `lift`
-/// above `plane` (n . X + d, n up) whose foot cell (of `tolerance`) holds at least `density` x the
-/// members' median foot-cell count, clustered alone at kPartGap x `tolerance` (a single object's higher
-/// points, sparse, fall apart at the tolerance itself: a box's top from its faces); every other point
-/// of the cluster joins the group of anchors nearest it through the cluster (grow_parts), and the
-/// groups that reach `min_size` points and come down to `reach` above the plane (a sheet of errors
-/// above an object is no object) are the parts, grown again without the others. Per member its part;
-/// one part (all 0) when fewer than two qualify.
-std::vector<int> cluster_parts(const Cloud& points, const std::vector<std::size_t>& members, const Eigen::Vector4d& plane,
-                               double lift, double reach, double density, double tolerance, int min_size) {
-  const std::vector<int> piled = foot_cell_counts(points, members, plane, tolerance);
-  std::vector<double> piled_d(piled.begin(), piled.end());
-  const double min_piled = density * median(piled_d);
-  Cloud high;
-  std::vector<std::size_t> high_member;
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (plane.head<3>().dot(points[members[m]].cast<double>()) + plane[3] >= lift && piled[m] >= min_piled) {
-      high.push_back(points[members[m]]);
-      high_member.push_back(m);
-    }
-  const std::vector<int> high_part = euclidean_clusters(high, kPartGap * tolerance, 1);
-  const int anchor_parts = high.empty() ? 0 : *std::max_element(high_part.begin(), high_part.end()) + 1;
-  if (anchor_parts < 2) return std::vector<int>(members.size(), 0);
-  // Grown once from every group of anchors; the parts that reach min_size points grow again alone.
-  std::vector<int> part(members.size(), -1);
-  for (std::size_t h = 0; h < high.size(); ++h) part[high_member[h]] = high_part[h];
-  grow_parts(points, members, tolerance, part);
-  std::vector<int> size(std::size_t(anchor_parts), 0), kept(std::size_t(anchor_parts), -1);
-  std::vector<double> lowest(std::size_t(anchor_parts), std::numeric_limits<double>::infinity());
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (part[m] >= 0) {
-      ++size[std::size_t(part[m])];
-      const double h = plane.head<3>().dot(points[members[m]].cast<double>()) + plane[3];
-      lowest[std::size_t(part[m])] = std::min(lowest[std::size_t(part[m])], h);
-    }
-  int parts = 0;
-  for (std::size_t q = 0; q < size.size(); ++q)
-    if (size[q] >= min_size && lowest[q] <= reach) kept[q] = parts++;
-  if (parts < 2) return std::vector<int>(members.size(), 0);
-  std::fill(part.begin(), part.end(), -1);
-  for (std::size_t h = 0; h < high.size(); ++h) part[high_member[h]] = kept[std::size_t(high_part[h])];
-  grow_parts(points, members, tolerance, part);
-  return part;
-}
-
 /// Euclidean clusters, each split where its points at least `lift` above `plane` fall apart into two or
-/// more clusters of `min_size` (cluster_parts): the lower points, the table's stereo errors around the
+/// more clusters of `min_size` (high_parts): the lower points, the table's stereo errors around the
 /// objects, chain two neighbouring objects into one cluster, but do not join them. Labels as
 /// euclidean_clusters.
-std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& plane, double lift, double reach,
-                                    double density, double tolerance, int min_size) {
+std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& plane, double lift, double tolerance,
+                                    int min_size) {
   const std::vector<int> whole = euclidean_clusters(points, tolerance, min_size);
   std::vector<std::vector<std::size_t>> members;
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -371,9 +287,7 @@ std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& 
   std::vector<int> label(points.size(), -1);
   int first = 0;  // parts of cluster k are first + 0, 1, ...
   for (const auto& m : members) {
-    std::vector<int> part = high_parts(points, m, plane, lift, tolerance, min_size);
-    if (*std::max_element(part.begin(), part.end()) < 1 && density > 0)
-      part = cluster_parts(points, m, plane, lift, reach, density, tolerance, min_size);
+    const std::vector<int> part = high_parts(points, m, plane, lift, tolerance, min_size);
     for (std::size_t j = 0; j < m.size(); ++j) label[m[j]] = part[j] < 0 ? -1 : first + part[j];
     first += *std::max_element(part.begin(), part.end()) + 1;
   }
@@ -401,9 +315,8 @@ Clusters cluster_step(const Cloud& rest, const GrabCutSfmParams& p, GrabCutSfmRe
                          : relative ? std::max(kPaperMinClusterSize, int(p.min_cluster_share * double(rest.size())))
                                     : kPaperMinClusterSize;
   c.label = relative && p.table.chain_rise > 0 && !rep.planes.empty()
-                ? unchained_clusters(rest, rep.planes[0], p.table.chain_rise * rep.plane_distance,
-                                     p.table.min_rise * rep.plane_distance, p.table.chain_density, rep.cluster_tolerance,
-                                  rep.min_cluster_size)
+                ? unchained_clusters(rest, rep.planes[0], p.table.chain_rise * rep.plane_distance, rep.cluster_tolerance,
+                                     rep.min_cluster_size)
                 : euclidean_clusters(rest, rep.cluster_tolerance, rep.min_cluster_size);
   for (int l : c.label) c.count = std::max(c.count, std::size_t(l + 1));
   if (c.count == 0)
@@ -599,6 +512,28 @@ int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std:
   return dropped;
 }
 
+/// GrabCut's foreground without the pixels whose cloud depth (the nearest point projecting within a pixel)
+/// lies beyond (1 + `share`) x the 90th percentile of the chosen points' depths: a farther object or the wall
+/// seen inside the box around the object. Returns how many.
+int drop_farther_pixels(cv::Mat& mask, const Cloud& points, const Cloud& rest, const std::vector<std::size_t>& chosen_point,
+                        const View& view, double share) {
+  std::vector<double> depth;
+  for (std::size_t i : chosen_point) depth.push_back((rest[i].cast<double>() - view.camera).dot(view.R.col(2)));
+  const auto p90 = depth.begin() + std::ptrdiff_t(depth.size() * 9 / 10);
+  std::nth_element(depth.begin(), p90, depth.end());
+  cv::Mat nearest(mask.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::max()));
+  for (const auto& q : points) {
+    cv::Point2f px;
+    if (!view.in_frame(q, &px)) continue;
+    float& z = nearest.at<float>(cv::Point(px));
+    z = std::min(z, float((q.cast<double>() - view.camera).dot(view.R.col(2))));
+  }
+  cv::erode(nearest, nearest, cv::Mat());  // the nearest within a pixel
+  const cv::Mat farther = mask & (nearest > (1 + share) * *p90) & (nearest < std::numeric_limits<float>::max());
+  mask.setTo(0, farther);
+  return cv::countNonZero(farther);
+}
+
 /// The supporting plane step of either kind, timed; an error when too few points are left for k-means.
 void support_step(Cloud& rest, const Cloud* plane_cloud, const View& view, const GrabCutSfmParams& p,
                   GrabCutSfmReport& rep) {
@@ -698,6 +633,8 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
     if (image_supports(m, rep, params.support == SupportChoice::Table ? params.table.min_image_support : -1)) {
       if (params.support == SupportChoice::Table && params.table.nearest_region)
         rep.regions_dropped = keep_nearest_region(m, rest, chosen_point, view, rep);
+      if (params.support == SupportChoice::Table && params.table.mask_depth_share > 0)
+        rep.farther_pixels = drop_farther_pixels(m, points, rest, chosen_point, view, params.table.mask_depth_share);
       mask = m;
       break;
     }

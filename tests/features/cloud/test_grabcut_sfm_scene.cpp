@@ -1,7 +1,8 @@
 // GrabCutSFM's scene-relative defaults on clouds built here: a table top cut into pieces by the object
-// standing on it (find_table joins them through the object's feet), and two boxes chained into one
-// cluster by a thin sheet of stereo errors at their top's height (the split by the points piled on their
-// feet).
+// standing on it (find_table joins them through the object's feet); what GrabCut's result says of the
+// chosen cluster: a sheet of stereo errors with no object under it (passed over), two boxes chained by
+// errors on the wall between them (only the nearer one's region kept), a farther object inside the box
+// (its pixels dropped); and the nearest cluster by the middle half of its depths.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -104,31 +105,6 @@ TEST(FindTable, ATableCutIntoPiecesByTheObjectOnItIsJoinedThroughItsFeet) {
   EXPECT_FALSE(p.found && std::abs(-p.plane[3] / p.plane[1] - 0.75) < 0.05);
 }
 
-TEST(GrabCutSfm, ASheetOfErrorsAtTheTopsHeightDoesNotChainTwoBoxesIntoOneCluster) {
-  // Two 0.2 m boxes 0.15 m apart on the table, joined by a row of points at 0.18 m above the table (a
-  // plain wall's pixels between them given the boxes' depth by the stereo): their points above three
-  // slabs make one cluster, so the split by height alone keeps them together. Their faces pile their
-  // points on their feet and the row does not: split by those points, they are two clusters.
-  Cloud c = floor_and_table();
-  c.box(-0.3);
-  c.box(0.05);
-  for (double x = -0.1; x <= 0.05; x += 0.015) c.add(x, 0.93, -0.1);
-  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
-  const cv::Mat image(120, 160, CV_8UC3, cv::Scalar(90, 120, 150));
-  GrabCutSfmParams p;
-  p.up = Eigen::Vector3d::UnitY();
-  GrabCutSfmReport split, chained;
-  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
-  grabcut_sfm(c.points, k, pose, image, p, &split);
-  p.table.chain_density = 0;
-  grabcut_sfm(c.points, k, pose, image, p, &chained);
-  ASSERT_TRUE(chained.table.found);
-  const int both = *std::max_element(chained.cluster_sizes.begin(), chained.cluster_sizes.end());
-  EXPECT_GT(both, 200);  // both boxes' faces and near tops (their far rows, 4 cm apart, apart) and the row
-  EXPECT_EQ(split.cluster_sizes.size(), chained.cluster_sizes.size() + 1);
-  EXPECT_LT(*std::max_element(split.cluster_sizes.begin(), split.cluster_sizes.end()), both / 2 + 20);
-}
-
 TEST(GrabCutSfm, ANearerSheetWithNoObjectUnderItIsPassedOverForTheNextCluster) {
   // A sheet of points standing on the table nearer than a box (a plain wall given the table edge's depth
   // by the stereo): the nearest cluster, but the image under it is the wall's pattern, like the pixels
@@ -216,4 +192,32 @@ TEST(GrabCutSfm, TheNearestClusterByTheMiddleHalfOfItsDepthsNotTheMedianAlone) {
   double u = 0;
   for (const auto& q : rep.chosen_points) u += q.x;
   EXPECT_GT(u / double(rep.chosen_points.size()), k.cx);  // the right one
+}
+
+TEST(GrabCutSfm, ForegroundPixelsWhoseDepthLiesFarBehindTheObjectAreDropped) {
+  // A red box, and 0.35 m behind it a green one seen above and beside it: the box around the red one (a wide margin)
+  // holds part of the green one, which GrabCut keeps too (it is unlike the wall around the box). Its
+  // pixels' cloud depth lies far behind the red box's points: dropped.
+  Cloud c = floor_and_table();
+  c.box(-0.1);
+  c.box(0.0, 0, 0.25);
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  cv::Mat image = wall_image();
+  paint_front(image, pose, k, 0.0, 0.25, cv::Scalar(40, 180, 40));
+  const std::vector<cv::Point> near = paint_front(image, pose, k, -0.1, -0.1, cv::Scalar(30, 30, 200));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  p.median_distance = p.median_depth = true;
+  p.box_margin = 0.4;
+  GrabCutSfmReport trimmed, whole;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &trimmed);
+  p.table.mask_depth_share = 0;
+  const cv::Mat all = grabcut_sfm(c.points, k, pose, image, p, &whole);
+  cv::Mat truth(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(truth, near, cv::Scalar(255));
+  EXPECT_EQ(whole.farther_pixels, 0);
+  EXPECT_GT(trimmed.farther_pixels, 20);
+  EXPECT_LT(mask_f1(all, truth), 0.9);  // 0.85: part of the green box with it
+  EXPECT_GT(mask_f1(mask, truth), 0.93);  // 0.95: its outline
 }

@@ -260,6 +260,7 @@ Json report_json(const GrabCutSfmCli& o, const smseg::cloud::GrabCutSfmReport& r
           {"chosen", rep.chosen},
           {"unsupported", rep.unsupported},
           {"regions_dropped", rep.regions_dropped},
+          {"farther_pixels", rep.farther_pixels},
           {"chosen_projections", rep.chosen_points.size()},
           {"inliers_2d", rep.inliers_2d},
           {"inlier_box", rect_json(rep.inlier_box)},

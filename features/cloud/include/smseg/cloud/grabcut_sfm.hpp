@@ -84,10 +84,6 @@ struct TableParams {
                                      ///< smallest cluster's size) is split into those, its lower points joining
                                      ///< the nearest within the tolerance: stereo errors on the table chain
                                      ///< neighbouring objects (GrabCutSFM; 0: no split)
-  double chain_density = 0.5;        ///< of the points above chain_rise, only those whose foot cell (of the cluster
-                                     ///< tolerance) holds this x the cluster's median foot-cell count are split
-                                     ///< into clusters: an object's faces pile points on their feet, the stereo
-                                     ///< errors between objects do not (GrabCutSFM; 0: every point above)
   bool join_through_feet = true;     ///< a candidate whose largest patch is no table is tried again with the feet of
                                      ///< the points above it joining its pieces (a table seen from low, cut into
                                      ///< pieces by the objects on it and the table they hide)
@@ -99,6 +95,8 @@ struct TableParams {
                                      ///< apart into two or more clusters (two objects chained by stereo errors on
                                      ///< the wall between them, which GrabCut leaves out) keep only the nearest's
                                      ///< regions of the mask
+  double mask_depth_share = 0.1;     ///< GrabCutSFM: GrabCut's foreground loses the pixels whose cloud depth lies beyond
+                                     ///< (1 + this) x the 90th percentile of the chosen points' depths (0: none)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
   double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
                                      ///< and below it, and exceeds that mean by min_share (its own points)
@@ -217,6 +215,7 @@ struct GrabCutSfmReport {
   std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
   int chosen = -1;                      ///< the cluster used
   int regions_dropped = 0;              ///< regions of GrabCut's foreground dropped as a farther object's (nearest_region)
+  int farther_pixels = 0;               ///< foreground pixels dropped as farther than the object (mask_depth_share)
   std::vector<int> unsupported;         ///< nearer clusters passed over: GrabCut kept none of them (min_image_support)
   std::vector<cv::Point2f> projected;   ///< every clustered point projecting into the frame
   std::vector<int> projected_cluster;   ///< its cluster
