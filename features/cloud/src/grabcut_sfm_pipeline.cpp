@@ -6,7 +6,6 @@
 #include <cmath>
 #include <limits>
 #include <map>
-#include <numeric>
 #include <string>
 
 #include <Eigen/Dense>
@@ -351,15 +350,6 @@ std::vector<char> rising_clusters(const Cloud& rest, const Clusters& c, const Gr
   return rises;
 }
 
-/// The mean of the middle half of the values (the median of 1 or 2): unlike the median, not stuck on one
-/// of the few depths a stereo's quantised disparities give a cluster.
-double interquartile_mean(std::vector<double> v) {
-  if (v.size() < 3) return median(v);
-  std::sort(v.begin(), v.end());
-  const std::ptrdiff_t quarter = std::ptrdiff_t(v.size() / 4);
-  return std::accumulate(v.begin() + quarter, v.end() - quarter, 0.0) / double(v.size() - 2 * std::size_t(quarter));
-}
-
 /// The clusters that may be chosen, nearest first, and per projection in the report its point in `rest`.
 struct Candidates { std::vector<int> order; std::vector<std::size_t> projected_point; };
 
@@ -389,9 +379,7 @@ Candidates nearest_step(const Cloud& rest, const Clusters& c, const View& view, 
   for (std::size_t k = 0; k < c.count; ++k) {
     if (!rises[k]) continue;
     const Eigen::Vector3d centre(c.centres[k * 3], c.centres[k * 3 + 1], c.centres[k * 3 + 2]);
-    rep.cluster_distances[k] = !p.median_distance ? (centre - view.camera).norm()
-                               : p.median_depth   ? interquartile_mean(point_distances[k])
-                                                  : median(point_distances[k]);
+    rep.cluster_distances[k] = p.median_distance ? median(point_distances[k]) : (centre - view.camera).norm();
     if (rep.cluster_in_frame[k] >= p.min_cluster_points) out.order.push_back(int(k));
   }
   if (out.order.empty())
@@ -484,7 +472,7 @@ bool image_supports(const cv::Mat& mask, const GrabCutSfmReport& rep, double min
 /// clustered again at the tolerance (the stereo errors on the plain wall between two objects, which
 /// chained them, lie outside it); when they fall into two or more clusters of the smallest cluster's
 /// size, the mask's regions (8-connected) holding the farther ones' points and none of the nearest's
-/// (by the interquartile mean of their depths) are dropped. Returns how many.
+/// (by the median of their depths) are dropped. Returns how many.
 int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
                         const GrabCutSfmReport& rep) {
   cv::Mat regions;
@@ -502,7 +490,7 @@ int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std:
     if (part[i] >= 0) depth[std::size_t(part[i])].push_back((inside[i].cast<double>() - view.camera).dot(view.R.col(2)));
   int nearest = 0;
   for (int q = 1; q < parts; ++q)
-    if (interquartile_mean(depth[std::size_t(q)]) < interquartile_mean(depth[std::size_t(nearest)])) nearest = q;
+    if (median(depth[std::size_t(q)]) < median(depth[std::size_t(nearest)])) nearest = q;
   std::vector<int> holds(std::size_t(count), 0);  // bit 1: the nearest part's points, bit 2: another's
   for (std::size_t i = 0; i < inside.size(); ++i)
     if (part[i] >= 0) holds[std::size_t(region[i])] |= part[i] == nearest ? 1 : 2;

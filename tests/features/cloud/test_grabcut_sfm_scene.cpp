@@ -2,7 +2,7 @@
 // standing on it (find_table joins them through the object's feet); what GrabCut's result says of the
 // chosen cluster: a sheet of stereo errors with no object under it (passed over), two boxes chained by
 // errors on the wall between them (only the nearer one's region kept), a farther object inside the box
-// (its pixels dropped); and the nearest cluster by the middle half of its depths.
+// (its pixels dropped).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -162,36 +162,6 @@ TEST(GrabCutSfm, TwoObjectsChainedByErrorsOnTheWallBetweenThemKeepOnlyTheNearers
   EXPECT_EQ(kept.regions_dropped, 1);
   EXPECT_LT(mask_f1(whole, truth), 0.8);  // both boxes
   EXPECT_GT(mask_f1(mask, truth), 0.9);
-}
-
-TEST(GrabCutSfm, TheNearestClusterByTheMiddleHalfOfItsDepthsNotTheMedianAlone) {
-  // Two patches of points facing the camera (one every 2 cm), most of each at one depth as a stereo's
-  // quantised disparities give: the left one 60 % at D and the rest 8 mm behind, the right one 60 % 1 mm
-  // behind D and the rest 9 mm in front. The left one's median is nearer by 1 mm; the mean of the middle
-  // half of the right one's depths is nearer by 4 mm, the right one chosen.
-  Cloud c = floor_and_table();
-  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
-  const Eigen::Matrix3d R = Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>>(pose.R.data());
-  const Eigen::Vector3d camera(0, 1.15, -1.5);
-  const double depth = 1.6, step = 0.0125;
-  for (int side : {-1, 1})
-    for (int i = 0; i < 12; ++i)
-      for (int j = 0; j < 8; ++j) {
-        const double d = i % 5 < 3 ? depth + (side > 0 ? 0.001 : 0) : depth + (side > 0 ? -0.009 : 0.008);
-        const Eigen::Vector3d ray(side * (0.1 + i * step), -0.02 - j * step, 1);
-        c.points.push_back((camera + R * (d * ray)).cast<float>());
-      }
-  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
-  GrabCutSfmParams p;
-  p.up = Eigen::Vector3d::UnitY();
-  p.median_distance = p.median_depth = true;
-  p.table.min_image_support = -1;
-  GrabCutSfmReport rep;
-  grabcut_sfm(c.points, k, pose, wall_image(), p, &rep);
-  ASSERT_EQ(rep.cluster_sizes.size(), 2u);
-  double u = 0;
-  for (const auto& q : rep.chosen_points) u += q.x;
-  EXPECT_GT(u / double(rep.chosen_points.size()), k.cx);  // the right one
 }
 
 TEST(GrabCutSfm, ForegroundPixelsWhoseDepthLiesFarBehindTheObjectAreDropped) {

@@ -384,8 +384,7 @@ void declare_choices(options::Table<GrabCutSfmCli>& t) {
       .written_as([](const GrabCutSfmCli& o) { return Json(o.params.euclidean ? "euclidean" : "kmeans"); });
   one_of(t, "nearest", "--nearest",
          "grabcut-sfm: the nearest cluster by its centre's distance (centre, 001), its points' median "
-         "distance (median) or the mean of the middle half of their depths along the optical axis (depth; a "
-         "median ties on the few depths quantised disparities give); auto: table: depth, plane: centre",
+         "distance (median) or median depth along the optical axis (depth); auto: table: depth, plane: centre",
          [](auto& o) -> auto& { return o.nearest; }, {"auto", "centre", "median", "depth"});
 }
 

@@ -6,7 +6,7 @@
 // table find_table() finds (the highest wide horizontal patch with points standing on it), its slab a
 // share of the points' distance from the camera; only the points standing on it, up to the camera's height
 // above it, are clustered, Euclidean at the cloud's own spacing (cloud_spacing); the nearest cluster by the
-// mean of the middle half of its points' depths; then 001's 2D RANSAC, box and GrabCut, the next nearest
+// median depth of its points; then 001's 2D RANSAC, box and GrabCut, the next nearest
 // cluster instead when GrabCut keeps none of its projections (TableParams::min_image_support), and of
 // GrabCut's foreground only the nearest object's regions (TableParams::nearest_region; docs/graphcuts.md).
 //
@@ -20,7 +20,7 @@
 //      camera's up, and only the points in a height band above it, standing on it: see height_band)
 //   2. 3D k-means (k = 6, k-means++ seeding, the best of `attempts` runs) on the remaining points (option,
 //      not in 001: Euclidean clustering);
-//   3. the cluster whose centre (option: median distance or middle-half mean depth of its points) is nearest the camera centre, among the clusters with at least
+//   3. the cluster whose centre (option: median distance or depth of its points) is nearest the camera centre, among the clusters with at least
 //      min_cluster_points points projecting into the frame in front of the camera, is projected into the
 //      frame (x = P X, 001 eq. 2);
 //   4. 2D RANSAC outlier removal (001 III-C; the paper does not give the model, ours): a hypothesis is a
@@ -183,9 +183,7 @@ struct GrabCutSfmParams {
                                  ///< points clustered (at least 10)
   double min_cluster_share = 0.05;  ///< see min_cluster_size
   bool median_distance = false;  ///< nearest by the median distance of the cluster's points (else its centre's, 001)
-  bool median_depth = false;     ///< with median_distance: depth (along the optical axis) instead of distance, and the
-                                 ///< mean of the middle half of the depths instead of their median (quantised
-                                 ///< disparities give a cluster few depths, and medians tie)
+  bool median_depth = false;     ///< with median_distance: depth (along the optical axis) instead of distance
   std::uint64_t seed = 1;
   void validate() const;         ///< Error naming the option (--plane-distance, --k, ...)
   /// 001's recipe as published: the dominant plane within 5 cm removed, k-means with k = 6, the box from the
@@ -211,7 +209,6 @@ struct GrabCutSfmReport {
   std::vector<int> cluster_sizes;       ///< per cluster, points
   std::vector<double> cluster_distances;  ///< per cluster, distance from the camera (metres): of its centre, or
                                           ///< the median of its points' with median_distance
-                                          ///< (with median_depth the mean of the middle half of their depths)
   std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
   int chosen = -1;                      ///< the cluster used
   int regions_dropped = 0;              ///< regions of GrabCut's foreground dropped as a farther object's (nearest_region)
