@@ -457,6 +457,12 @@ void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, c
   rep.box = cv::Rect(bx0, by0, std::max(0, bx1 - bx0), std::max(0, by1 - by0));
 }
 
+/// The pixel a projection inside the frame falls in (pixel centres at whole coordinates; one within half a
+/// pixel of the right or bottom edge rounds to the last column or row).
+cv::Point pixel_of(const cv::Point2f& p, cv::Size size) {
+  return {std::min(cvRound(p.x), size.width - 1), std::min(cvRound(p.y), size.height - 1)};
+}
+
 /// Whether GrabCut's foreground `mask` holds more than `min_share` of the chosen cluster's 2D inliers: a
 /// cluster of stereo errors (a plain wall given a nearer surface's depth) has no object under it, and
 /// GrabCut, finding nothing in its box unlike the pixels around it, keeps none of its pixels.
@@ -464,7 +470,7 @@ bool image_supports(const cv::Mat& mask, const GrabCutSfmReport& rep, double min
   if (min_share < 0) return true;
   int kept = 0;
   for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
-    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(cv::Point(rep.chosen_points[i])) != 0) ++kept;
+    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(pixel_of(rep.chosen_points[i], mask.size())) != 0) ++kept;
   return kept > min_share * rep.inliers_2d;
 }
 
@@ -480,7 +486,7 @@ int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std:
   Cloud inside;
   std::vector<int> region;
   for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
-    if (const int r = regions.at<int>(cv::Point(rep.chosen_points[i])); r > 0)
+    if (const int r = regions.at<int>(pixel_of(rep.chosen_points[i], mask.size())); r > 0)
       inside.push_back(rest[chosen_point[i]]), region.push_back(r);
   const std::vector<int> part = euclidean_clusters(inside, rep.cluster_tolerance, rep.min_cluster_size);
   const int parts = inside.empty() ? 0 : *std::max_element(part.begin(), part.end()) + 1;
@@ -513,7 +519,7 @@ int drop_farther_pixels(cv::Mat& mask, const Cloud& points, const Cloud& rest, c
   for (const auto& q : points) {
     cv::Point2f px;
     if (!view.in_frame(q, &px)) continue;
-    float& z = nearest.at<float>(cv::Point(px));
+    float& z = nearest.at<float>(pixel_of(px, mask.size()));
     z = std::min(z, float((q.cast<double>() - view.camera).dot(view.R.col(2))));
   }
   cv::erode(nearest, nearest, cv::Mat());  // the nearest within a pixel
