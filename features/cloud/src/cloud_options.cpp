@@ -162,12 +162,21 @@ const Table<TableParams>& table_params_table() {
            "feet of the points above it joining its pieces (a table seen from low, cut up by the objects on it; "
            "--table-join-feet=false: off)",
            [](auto& p) -> auto& { return p.join_through_feet; });
-    t.number("chain_density", "--chain-density",
-             "grabcut-sfm, --support table: of the points --chain-rise slabs above the table, only those whose foot "
-             "cell (of the cluster tolerance) holds this x the cluster's median foot-cell count split it (an "
-             "object's faces pile points on their feet; the stereo errors carried between objects do not; 0: "
-             "every point above)",
-             [](auto& p) -> auto& { return p.chain_density; }, 0.0, 1000.0);
+    t.number("min_image_support", "--min-image-support",
+             "grabcut-sfm, --support table: the nearest cluster is taken when GrabCut's foreground holds more than "
+             "this share of its 2D inliers, else the next nearest is tried (the nearest when none is; a sheet of "
+             "stereo errors over a plain wall has no object under it; -1: the nearest, 001)",
+             [](auto& p) -> auto& { return p.min_image_support; }, -1.0, 0.999999);
+    t.flag("nearest_region", "--nearest-region",
+           "grabcut-sfm, --support table: when the chosen cluster's points inside GrabCut's foreground fall apart "
+           "into two or more clusters (of --min-cluster-size, at the cluster tolerance), the mask keeps only the "
+           "regions of the nearest one (two objects chained by stereo errors on the wall between them, which "
+           "GrabCut leaves out; --nearest-region=false: off)",
+           [](auto& p) -> auto& { return p.nearest_region; });
+    t.number("mask_depth_share", "--mask-depth-share",
+             "grabcut-sfm, --support table: GrabCut's foreground loses the pixels whose cloud depth lies beyond (1 + "
+             "this) x the 90th percentile of the chosen points' depths (a farther object or the wall; 0: none)",
+             [](auto& p) -> auto& { return p.mask_depth_share; }, 0.0, 1000.0);
     return t;
   }();
   return table;

@@ -2,7 +2,6 @@
 // (a table found relative to the scene, or 001's dominant plane), the clusters, the nearest one, its box,
 // GrabCut. The building blocks are in grabcut_sfm.cpp, the table in grabcut_sfm_table.cpp.
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -10,6 +9,7 @@
 #include <string>
 
 #include <Eigen/Dense>
+#include <opencv2/imgproc.hpp>
 
 #include "grabcut_sfm_detail.hpp"
 #include "smseg/cloud/grabcut_sfm.hpp"
@@ -31,7 +31,6 @@ constexpr double kPaperClusterTolerance = 0.03;
 constexpr int kPaperMinClusterSize = 10;
 constexpr int kSpacingNeighbour = 4;  // the cloud's spacing: distance to the 4th nearest neighbour
 constexpr double kHighPartGap = 1.5;  // tolerances: a cluster's higher parts this far apart are different objects
-constexpr double kPartGap = 2.0;  // tolerances: the same for the points piled on their feet (sparser than all of them)
 
 /// The frame: its pose, intrinsics and size, and what the steps read off them.
 struct View {
@@ -271,94 +270,12 @@ std::vector<int> high_parts(const Cloud& points, const std::vector<std::size_t>&
   return part;
 }
 
-/// Per member of a cluster, how many of its points have their foot on `plane` in the same cell of
-/// `cell` metres: an object's faces pile their points on few cells; a thin sheet of stereo errors
-/// beside or above an object (its depth carried over a plain wall behind it) does not.
-std::vector<int> foot_cell_counts(const Cloud& points, const std::vector<std::size_t>& members, const Eigen::Vector4d& plane,
-                                  double cell) {
-  std::vector<std::array<int, 3>> key(members.size());
-  std::map<std::array<int, 3>, int> count;
-  for (std::size_t m = 0; m < members.size(); ++m) {
-    const Eigen::Vector3d q = points[members[m]].cast<double>();
-    const Eigen::Vector3d foot = q - (plane.head<3>().dot(q) + plane[3]) * plane.head<3>();
-    for (int j = 0; j < 3; ++j) key[m][std::size_t(j)] = int(std::floor(foot[j] / cell));
-    ++count[key[m]];
-  }
-  std::vector<int> out(members.size());
-  for (std::size_t m = 0; m < members.size(); ++m) out[m] = count[key[m]];
-  return out;
-}
-
-/// Every member without a part (-1) takes the part of the nearest member with one, nearest in hops of
-/// `tolerance` through the cluster (breadth first from every part at once); none when unreachable.
-void grow_parts(const Cloud& points, const std::vector<std::size_t>& members, double tolerance, std::vector<int>& part) {
-  Cloud cluster;
-  for (std::size_t m : members) cluster.push_back(points[m]);
-  const detail::VoxelGrid grid(cluster, tolerance);
-  std::vector<std::size_t> queue;
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (part[m] >= 0) queue.push_back(m);
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const std::size_t m = queue[head];
-    grid.for_each_near(cluster[m], [&](std::size_t j) {
-      if (part[j] >= 0) return;
-      part[j] = part[m];
-      queue.push_back(j);
-    });
-  }
-}
-
-/// The parts of one Euclidean cluster (the points `members`): its anchors, the points at least `lift`
-/// above `plane` (n . X + d, n up) whose foot cell (of `tolerance`) holds at least `density` x the
-/// members' median foot-cell count, clustered alone at kPartGap x `tolerance` (a single object's higher
-/// points, sparse, fall apart at the tolerance itself: a box's top from its faces); every other point
-/// of the cluster joins the group of anchors nearest it through the cluster (grow_parts), and the
-/// groups that reach `min_size` points and come down to `reach` above the plane (a sheet of errors
-/// above an object is no object) are the parts, grown again without the others. Per member its part;
-/// one part (all 0) when fewer than two qualify.
-std::vector<int> cluster_parts(const Cloud& points, const std::vector<std::size_t>& members, const Eigen::Vector4d& plane,
-                               double lift, double reach, double density, double tolerance, int min_size) {
-  const std::vector<int> piled = foot_cell_counts(points, members, plane, tolerance);
-  std::vector<double> piled_d(piled.begin(), piled.end());
-  const double min_piled = density * median(piled_d);
-  Cloud high;
-  std::vector<std::size_t> high_member;
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (plane.head<3>().dot(points[members[m]].cast<double>()) + plane[3] >= lift && piled[m] >= min_piled) {
-      high.push_back(points[members[m]]);
-      high_member.push_back(m);
-    }
-  const std::vector<int> high_part = euclidean_clusters(high, kPartGap * tolerance, 1);
-  const int anchor_parts = high.empty() ? 0 : *std::max_element(high_part.begin(), high_part.end()) + 1;
-  if (anchor_parts < 2) return std::vector<int>(members.size(), 0);
-  // Grown once from every group of anchors; the parts that reach min_size points grow again alone.
-  std::vector<int> part(members.size(), -1);
-  for (std::size_t h = 0; h < high.size(); ++h) part[high_member[h]] = high_part[h];
-  grow_parts(points, members, tolerance, part);
-  std::vector<int> size(std::size_t(anchor_parts), 0), kept(std::size_t(anchor_parts), -1);
-  std::vector<double> lowest(std::size_t(anchor_parts), std::numeric_limits<double>::infinity());
-  for (std::size_t m = 0; m < members.size(); ++m)
-    if (part[m] >= 0) {
-      ++size[std::size_t(part[m])];
-      const double h = plane.head<3>().dot(points[members[m]].cast<double>()) + plane[3];
-      lowest[std::size_t(part[m])] = std::min(lowest[std::size_t(part[m])], h);
-    }
-  int parts = 0;
-  for (std::size_t q = 0; q < size.size(); ++q)
-    if (size[q] >= min_size && lowest[q] <= reach) kept[q] = parts++;
-  if (parts < 2) return std::vector<int>(members.size(), 0);
-  std::fill(part.begin(), part.end(), -1);
-  for (std::size_t h = 0; h < high.size(); ++h) part[high_member[h]] = kept[std::size_t(high_part[h])];
-  grow_parts(points, members, tolerance, part);
-  return part;
-}
-
 /// Euclidean clusters, each split where its points at least `lift` above `plane` fall apart into two or
-/// more clusters of `min_size` (cluster_parts): the lower points, the table's stereo errors around the
+/// more clusters of `min_size` (high_parts): the lower points, the table's stereo errors around the
 /// objects, chain two neighbouring objects into one cluster, but do not join them. Labels as
 /// euclidean_clusters.
-std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& plane, double lift, double reach,
-                                    double density, double tolerance, int min_size) {
+std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& plane, double lift, double tolerance,
+                                    int min_size) {
   const std::vector<int> whole = euclidean_clusters(points, tolerance, min_size);
   std::vector<std::vector<std::size_t>> members;
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -369,9 +286,7 @@ std::vector<int> unchained_clusters(const Cloud& points, const Eigen::Vector4d& 
   std::vector<int> label(points.size(), -1);
   int first = 0;  // parts of cluster k are first + 0, 1, ...
   for (const auto& m : members) {
-    std::vector<int> part = high_parts(points, m, plane, lift, tolerance, min_size);
-    if (*std::max_element(part.begin(), part.end()) < 1 && density > 0)
-      part = cluster_parts(points, m, plane, lift, reach, density, tolerance, min_size);
+    const std::vector<int> part = high_parts(points, m, plane, lift, tolerance, min_size);
     for (std::size_t j = 0; j < m.size(); ++j) label[m[j]] = part[j] < 0 ? -1 : first + part[j];
     first += *std::max_element(part.begin(), part.end()) + 1;
   }
@@ -399,9 +314,8 @@ Clusters cluster_step(const Cloud& rest, const GrabCutSfmParams& p, GrabCutSfmRe
                          : relative ? std::max(kPaperMinClusterSize, int(p.min_cluster_share * double(rest.size())))
                                     : kPaperMinClusterSize;
   c.label = relative && p.table.chain_rise > 0 && !rep.planes.empty()
-                ? unchained_clusters(rest, rep.planes[0], p.table.chain_rise * rep.plane_distance,
-                                     p.table.min_rise * rep.plane_distance, p.table.chain_density, rep.cluster_tolerance,
-                                  rep.min_cluster_size)
+                ? unchained_clusters(rest, rep.planes[0], p.table.chain_rise * rep.plane_distance, rep.cluster_tolerance,
+                                     rep.min_cluster_size)
                 : euclidean_clusters(rest, rep.cluster_tolerance, rep.min_cluster_size);
   for (int l : c.label) c.count = std::max(c.count, std::size_t(l + 1));
   if (c.count == 0)
@@ -436,15 +350,18 @@ std::vector<char> rising_clusters(const Cloud& rest, const Clusters& c, const Gr
   return rises;
 }
 
-/// Step 3: every cluster's projections and distance; the nearest with enough projections (001: its
-/// centre's distance). Returns, per chosen projection, its point in `rest`.
-std::vector<std::size_t> nearest_step(const Cloud& rest, const Clusters& c, const View& view,
-                                      const GrabCutSfmParams& p, GrabCutSfmReport& rep) {
+/// The clusters that may be chosen, nearest first, and per projection in the report its point in `rest`.
+struct Candidates { std::vector<int> order; std::vector<std::size_t> projected_point; };
+
+/// Step 3: every cluster's projections and distance; the candidates, those with enough projections,
+/// nearest first (001: by its centre's distance; 001 takes the nearest).
+Candidates nearest_step(const Cloud& rest, const Clusters& c, const View& view, const GrabCutSfmParams& p,
+                        GrabCutSfmReport& rep) {
   rep.cluster_sizes.assign(c.count, 0);
   rep.cluster_in_frame.assign(c.count, 0);
   rep.cluster_distances.assign(c.count, 0);
   std::vector<std::vector<double>> point_distances(p.median_distance ? c.count : 0);
-  std::vector<std::size_t> projected_point;  // per rep.projected, its point in `rest`
+  Candidates out;
   for (std::size_t i = 0; i < rest.size(); ++i) {
     if (c.label[i] < 0) continue;
     const std::size_t k = std::size_t(c.label[i]);
@@ -456,28 +373,33 @@ std::vector<std::size_t> nearest_step(const Cloud& rest, const Clusters& c, cons
     ++rep.cluster_in_frame[k];
     rep.projected.push_back(q);
     rep.projected_cluster.push_back(c.label[i]);
-    projected_point.push_back(i);
+    out.projected_point.push_back(i);
   }
   const std::vector<char> rises = rising_clusters(rest, c, p, rep);
-  double best = std::numeric_limits<double>::infinity();
   for (std::size_t k = 0; k < c.count; ++k) {
     if (!rises[k]) continue;
     const Eigen::Vector3d centre(c.centres[k * 3], c.centres[k * 3 + 1], c.centres[k * 3 + 2]);
     rep.cluster_distances[k] = p.median_distance ? median(point_distances[k]) : (centre - view.camera).norm();
-    if (rep.cluster_in_frame[k] >= p.min_cluster_points && rep.cluster_distances[k] < best) {
-      best = rep.cluster_distances[k];
-      rep.chosen = int(k);
-    }
+    if (rep.cluster_in_frame[k] >= p.min_cluster_points) out.order.push_back(int(k));
   }
-  if (rep.chosen < 0)
+  if (out.order.empty())
     throw Error("", "cloud",
                 "no cluster has " + std::to_string(p.min_cluster_points) +
                     " or more points in front of the camera inside the frame (is the pose right?)");
+  std::stable_sort(out.order.begin(), out.order.end(),
+                   [&](int a, int b) { return rep.cluster_distances[std::size_t(a)] < rep.cluster_distances[std::size_t(b)]; });
+  return out;
+}
+
+/// Cluster k chosen: its projections into the report; returns, per chosen projection, its point in `rest`.
+std::vector<std::size_t> choose_cluster(const Candidates& cand, int k, GrabCutSfmReport& rep) {
+  rep.chosen = k;
+  rep.chosen_points.clear();
   std::vector<std::size_t> chosen_point;
   for (std::size_t i = 0; i < rep.projected.size(); ++i)
-    if (rep.projected_cluster[i] == rep.chosen) {
+    if (rep.projected_cluster[i] == k) {
       rep.chosen_points.push_back(rep.projected[i]);
-      chosen_point.push_back(projected_point[i]);
+      chosen_point.push_back(cand.projected_point[i]);
     }
   return chosen_point;
 }
@@ -500,6 +422,7 @@ bool stands_on_plane(const Cloud& rest, const std::vector<std::size_t>& chosen_p
 void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
               const GrabCutSfmParams& p, GrabCutSfmReport& rep) {
   rep.chosen_inlier = compact_inliers_2d(rep.chosen_points, p.outlier_threshold, p.ransac_iterations, stage_seed(p.seed, 3));
+  rep.inliers_2d = rep.feet_in_box = 0;
   float x0 = std::numeric_limits<float>::max(), y0 = x0, x1 = -x0, y1 = -x0;
   const auto grow = [&](const cv::Point2f& q) {
     x0 = std::min(x0, q.x), y0 = std::min(y0, q.y), x1 = std::max(x1, q.x), y1 = std::max(y1, q.y);
@@ -532,6 +455,77 @@ void box_step(const Cloud& rest, const std::vector<std::size_t>& chosen_point, c
   const int bx1 = std::min(view.size.width - 1, int(std::ceil(rep.inlier_box.br().x + mx)));
   const int by1 = std::min(view.size.height - 1, int(std::ceil(rep.inlier_box.br().y + my)));
   rep.box = cv::Rect(bx0, by0, std::max(0, bx1 - bx0), std::max(0, by1 - by0));
+}
+
+/// The pixel a projection inside the frame falls in (pixel centres at whole coordinates; one within half a
+/// pixel of the right or bottom edge rounds to the last column or row).
+cv::Point pixel_of(const cv::Point2f& p, cv::Size size) {
+  return {std::min(cvRound(p.x), size.width - 1), std::min(cvRound(p.y), size.height - 1)};
+}
+
+/// Whether GrabCut's foreground `mask` holds more than `min_share` of the chosen cluster's 2D inliers: a
+/// cluster of stereo errors (a plain wall given a nearer surface's depth) has no object under it, and
+/// GrabCut, finding nothing in its box unlike the pixels around it, keeps none of its pixels.
+bool image_supports(const cv::Mat& mask, const GrabCutSfmReport& rep, double min_share) {
+  if (min_share < 0) return true;
+  int kept = 0;
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
+    if (rep.chosen_inlier[i] && mask.at<std::uint8_t>(pixel_of(rep.chosen_points[i], mask.size())) != 0) ++kept;
+  return kept > min_share * rep.inliers_2d;
+}
+
+/// GrabCut's foreground left with the nearest object only: the chosen cluster's projections inside it are
+/// clustered again at the tolerance (the stereo errors on the plain wall between two objects, which
+/// chained them, lie outside it); when they fall into two or more clusters of the smallest cluster's
+/// size, the mask's regions (8-connected) holding the farther ones' points and none of the nearest's
+/// (by the median of their depths) are dropped. Returns how many.
+int keep_nearest_region(cv::Mat& mask, const Cloud& rest, const std::vector<std::size_t>& chosen_point, const View& view,
+                        const GrabCutSfmReport& rep) {
+  cv::Mat regions;
+  const int count = cv::connectedComponents(mask, regions, 8, CV_32S);
+  Cloud inside;
+  std::vector<int> region;
+  for (std::size_t i = 0; i < rep.chosen_points.size(); ++i)
+    if (const int r = regions.at<int>(pixel_of(rep.chosen_points[i], mask.size())); r > 0)
+      inside.push_back(rest[chosen_point[i]]), region.push_back(r);
+  const std::vector<int> part = euclidean_clusters(inside, rep.cluster_tolerance, rep.min_cluster_size);
+  const int parts = inside.empty() ? 0 : *std::max_element(part.begin(), part.end()) + 1;
+  if (parts < 2) return 0;
+  std::vector<std::vector<double>> depth(static_cast<std::size_t>(parts));
+  for (std::size_t i = 0; i < inside.size(); ++i)
+    if (part[i] >= 0) depth[std::size_t(part[i])].push_back((inside[i].cast<double>() - view.camera).dot(view.R.col(2)));
+  int nearest = 0;
+  for (int q = 1; q < parts; ++q)
+    if (median(depth[std::size_t(q)]) < median(depth[std::size_t(nearest)])) nearest = q;
+  std::vector<int> holds(std::size_t(count), 0);  // bit 1: the nearest part's points, bit 2: another's
+  for (std::size_t i = 0; i < inside.size(); ++i)
+    if (part[i] >= 0) holds[std::size_t(region[i])] |= part[i] == nearest ? 1 : 2;
+  int dropped = 0;
+  for (int r = 1; r < count; ++r)
+    if (holds[std::size_t(r)] == 2) mask.setTo(0, regions == r), ++dropped;
+  return dropped;
+}
+
+/// GrabCut's foreground without the pixels whose cloud depth (the nearest point projecting within a pixel)
+/// lies beyond (1 + `share`) x the 90th percentile of the chosen points' depths: a farther object or the wall
+/// seen inside the box around the object. Returns how many.
+int drop_farther_pixels(cv::Mat& mask, const Cloud& points, const Cloud& rest, const std::vector<std::size_t>& chosen_point,
+                        const View& view, double share) {
+  std::vector<double> depth;
+  for (std::size_t i : chosen_point) depth.push_back((rest[i].cast<double>() - view.camera).dot(view.R.col(2)));
+  const auto p90 = depth.begin() + std::ptrdiff_t(depth.size() * 9 / 10);
+  std::nth_element(depth.begin(), p90, depth.end());
+  cv::Mat nearest(mask.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::max()));
+  for (const auto& q : points) {
+    cv::Point2f px;
+    if (!view.in_frame(q, &px)) continue;
+    float& z = nearest.at<float>(pixel_of(px, mask.size()));
+    z = std::min(z, float((q.cast<double>() - view.camera).dot(view.R.col(2))));
+  }
+  cv::erode(nearest, nearest, cv::Mat());  // the nearest within a pixel
+  const cv::Mat farther = mask & (nearest > (1 + share) * *p90) & (nearest < std::numeric_limits<float>::max());
+  mask.setTo(0, farther);
+  return cv::countNonZero(farther);
 }
 
 /// The supporting plane step of either kind, timed; an error when too few points are left for k-means.
@@ -615,12 +609,36 @@ cv::Mat grabcut_sfm(const Cloud& points, const PinholeIntrinsics& intrinsics, co
   const Clusters clusters = cluster_step(rest, params, rep);
   rep.seconds_kmeans = seconds_since(t0);
   t0 = Clock::now();
-  const std::vector<std::size_t> chosen_point = nearest_step(rest, clusters, view, params, rep);
-  box_step(rest, chosen_point, view, params, rep);
+  const Candidates cand = nearest_step(rest, clusters, view, params, rep);
+  rep.chosen = cand.order[0];
+  // The nearest candidate, or (image support) the nearest whose GrabCut keeps its projections.
   rep.seconds_projection = seconds_since(t0);
-  t0 = Clock::now();
-  cv::Mat mask = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
-  rep.seconds_grabcut = seconds_since(t0);
+  cv::Mat mask;
+  GrabCutSfmReport nearest;
+  for (std::size_t c = 0; c < cand.order.size(); ++c) {
+    t0 = Clock::now();
+    const std::vector<std::size_t> chosen_point = choose_cluster(cand, cand.order[c], rep);
+    box_step(rest, chosen_point, view, params, rep);
+    rep.seconds_projection += seconds_since(t0);
+    t0 = Clock::now();
+    cv::Mat m = grabcut_box(image, rep.box, params.grabcut_iterations, stage_seed(params.seed, 4));
+    rep.seconds_grabcut += seconds_since(t0);
+    if (c == 0) mask = m, nearest = rep;
+    if (image_supports(m, rep, params.support == SupportChoice::Table ? params.table.min_image_support : -1)) {
+      if (params.support == SupportChoice::Table && params.table.nearest_region)
+        rep.regions_dropped = keep_nearest_region(m, rest, chosen_point, view, rep);
+      if (params.support == SupportChoice::Table && params.table.mask_depth_share > 0)
+        rep.farther_pixels = drop_farther_pixels(m, points, rest, chosen_point, view, params.table.mask_depth_share);
+      mask = m;
+      break;
+    }
+    rep.unsupported.push_back(rep.chosen);
+    if (c + 1 == cand.order.size()) {  // none is supported: the nearest, as without the rule
+      nearest.unsupported = rep.unsupported;
+      nearest.seconds_projection = rep.seconds_projection, nearest.seconds_grabcut = rep.seconds_grabcut;
+      rep = std::move(nearest);
+    }
+  }
   rep.seconds_total = seconds_since(t_start);
   if (report_out) *report_out = std::move(rep);
   return mask;

@@ -200,8 +200,9 @@ void TableParams::validate() const {
   if (!(max_refit_tilt >= 0 && max_refit_tilt <= 90)) throw Error("", "--table-max-tilt", "must be 0..90 degrees");
   if (!(edge_margin >= 0)) throw Error("", "--edge-margin", "must be >= 0");
   if (!(min_rise >= 0)) throw Error("", "--min-rise", "must be >= 0");
+  if (!(mask_depth_share >= 0)) throw Error("", "--mask-depth-share", "must be >= 0 (0: off)");
+  if (!(min_image_support >= -1 && min_image_support < 1)) throw Error("", "--min-image-support", "must be in [-1, 1)");
   if (!(chain_rise >= 0)) throw Error("", "--chain-rise", "must be >= 0");
-  if (!(chain_density >= 0)) throw Error("", "--chain-density", "must be >= 0");
   if (!(min_depression >= 0)) throw Error("", "--table-min-depression", "must be >= 0");
   if (!(min_prominence >= 1)) throw Error("", "--table-prominence", "must be >= 1");
 }

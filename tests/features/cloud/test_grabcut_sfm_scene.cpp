@@ -1,7 +1,8 @@
 // GrabCutSFM's scene-relative defaults on clouds built here: a table top cut into pieces by the object
-// standing on it (find_table joins them through the object's feet), and two boxes chained into one
-// cluster by a thin sheet of stereo errors at their top's height (the split by the points piled on their
-// feet).
+// standing on it (find_table joins them through the object's feet); what GrabCut's result says of the
+// chosen cluster: a sheet of stereo errors with no object under it (passed over), two boxes chained by
+// errors on the wall between them (only the nearer one's region kept), a farther object inside the box
+// (its pixels dropped).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -9,6 +10,7 @@
 #include <random>
 
 #include <Eigen/Geometry>
+#include <opencv2/imgproc.hpp>
 
 #include "smseg/cloud/grabcut_sfm.hpp"
 
@@ -28,11 +30,11 @@ struct Cloud {
   }
   /// A box standing on the table top (y = 0.75) from x0 to x0 + 0.2: its front face (z = -0.1) from
   /// `lowest` up, and its top (in rows 4 cm apart: seen from 0.4 m above the table, at a grazing angle).
-  void box(double x0, double lowest = 0) {
+  void box(double x0, double lowest = 0, double z0 = -0.1) {
     for (double a = 0; a <= 0.2; a += 0.02)
       for (double h = 0; h <= 0.2; h += 0.02) {
-        if (h >= lowest) add(x0 + a, 0.75 + h, -0.1);
-        if (h <= 0.1) add(x0 + a, 0.95, -0.1 + 2 * h);
+        if (h >= lowest) add(x0 + a, 0.75 + h, z0);
+        if (h <= 0.1) add(x0 + a, 0.95, z0 + 2 * h);
       }
   }
 };
@@ -60,6 +62,29 @@ Pose camera_at(double pitch, double x, double y, double z) {
   return p;
 }
 
+/// A wall's fine pattern, the same everywhere (GrabCut finds nothing in it unlike its surroundings).
+cv::Mat wall_image() {
+  cv::Mat image(120, 160, CV_8UC3);
+  cv::RNG rng(3);
+  rng.fill(image, cv::RNG::UNIFORM, cv::Scalar(150, 160, 170), cv::Scalar(190, 200, 210));
+  return image;
+}
+
+/// Paints the front face of Cloud::box(x0, 0, z0) seen from `pose` in `colour`; returns its outline.
+std::vector<cv::Point> paint_front(cv::Mat& image, const Pose& pose, const PinholeIntrinsics& k, double x0, double z0,
+                                   const cv::Scalar& colour) {
+  std::vector<cv::Point> corners, hull;
+  for (double a : {0.0, 0.2})
+    for (double h : {0.0, 0.2}) {
+      cv::Point2f px;
+      project_point(Eigen::Vector3f(float(x0 + a), float(0.75 + h), float(z0)), pose, k, &px);
+      corners.emplace_back(px);
+    }
+  cv::convexHull(corners, hull);
+  cv::fillConvexPoly(image, hull, colour);
+  return hull;
+}
+
 }  // namespace
 
 TEST(FindTable, ATableCutIntoPiecesByTheObjectOnItIsJoinedThroughItsFeet) {
@@ -80,27 +105,89 @@ TEST(FindTable, ATableCutIntoPiecesByTheObjectOnItIsJoinedThroughItsFeet) {
   EXPECT_FALSE(p.found && std::abs(-p.plane[3] / p.plane[1] - 0.75) < 0.05);
 }
 
-TEST(GrabCutSfm, ASheetOfErrorsAtTheTopsHeightDoesNotChainTwoBoxesIntoOneCluster) {
-  // Two 0.2 m boxes 0.15 m apart on the table, joined by a row of points at 0.18 m above the table (a
-  // plain wall's pixels between them given the boxes' depth by the stereo): their points above three
-  // slabs make one cluster, so the split by height alone keeps them together. Their faces pile their
-  // points on their feet and the row does not: split by those points, they are two clusters.
+TEST(GrabCutSfm, ANearerSheetWithNoObjectUnderItIsPassedOverForTheNextCluster) {
+  // A sheet of points standing on the table nearer than a box (a plain wall given the table edge's depth
+  // by the stereo): the nearest cluster, but the image under it is the wall's pattern, like the pixels
+  // around it, and GrabCut keeps none of it. The box, red in the image, is taken instead.
   Cloud c = floor_and_table();
-  c.box(-0.3);
-  c.box(0.05);
-  for (double x = -0.1; x <= 0.05; x += 0.015) c.add(x, 0.93, -0.1);
+  c.box(0.1);
+  for (double x = -0.45; x <= -0.25; x += 0.02)
+    for (double h = 0.03; h <= 0.13; h += 0.02) c.add(x, 0.75 + h, -0.3);
   const PinholeIntrinsics k{150, 150, 79.5, 59.5};
-  const cv::Mat image(120, 160, CV_8UC3, cv::Scalar(90, 120, 150));
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  cv::Mat image = wall_image();
+  const std::vector<cv::Point> hull = paint_front(image, pose, k, 0.1, -0.1, cv::Scalar(30, 30, 200));
   GrabCutSfmParams p;
   p.up = Eigen::Vector3d::UnitY();
-  GrabCutSfmReport split, chained;
+  GrabCutSfmReport supported, nearest;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &supported);
+  p.table.min_image_support = -1;
+  grabcut_sfm(c.points, k, pose, image, p, &nearest);
+  ASSERT_TRUE(nearest.table.found);
+  EXPECT_NEAR(nearest.cluster_sizes[std::size_t(nearest.chosen)], 60, 10);  // the sheet (66 points, its lowest in the slab), nearest
+  EXPECT_TRUE(nearest.unsupported.empty());
+  ASSERT_EQ(supported.unsupported.size(), 1u);
+  EXPECT_EQ(supported.unsupported[0], nearest.chosen);
+  EXPECT_NE(supported.chosen, nearest.chosen);
+  cv::Mat red(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(red, hull, cv::Scalar(255));
+  EXPECT_GT(mask_f1(mask, red), 0.9);
+}
+
+TEST(GrabCutSfm, TwoObjectsChainedByErrorsOnTheWallBetweenThemKeepOnlyTheNearersRegion) {
+  // A red box and, 15 cm farther, a green one, one cluster through a row of points at their top's height
+  // between them (the wall's pixels given their depth by the stereo; the splits of the clusters off). The
+  // box takes both; GrabCut keeps both boxes, not the wall between them, and the cluster's points in its
+  // foreground fall apart into the two boxes: only the nearer one's region is kept.
+  Cloud c = floor_and_table();
+  c.box(-0.3);
+  c.box(0.05, 0, 0.05);
+  for (double t = 0; t <= 1; t += 0.07) c.add(-0.1 + 0.15 * t, 0.93, -0.1 + 0.15 * t);
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
   const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
-  grabcut_sfm(c.points, k, pose, image, p, &split);
-  p.table.chain_density = 0;
-  grabcut_sfm(c.points, k, pose, image, p, &chained);
-  ASSERT_TRUE(chained.table.found);
-  const int both = *std::max_element(chained.cluster_sizes.begin(), chained.cluster_sizes.end());
-  EXPECT_GT(both, 200);  // both boxes' faces and near tops (their far rows, 4 cm apart, apart) and the row
-  EXPECT_EQ(split.cluster_sizes.size(), chained.cluster_sizes.size() + 1);
-  EXPECT_LT(*std::max_element(split.cluster_sizes.begin(), split.cluster_sizes.end()), both / 2 + 20);
+  cv::Mat image = wall_image();
+  const std::vector<cv::Point> near = paint_front(image, pose, k, -0.3, -0.1, cv::Scalar(30, 30, 200));
+  paint_front(image, pose, k, 0.05, 0.05, cv::Scalar(40, 180, 40));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  p.median_distance = p.median_depth = true;
+  p.table.chain_rise = 0;
+  GrabCutSfmReport kept, both;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &kept);
+  p.table.nearest_region = false;
+  const cv::Mat whole = grabcut_sfm(c.points, k, pose, image, p, &both);
+  cv::Mat truth(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(truth, near, cv::Scalar(255));
+  EXPECT_EQ(both.regions_dropped, 0);
+  EXPECT_EQ(kept.regions_dropped, 1);
+  EXPECT_LT(mask_f1(whole, truth), 0.8);  // both boxes
+  EXPECT_GT(mask_f1(mask, truth), 0.9);
+}
+
+TEST(GrabCutSfm, ForegroundPixelsWhoseDepthLiesFarBehindTheObjectAreDropped) {
+  // A red box, and 0.35 m behind it a green one seen above and beside it: the box around the red one (a wide margin)
+  // holds part of the green one, which GrabCut keeps too (it is unlike the wall around the box). Its
+  // pixels' cloud depth lies far behind the red box's points: dropped.
+  Cloud c = floor_and_table();
+  c.box(-0.1);
+  c.box(0.0, 0, 0.25);
+  const PinholeIntrinsics k{150, 150, 79.5, 59.5};
+  const Pose pose = camera_at(0.23, 0, 1.15, -1.5);
+  cv::Mat image = wall_image();
+  paint_front(image, pose, k, 0.0, 0.25, cv::Scalar(40, 180, 40));
+  const std::vector<cv::Point> near = paint_front(image, pose, k, -0.1, -0.1, cv::Scalar(30, 30, 200));
+  GrabCutSfmParams p;
+  p.up = Eigen::Vector3d::UnitY();
+  p.median_distance = p.median_depth = true;
+  p.box_margin = 0.4;
+  GrabCutSfmReport trimmed, whole;
+  const cv::Mat mask = grabcut_sfm(c.points, k, pose, image, p, &trimmed);
+  p.table.mask_depth_share = 0;
+  const cv::Mat all = grabcut_sfm(c.points, k, pose, image, p, &whole);
+  cv::Mat truth(image.size(), CV_8UC1, cv::Scalar(0));
+  cv::fillConvexPoly(truth, near, cv::Scalar(255));
+  EXPECT_EQ(whole.farther_pixels, 0);
+  EXPECT_GT(trimmed.farther_pixels, 20);
+  EXPECT_LT(mask_f1(all, truth), 0.9);  // 0.85: part of the green box with it
+  EXPECT_GT(mask_f1(mask, truth), 0.93);  // 0.95: its outline
 }

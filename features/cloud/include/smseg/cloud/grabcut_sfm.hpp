@@ -6,7 +6,9 @@
 // table find_table() finds (the highest wide horizontal patch with points standing on it), its slab a
 // share of the points' distance from the camera; only the points standing on it, up to the camera's height
 // above it, are clustered, Euclidean at the cloud's own spacing (cloud_spacing); the nearest cluster by the
-// median depth of its points; then 001's 2D RANSAC, box and GrabCut (docs/graphcuts.md).
+// median depth of its points; then 001's 2D RANSAC, box and GrabCut, the next nearest
+// cluster instead when GrabCut keeps none of its projections (TableParams::min_image_support), and of
+// GrabCut's foreground only the nearest object's regions (TableParams::nearest_region; docs/graphcuts.md).
 //
 // SupportChoice::Plane (GrabCutSfmParams::paper()) is 001's recipe:
 //   0. (options, not in 001) only the points within max_distance of the camera and / or projecting into the
@@ -82,13 +84,19 @@ struct TableParams {
                                      ///< smallest cluster's size) is split into those, its lower points joining
                                      ///< the nearest within the tolerance: stereo errors on the table chain
                                      ///< neighbouring objects (GrabCutSFM; 0: no split)
-  double chain_density = 0.5;        ///< of the points above chain_rise, only those whose foot cell (of the cluster
-                                     ///< tolerance) holds this x the cluster's median foot-cell count are split
-                                     ///< into clusters: an object's faces pile points on their feet, the stereo
-                                     ///< errors between objects do not (GrabCutSFM; 0: every point above)
   bool join_through_feet = true;     ///< a candidate whose largest patch is no table is tried again with the feet of
                                      ///< the points above it joining its pieces (a table seen from low, cut into
                                      ///< pieces by the objects on it and the table they hide)
+  double min_image_support = 0;      ///< GrabCutSFM: the nearest cluster is taken when GrabCut's foreground in its box
+                                     ///< holds more than this share of its 2D inliers, else the next nearest is
+                                     ///< tried (the nearest when none is): a sheet of stereo errors over a plain
+                                     ///< wall has no object under it (-1: the nearest, 001)
+  bool nearest_region = true;        ///< GrabCutSFM: the chosen cluster's points inside GrabCut's foreground that fall
+                                     ///< apart into two or more clusters (two objects chained by stereo errors on
+                                     ///< the wall between them, which GrabCut leaves out) keep only the nearest's
+                                     ///< regions of the mask
+  double mask_depth_share = 0.1;     ///< GrabCutSFM: GrabCut's foreground loses the pixels whose cloud depth lies beyond
+                                     ///< (1 + this) x the 90th percentile of the chosen points' depths (0: none)
   double max_refit_tilt = 5;         ///< degrees: the least-squares plane of the patch is kept within this of up
   double min_prominence = 1.5;       ///< a candidate's count is at least this x the mean count three slabs above
                                      ///< and below it, and exceeds that mean by min_share (its own points)
@@ -203,6 +211,9 @@ struct GrabCutSfmReport {
                                           ///< the median of its points' with median_distance
   std::vector<int> cluster_in_frame;    ///< per cluster, points projecting into the frame
   int chosen = -1;                      ///< the cluster used
+  int regions_dropped = 0;              ///< regions of GrabCut's foreground dropped as a farther object's (nearest_region)
+  int farther_pixels = 0;               ///< foreground pixels dropped as farther than the object (mask_depth_share)
+  std::vector<int> unsupported;         ///< nearer clusters passed over: GrabCut kept none of them (min_image_support)
   std::vector<cv::Point2f> projected;   ///< every clustered point projecting into the frame
   std::vector<int> projected_cluster;   ///< its cluster
   std::vector<cv::Point2f> chosen_points;  ///< the chosen cluster's projections in the frame
