@@ -221,6 +221,18 @@ TEST(SegmentCloudTool, GrabCutSfmOnTheTabletopScene) {
   EXPECT_GT(s["f1"]["grabcut_sfm"].get<double>(), s["f1"]["kmeans2"].get<double>()) << r.out;
   EXPECT_TRUE(s["table"]["found"].get<bool>());
   EXPECT_GE(s["f1"]["grabcut_sfm"].get<double>(), 0.85) << r.out;
+  // The farther pixels are dropped by default on the frame's own dense depth only: a cloud of tracks holds
+  // points hidden behind the object in this frame (0 unless --mask-depth-share is given).
+  EXPECT_EQ(s["params"]["table"]["mask_depth_share"].get<double>(), 0.1);
+  for (const std::string& extra : {std::string(" --window 10"), std::string(" --window 10 --mask-depth-share 0.2")}) {
+    const fs::path m = dir / "w.png";
+    r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work + " --frame 0" + extra + " -o " +
+            m.string());
+    ASSERT_EQ(r.status, 0) << extra << ": " << r.out;
+    EXPECT_EQ(smseg::read_json(dir / "w.png.json")["params"]["table"]["mask_depth_share"].get<double>(),
+              extra.find("0.2") != std::string::npos ? 0.2 : 0.0)
+        << extra;
+  }
   for (int frame : {10, 20}) {
     const fs::path m = dir / ("d" + std::to_string(frame) + ".png");
     r = run(kTool + " --method grabcut-sfm --sequence " + seq + " --work " + work + " --frame " + std::to_string(frame) +

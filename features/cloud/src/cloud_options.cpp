@@ -175,7 +175,9 @@ const Table<TableParams>& table_params_table() {
            [](auto& p) -> auto& { return p.nearest_region; });
     t.number("mask_depth_share", "--mask-depth-share",
              "grabcut-sfm, --support table: GrabCut's foreground loses the pixels whose cloud depth lies beyond (1 + "
-             "this) x the 90th percentile of the chosen points' depths (a farther object or the wall; 0: none)",
+             "this) x the 90th percentile of the chosen points' depths (a farther object or the wall; 0: none). "
+             "segment-cloud: 0 unless given when the cloud is not the frame's own dense depth (tracks hold points "
+             "hidden behind the object)",
              [](auto& p) -> auto& { return p.mask_depth_share; }, 0.0, 1000.0);
     return t;
   }();

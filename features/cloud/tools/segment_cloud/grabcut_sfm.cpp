@@ -108,11 +108,16 @@ void resolve_scene_defaults(GrabCutSfmCli& o, const Frame& f) {
     o.params.refine_up = true;  // a camera looking down at a table is tilted by its pitch
   }
   const bool default_cloud = o.cloud.empty() && o.window < 0 && o.dense_cloud == 0;
-  if (!default_cloud || o.params.support != smseg::cloud::SupportChoice::Table) return;
-  if (f.seq.kind == smseg::sequence::SequenceKind::Stereo)
-    o.dense_cloud = std::max(1, int(std::lround(f.seq.size.width / 160.0)));
-  else
-    o.window = kDefaultWindow;
+  if (default_cloud && o.params.support == smseg::cloud::SupportChoice::Table) {
+    if (f.seq.kind == smseg::sequence::SequenceKind::Stereo)
+      o.dense_cloud = std::max(1, int(std::lround(f.seq.size.width / 160.0)));
+    else
+      o.window = kDefaultWindow;
+  }
+  // Only the frame's own dense depth says which pixels lie behind the object: a cloud of tracks from
+  // the frames around it (or a cloud file) holds points hidden behind the object in this frame, whose
+  // far depths would cut the object's own pixels (CamVid's cars, docs/graphcuts.md).
+  if (o.dense_cloud == 0 && !o.mask_depth_share_given) o.params.table.mask_depth_share = 0;
 }
 
 /// The cloud clustered (WORK/cloud.pcd or CLOUD, the frame's dense depth, or the tracks around it) and

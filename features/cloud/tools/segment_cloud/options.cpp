@@ -75,6 +75,7 @@ int run_method(const CLI::App& app, SegmentCloudOptions& o) {
     if (app.count("--plane-distance")) o.gc.params.plane_distance = o.plane.plane_distance;
     o.gc.params.seed = o.tab.seed;
     o.gc.box_to_plane_given = app.count("--box-to-plane") > 0;
+    o.gc.mask_depth_share_given = app.count("--mask-depth-share") > 0;
     o.gc.sequence = o.sal.sequence;
     o.gc.work = o.sal.work;
     o.gc.frame = o.sal.frame;

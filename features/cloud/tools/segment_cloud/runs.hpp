@@ -84,6 +84,7 @@ struct GrabCutSfmCli {
   std::string support = "table";  // --support table|plane
   std::string cluster = "auto", nearest = "auto", up = "auto";  // up: --plane-up camera|world|estimate|auto
   bool box_to_plane_given = false;  // --box-to-plane on the command line (support plane: off unless given)
+  bool mask_depth_share_given = false;  // --mask-depth-share on the command line (clouds of tracks: 0 unless given)
   smseg::cloud::GrabCutSfmParams params;
 };
 int run_grabcut_sfm(const GrabCutSfmCli& o);  ///< grabcut_sfm.cpp
