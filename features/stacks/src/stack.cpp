@@ -461,10 +461,6 @@ void check_labels(const forest::FrameData& frame, const fs::path& file, std::siz
   }
 }
 
-}  // namespace
-
-namespace {
-
 // The frames (folder, frame) of `manifests`, each with the features of its folder's `feature_index` only,
 // opened in parallel (each decodes and sums its own file). The error of the first frame that fails, in
 // frame order, whatever the thread count.
