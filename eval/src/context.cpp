@@ -6,7 +6,6 @@
 #include <map>
 #include <utility>
 
-#include "smseg/common/digest.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/common/progress.hpp"
 #include "smseg/stacks/point_features.hpp"
@@ -168,16 +167,7 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
   for (std::size_t w = 0; w < sources.size(); ++w) {
     const Source& src = sources[w];
     const stacks::StackManifest& m = src.manifest;
-    stacks::StackManifest out = m;
-    out.work = outs[w];
-    out.version = stacks::kStacksVersion;
-    out.base = stacks::StackBase{fs::absolute(src.work).lexically_normal(),
-                                   fnv1a64_hex(read_file(m.manifest_path())), keep};
-    out.base_manifest.reset();
-    out.features = keep;
-    out.features.insert(out.features.end(), context.begin(), context.end());
-    out.frames.clear();
-    out.labelled_frames.clear();
+    stacks::StackManifest out = stacks::extending_manifest(m, outs[w], keep, context);
     out.options["context"] = context_record(forest_file, src.work, options, keep);
     Progress progress("add-context " + src.work.filename().string(), static_cast<long>(m.frames.size()),
                       options.progress);

@@ -2,7 +2,6 @@
 // second forest (context.hpp).
 #include <cstdio>
 #include <iostream>
-#include <set>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/options.hpp"
@@ -10,20 +9,6 @@
 #include "smseg/eval/context.hpp"
 
 namespace {
-
-/// OUT/<name of WORK> for each WORK; two work folders of one name would write one folder.
-std::vector<smseg::fs::path> output_folders(const std::vector<std::string>& works, const smseg::fs::path& root) {
-  std::vector<smseg::fs::path> outs;
-  std::set<std::string> names;
-  for (const auto& w : works) {
-    const std::string name = smseg::fs::absolute(w).lexically_normal().filename().string();
-    if (name.empty() || !names.insert(name).second)
-      throw smseg::UsageError("", "WORK", w + ": another work folder has the name \"" + name +
-                                              "\" (each goes to OUT/<its name>)");
-    outs.push_back(root / name);
-  }
-  return outs;
-}
 
 smseg::Json report_json(const smseg::eval::ContextReport& r, const std::string& forest,
                         const std::vector<std::string>& works, const std::vector<smseg::fs::path>& outs, int folds) {
@@ -89,7 +74,7 @@ int main(int argc, char** argv) {
     const OutputLock one_writer(out, paths_of(works, {forest_file}));
     const forest::Forest forest = forest::load_forest(forest_file);
     FolderReplacement replacement(out);
-    const std::vector<fs::path> outs = output_folders(works, replacement.staging());
+    const std::vector<fs::path> outs = folders_by_name(works, replacement.staging());
     const eval::ContextReport r =
         eval::add_context(forest, forest_file, std::vector<fs::path>(works.begin(), works.end()), outs, opt);
     write_json_atomic(replacement.staging() / "context.json", report_json(r, forest_file, works, outs, opt.folds));

@@ -218,6 +218,20 @@ StackManifest load_manifest(const fs::path& work, int depth) {
 
 StackManifest load_stack_manifest(const fs::path& work) { return load_manifest(work, 0); }
 
+StackManifest extending_manifest(const StackManifest& m, const fs::path& out, const std::vector<std::string>& keep,
+                                 const std::vector<std::string>& added) {
+  StackManifest e = m;
+  e.work = out;
+  e.version = kStacksVersion;
+  e.base = StackBase{fs::absolute(m.work).lexically_normal(), fnv1a64_hex(read_file(m.manifest_path())), keep};
+  e.base_manifest.reset();
+  e.features = keep;
+  e.features.insert(e.features.end(), added.begin(), added.end());
+  e.frames.clear();
+  e.labelled_frames.clear();
+  return e;
+}
+
 // A read-only memory mapping of one .npy file, checked against the expected dtype and shape.
 struct FrameStack::Mapping {
   void* base = MAP_FAILED;

@@ -12,6 +12,7 @@
 #include <cerrno>
 #include <cstring>
 #include <optional>
+#include <set>
 #include <thread>
 #include <vector>
 
@@ -258,6 +259,19 @@ void check_output_apart(const fs::path& output, const std::vector<fs::path>& inp
     if (lies_in(in, out))
       throw UsageError("", option, output.string() + " holds an input of this run (" + input.string() + "); write to another path");
   }
+}
+
+std::vector<fs::path> folders_by_name(const std::vector<std::string>& folders, const fs::path& root,
+                                      const std::string& option) {
+  std::vector<fs::path> outs;
+  std::set<std::string> names;
+  for (const auto& w : folders) {
+    const std::string name = fs::absolute(w).lexically_normal().filename().string();
+    if (name.empty() || !names.insert(name).second)
+      throw UsageError("", option, w + ": another work folder has the name \"" + name + "\" (each goes to OUT/<its name>)");
+    outs.push_back(root / name);
+  }
+  return outs;
 }
 
 }  // namespace smseg

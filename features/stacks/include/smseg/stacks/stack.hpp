@@ -81,6 +81,12 @@ std::uintmax_t write_frame_values(const fs::path& work, int frame, cv::Size size
 void write_frame_stack(const fs::path& work, int frame, const std::vector<cv::Mat>& sats, const cv::Mat& gray,
                        const cv::Mat& labels);
 
+/// The manifest of a folder `out` that extends m's folder (add-context, add-textons): m's sequence, size,
+/// classes and options, `keep` (features of m) read from m's folder as its base (with m's stacks.json's
+/// digest), then `added`, which `out` stores itself; no frame yet.
+StackManifest extending_manifest(const StackManifest& m, const fs::path& out, const std::vector<std::string>& keep,
+                                 const std::vector<std::string>& added);
+
 void save_stack_manifest(const StackManifest& m);
 /// Reads and validates work/stacks.json (and its base's, which must be the one it was made from: a
 /// base moved or written again is refused); Error naming the file and field.

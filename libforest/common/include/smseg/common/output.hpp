@@ -93,4 +93,9 @@ std::vector<fs::path> paths_of(const Strings& items, std::initializer_list<fs::p
 /// resolving `.`, `..` and symbolic links; inputs that do not exist are skipped.
 void check_output_apart(const fs::path& output, const std::vector<fs::path>& inputs, const std::string& option = "-o");
 
+/// ROOT/<name of each folder> (add-context's and add-textons' outputs, one per input work folder): a
+/// UsageError naming `option` when two folders have one name (they would write one output folder).
+std::vector<fs::path> folders_by_name(const std::vector<std::string>& folders, const fs::path& root,
+                                      const std::string& option = "WORK");
+
 }  // namespace smseg
