@@ -154,6 +154,10 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"add-context", {"{F} {W} --frames 500: -o {O}", 1, "500:"}},
       {"add-context", {"{F} {W} --memory-mb 0 -o {O}", 2, "--memory-mb"}},
       {"add-context", {"{F} {W} --features fNope -o {O}", 1, "fNope"}},
+      {"learn-textons", {"{W} --textons 1 -o {O}.json", 2, "--textons"}},
+      {"learn-textons", {"{W} --samples 0 -o {O}.json", 2, "--samples"}},
+      {"learn-textons", {"{W} --frames 500: -o {O}.json", 1, "500:"}},
+      {"add-textons", {"{F} {W} -o {O}", 1, "format"}},  // a forest given as the dictionary
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --threads -3 -o {O}", 2, "--threads"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --memory-mb 0 -o {O}", 2, "--memory-mb"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --max-points -1 -o {O}", 2, "--max-points"}},

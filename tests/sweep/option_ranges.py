@@ -45,6 +45,7 @@ PROPORTIONAL = {
     ("forest-peers", "-M"): "grows that many trees",
     ("forest-peers", "--repeat"): "fits that many times",
     ("add-context", "--folds"): "trains that many fold forests",
+    ("learn-textons", "--samples"): "clusters that many pixels of each frame",
 }
 
 
@@ -146,6 +147,7 @@ def make_fixture(bin_dir, work):
     sh([b("train-forest"), "w", "-o", "forest.json", "-M", "2", "-K", "40", "-q", "--export-corpus", "corpus.csv"], work)
     sh([b("train-forest"), "wc", "-o", "forest_causal.json", "-M", "2", "-K", "40", "-q"], work)
     sh([b("segment-cloud"), "--make-tabletop", "3000", "-o", "cloud.pcd"], work)
+    sh([b("learn-textons"), "w", "--textons", "4", "--samples", "200", "-o", "textons.json", "-q"], work)
     sh([b("make-sequence"), "--scene", "tabletop", "-o", "table", "--frames", "10", "--label-every", "5", "--size", "160x120",
         "-q"], work)
     sh([b("extract-features"), "table", "-o", "tw", "-q"], work)
@@ -183,6 +185,8 @@ def tool_base(tool, option_help):
         return ["cloud.pcd", "--method", "centroid-mincut", "--radius", "0.3", "-o", "{out}.pcd"]
     return {
         "add-context": ["forest.json", "w", "-o", "{out}", "-q"],
+        "add-textons": ["textons.json", "w", "-o", "{out}", "-q"],
+        "learn-textons": ["w", "-o", "{out}.json", "-q"],
         "check-sequence": ["seq"],
         "eval-forest": ["forest.json", "w", "-o", "{out}", "-q"],
         "eval-stereo": ["--data", str(SHARED / "middlebury-q"), "-o", "{out}.json"],

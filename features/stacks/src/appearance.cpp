@@ -104,11 +104,15 @@ void append_position(cv::Size size, std::vector<cv::Mat>& out) {
 }  // namespace
 
 void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
+  append_lab_rasters(bgr, out);
+  append_oriented_gradients(bgr, out);
+  append_position(bgr.size(), out);
+}
+
+void append_lab_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out) {
   if (bgr.empty() || bgr.type() != CV_8UC3)
     throw Error("", "appearance", "needs a colour (8-bit, 3-channel) image");
   append_lab(bgr, out);
-  append_oriented_gradients(bgr, out);
-  append_position(bgr.size(), out);
 }
 
 }  // namespace smseg::stacks

@@ -29,4 +29,8 @@ bool is_appearance_feature(const std::string& name);
 /// appearance_feature_names() order, each CV_64FC1 of the image's size.
 void append_appearance_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out);
 
+/// Appends fL, fA and fB alone (the first three of append_appearance_rasters; the textons' filter bank
+/// reads them).
+void append_lab_rasters(const cv::Mat& bgr, std::vector<cv::Mat>& out);
+
 }  // namespace smseg::stacks
