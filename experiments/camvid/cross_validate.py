@@ -21,10 +21,14 @@ CONFIG (JSON):
    "prior_power": [0, 0.5, 1],                                         eval-forest --prior-power points
    "runs": {"NAME": {"train": [train-forest options],
                      "context": [second forest's options],             optional: auto-context (4 folds)
+                     "textons": [learn-textons options],               optional: texton channels fTx0..
+                                                                        (a dictionary learned per fold on
+                                                                        its training folders, add-textons
+                                                                        on every folder it reads)
                      "eval": [eval-forest options],
                      "forest": [...]}, ...}}                           optional: this run's own forest options
 
-OUT: sequences/, work/{train,test}/, folds/HELD/ (forests/ and context/ under a digest of their
+OUT: sequences/, work/{train,test}/, folds/HELD/ (forests/, context/ and textons/ under a digest of their
 options, shared by the runs that share them; NAME/eval-{fold,whole}-p<power>/results.json),
 cross-validation.json (every fold's figures, and per run and power the mean and sample standard
 deviation over the folds of global, class-average and mean IoU, and per-class means), and
@@ -96,8 +100,8 @@ def load_config(path):
         if not isinstance(r, dict) or "train" not in r:
             fail(f"{path}: runs.{name}.train: expected a list of train-forest options")
         for key, value in r.items():
-            if key not in ("train", "context", "eval", "forest"):
-                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest)")
+            if key not in ("train", "context", "eval", "forest", "textons"):
+                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest, textons)")
             if not strings(value):
                 fail(f"{path}: runs.{name}.{key}: expected a list of options (strings)")
     powers = config.setdefault("prior_power", [0])
@@ -210,7 +214,9 @@ def train_run(bin_dir, config, spec, train_works, fold):
     forests = os.path.join(fold, "forests")
     os.makedirs(forests, exist_ok=True)
     forest_options = spec.get("forest", config["forest"])
-    first_key = digest(spec["train"], forest_options)
+    # Texton runs read other folders: their options are part of the forest's name.
+    first_key = digest(spec["train"], forest_options, *([spec["textons"]] if "textons" in spec else []))
+    train_works = texton_works(bin_dir, fold, spec, train_works, train_works, "train")
     first = os.path.join(forests, first_key + ".json")
     if not os.path.isfile(first):
         run([f"{bin_dir}/train-forest"] + train_works + spec["train"] + forest_options + ["-q", "-o", first])
@@ -231,6 +237,25 @@ def context_works(bin_dir, fold, first, first_key, works, label, options=()):
         run([f"{bin_dir}/add-context", first] + works + list(options) + ["-q", "-o", ctx])
         open(os.path.join(ctx, ".done"), "w").close()
     return [os.path.join(ctx, os.path.basename(w)) for w in works]
+
+
+def texton_works(bin_dir, fold, spec, train_works, works, label):
+    """With "textons": add-textons' folders of `works` (the fold's dictionary, learned on its training
+    folders, made once per options); otherwise `works` as they are."""
+    if "textons" not in spec:
+        return works
+    key = digest(spec["textons"])
+    folder = os.path.join(fold, "textons")
+    dictionary = os.path.join(folder, key + ".json")
+    if not os.path.isfile(dictionary):
+        os.makedirs(folder, exist_ok=True)
+        run([f"{bin_dir}/learn-textons"] + train_works + spec["textons"] + ["-q", "-o", dictionary])
+    out = os.path.join(folder, f"{key}-{label}")
+    if not os.path.isfile(os.path.join(out, ".done")):
+        shutil.rmtree(out, ignore_errors=True)
+        run([f"{bin_dir}/add-textons", dictionary] + works + ["-q", "-o", out])
+        open(os.path.join(out, ".done"), "w").close()
+    return [os.path.join(out, os.path.basename(w)) for w in works]
 
 
 def evaluate(bin_dir, spec, forest, works, folder, power):
@@ -256,6 +281,7 @@ def run_fold(bin_dir, config, name, held, train, test, phases):
     figures = {}
     os.makedirs(os.path.join(fold, name), exist_ok=True)
     for label, works in sets.items():
+        works = texton_works(bin_dir, fold, spec, train_works, works, label)
         tested = context_works(bin_dir, fold, first, first_key, works, label) if "context" in spec else works
         for power in config["prior_power"]:
             figures[f"{label}@{power:g}"] = evaluate(bin_dir, spec, forest, tested,
@@ -356,7 +382,8 @@ def main():
     if a.jobs < 1:
         fail("--jobs: expected at least 1")
     bin_dir = os.path.abspath(os.environ.get("SMSEG_BIN", "build/bin"))
-    for tool in ("import-camvid", "extract-features", "train-forest", "eval-forest", "add-context"):
+    for tool in ("import-camvid", "extract-features", "train-forest", "eval-forest", "add-context", "learn-textons",
+                 "add-textons"):
         if not os.access(os.path.join(bin_dir, tool), os.X_OK):
             fail(f"{bin_dir}/{tool}: missing (set SMSEG_BIN)")
     camvid = os.path.abspath(a.camvid)
