@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # experiments/camvid/cross-validate.sh end to end on a small CamVid folder cut from ../shared/data/camvid:
 # two 1 Hz train runs of 16 frames and val frames 0-29 (15 Hz, so held out it is cut into 15 phases of
-# 1 Hz); tiny forests (Kt = 1000, M = 2), two prior powers, one run with auto-context. Checks every fold,
+# 1 Hz); tiny forests (Kt = 1000, M = 2), two prior powers, one run with auto-context, one with textons. Checks every fold,
 # the fold means, that the faster run is scored at 1 Hz with its whole self beside, that a held-out run
 # was extracted without its labels' filters, and that a bad config is one line and exit 1.
 # Usage: camvid_cross_validate_test.sh SOURCE_DIR BIN_DIR SHARED_DIR     (exit 77: no CamVid, skipped)
@@ -20,7 +20,9 @@ cat >"$tmp/config.json" <<'JSON'
 {"forest": ["-K", "100", "--Kt", "1000", "-M", "2", "--seed", "1"],
  "prior_power": [0, 1],
  "runs": {"six": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR"]},
-          "six_context": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR"], "context": [], "eval": ["--smooth", "graphcut"]}}}
+          "six_context": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR"], "context": [], "eval": ["--smooth", "graphcut"]},
+          "six_textons": {"train": ["--features", "fH,fC,fOx,fOy,fD,fR,fTx0,fTx1,fTx2,fTx3"],
+                          "textons": ["--textons", "4", "--samples", "100"]}}}
 JSON
 SMSEG_BIN="$bin" bash "$src/experiments/camvid/cross-validate.sh" "$mini" "$tmp/out" "$tmp/config.json" --jobs 2 \
   >"$tmp/stdout.txt"
@@ -30,7 +32,7 @@ import glob, json, os, sys
 out = sys.argv[1]
 r = json.load(open(os.path.join(out, "cross-validation.json")))
 runs = ["0001TP_006690-007140", "0016E5_07959-08017", "0016E5_08190-08640"]
-assert sorted(r["folds"]) == ["six", "six_context"], r["folds"].keys()
+assert sorted(r["folds"]) == ["six", "six_context", "six_textons"], r["folds"].keys()
 for name, folds in r["folds"].items():
     assert sorted(folds) == runs, (name, sorted(folds))
     for held, f in folds.items():
@@ -46,6 +48,14 @@ for name, folds in r["folds"].items():
         assert abs(s["global"]["mean"] - sum(values) / 3) < 1e-12, (name, power)
         assert s["global"]["spread"] > 0, (name, power)
         assert list(s["whole"]) == ["0016E5_07959-08017"], s["whole"].keys()
+# Textons: one dictionary per fold, learned on that fold's training runs only; the forest reads them.
+for held in runs:
+    dictionaries = glob.glob(os.path.join(out, "folds", held, "textons", "*.json"))
+    assert len(dictionaries) == 1, dictionaries
+    learned_on = [os.path.basename(w["work"]) for w in json.load(open(dictionaries[0]))["provenance"]["work_folders"]]
+    assert sorted(learned_on) == sorted(set(runs) - {held}), (held, learned_on)
+    forests = [json.load(open(f)) for f in glob.glob(os.path.join(out, "folds", held, "forests", "*.json"))]
+    assert any("fTx3" in f["features"] for f in forests), held
 # The 15 Hz run held out: 15 phases of two frames, scored together (30 frames), at 1 Hz spacing.
 results = json.load(open(os.path.join(out, "folds", "0016E5_07959-08017", "six", "eval-fold-p0", "results.json")))
 assert len(results["per_frame"]) == 30 and len(results["params"]["works"]) == 15, len(results["per_frame"])
