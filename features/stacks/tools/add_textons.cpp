@@ -13,11 +13,11 @@ int main(int argc, char** argv) {
       "Texton channels: write, for each work folder, a work folder OUT/<its name> whose stacks hold all of\n"
       "WORK's features and then fTx0..fTx<K-1>, 1 where the pixel's texton (its nearest centre of\n"
       "DICTIONARY, from learn-textons) is K and 0 elsewhere, so that a forest window's mean of fTxK is the\n"
-      "share of texton K in the window. OUT stores only those channels (a few kB a frame): it reads the\n"
-      "others, the greyscale and the labels from WORK, which its stacks.json names with a digest (WORK\n"
-      "moved or extracted again makes OUT refused: run add-textons again). The colour images come from\n"
-      "the sequences the folders were extracted from. OUT is built beside itself and swapped in whole at\n"
-      "the end. See docs/camvid.md, \"Textons\".",
+      "share of texton K in the window. OUT stores only those channels (about 70 kB a 480x360 frame for\n"
+      "32 textons): it reads the others, the greyscale and the labels from WORK, which its stacks.json\n"
+      "names with a digest (WORK moved or extracted again makes OUT refused: run add-textons again).\n"
+      "The colour images come from the sequences the folders were extracted from. OUT is built beside\n"
+      "itself and swapped in whole at the end. See docs/camvid.md, \"Textons\".",
       "add-textons"};
   std::string dictionary_file, out, frames = "0:";
   std::vector<std::string> works;
