@@ -145,7 +145,7 @@ const options::Table<TrainParams>& train_params_table() {
              std::numeric_limits<std::uint64_t>::max());
     // Files record the whole window sampling (its shares and learned histograms), params_to_json.
     t.named("windows", "--windows", "window sampling (thesis 4.5.3)",
-            [](auto& p) -> auto& { return p.windows.mode; }, "uniform | thesis-biased | learned | log-sizes",
+            [](auto& p) -> auto& { return p.windows.mode; }, "uniform | thesis-biased | learned",
             &window_sampling_from_string, +[](const WindowSampling& w) { return to_string(w); })
         .only(options::kCommandLine | options::kConfig | options::kPython);
     t.choice("balance", "--balance",

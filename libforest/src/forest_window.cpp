@@ -9,10 +9,8 @@
 
 namespace smseg::forest {
 
-constexpr std::array<EnumName<WindowSampling>, 4> kWindowSamplingNames{{{WindowSampling::Uniform, "uniform"},
-                                                                        {WindowSampling::Thesis, "thesis-biased"},
-                                                                        {WindowSampling::Learned, "learned"},
-                                                                        {WindowSampling::LogSizes, "log-sizes"}}};
+constexpr std::array<EnumName<WindowSampling>, 3> kWindowSamplingNames{
+    {{WindowSampling::Uniform, "uniform"}, {WindowSampling::Thesis, "thesis-biased"}, {WindowSampling::Learned, "learned"}}};
 
 std::string to_string(WindowSampling mode) { return name_of(kWindowSamplingNames, mode); }
 WindowSampling window_sampling_from_string(const std::string& s, const std::string& field) {
@@ -121,8 +119,7 @@ int WindowSampler::draw_dy(Rng& rng) const {
         return rng.below(2) ? -mag : mag;
       }
       [[fallthrough]];
-    case WindowSampling::Uniform:
-    case WindowSampling::LogSizes: break;
+    case WindowSampling::Uniform: break;
   }
   return rng.uniform_int(-b_.max_dy, b_.max_dy);
 }
@@ -142,8 +139,6 @@ int WindowSampler::draw_size(Rng& rng, int max, double share, const std::vector<
       }
       [[fallthrough]];
     case WindowSampling::Uniform: break;
-    case WindowSampling::LogSizes:  // exp(u ln(max + 1)) in [1, max + 1): each size v with odds ln((v + 1) / v)
-      return std::min(max, static_cast<int>(std::exp(rng.uniform() * std::log(max + 1.0))));
   }
   return rng.uniform_int(1, max);
 }

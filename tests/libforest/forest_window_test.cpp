@@ -199,33 +199,6 @@ TEST(WindowSampling, ThesisBiasFavoursLargeDyAndLargeSizes) {
   EXPECT_NEAR(xt / N, xu / N, 0.15);  // dx unbiased
 }
 
-TEST(WindowSampling, LogSizesTakeEachOctaveAlikeAndKeepTheOffsetsUniform) {
-  const WindowBounds b = WindowBounds::for_image(320, 240);  // w <= 40, h <= 30
-  WindowParams p;
-  p.mode = WindowSampling::LogSizes;
-  EXPECT_EQ(window_sampling_from_string("log-sizes", "--windows"), WindowSampling::LogSizes);
-  EXPECT_EQ(to_string(WindowSampling::LogSizes), "log-sizes");
-  const WindowSampler s(p, b);
-  Rng rng(5);
-  std::map<int, int> w;
-  double dx = 0;
-  const int N = 100000;
-  for (int i = 0; i < N; ++i) {
-    const Window win = s.draw(rng);
-    ASSERT_TRUE(b.contains(win));
-    ++w[win.w];
-    dx += win.dx;
-  }
-  EXPECT_EQ(w.begin()->first, 1);
-  EXPECT_EQ(w.rbegin()->first, 40);
-  // P(w = 1) = ln 2 / ln 41 = 0.187; P(w <= 6) = ln 7 / ln 41 = 0.524 (uniform: 0.025 and 0.15).
-  EXPECT_NEAR(w[1] / double(N), std::log(2.0) / std::log(41.0), 0.01);
-  int small = 0;
-  for (int v = 1; v <= 6; ++v) small += w[v];
-  EXPECT_NEAR(small / double(N), std::log(7.0) / std::log(41.0), 0.01);
-  EXPECT_NEAR(dx / N, 0.0, 0.3);  // offsets: uniform, centred
-}
-
 TEST(WindowSampling, LearnedFollowsItsHistogramsAndRescales) {
   const WindowBounds b = WindowBounds::for_image(320, 240);
   WindowParams p;

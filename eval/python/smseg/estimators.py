@@ -111,7 +111,7 @@ class ExtraTreesWindowClassifier(_Estimator):
     """train-forest as an estimator: extremely randomized trees over sampling windows on feature stacks.
 
     n_estimators: trees (train-forest -M); k: windows and tests per tree (-K; ks, kt override each);
-    windows: "uniform" | "thesis-biased" | "learned" | "log-sizes" (with learned_from: forest files); balance: draw
+    windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance: draw
     tests per class (--balance classes); criterion: the split score, train-forest's --score
     ("wehenkel-pavella" | "information-gain"); n_min, textons, features: as train-forest's options;
     seed: same seed and inputs, same forest file as train-forest; n_jobs: threads (0: all cores; the

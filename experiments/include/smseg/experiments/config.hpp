@@ -19,7 +19,7 @@
 //   sequences  train [required], test [train]: a name or a list of names from "sequences"
 //   frames     train_frames ["0:101"], test_frames ["110:"] (half-open A:B; labelled frames inside)
 //   training   K [400], Ks [0 = K], Kt [0 = K], M [7], n_min [5], seed [1], windows ["uniform" |
-//              "thesis-biased" | "learned" | "log-sizes"], balance ["none" | "classes"], textons [false],
+//              "thesis-biased" | "learned"], balance ["none" | "classes"], textons [false],
 //              score ["wehenkel-pavella" | "information-gain"], features [[] = all of the stacks]
 //   evaluation grid [0 = per pixel], superpixels ["none" | "small" | "large" | N], votes [6],
 //              vote ["sum" | "majority"], trees [0 = all M], tolerance [3], eval_seed [1], and the

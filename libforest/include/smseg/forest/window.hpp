@@ -91,13 +91,11 @@ enum class WindowSampling {
   Thesis,   ///< thesis-biased: dy from a V-shaped triangular law favouring large |dy| a share of the
             ///< time (default 10%), w and h from triangular laws favouring large sizes a share of
             ///< the time (default 25%); uniform otherwise
-  Learned,  ///< dx, dy, w, h drawn independently from histograms of the windows earlier forests chose
-  LogSizes  ///< w and h log-uniform on [1, max] (each octave of sizes as likely: small windows for thin
-            ///< things, poles and signs, beside the large ones); dx and dy uniform
+  Learned   ///< dx, dy, w, h drawn independently from histograms of the windows earlier forests chose
 };
 
 std::string to_string(WindowSampling mode);
-/// "uniform" | "thesis-biased" | "learned" | "log-sizes"; Error naming `field` otherwise.
+/// "uniform" | "thesis-biased" | "learned"; Error naming `field` otherwise.
 WindowSampling window_sampling_from_string(const std::string& s, const std::string& field);
 
 /// Histograms of window attributes over integer values: dx[i] counts dx = i - bounds.max_dx,
