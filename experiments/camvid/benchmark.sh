@@ -34,7 +34,7 @@
 # OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_path": {...},
 # "sm_context": {...},
 # "combined_forest": {...}, "combined_smooth": {...}, "combined_context": {...}, "combined_context_smooth": {...},
-# "combined_forest_m20": {...}, "combined_smooth_m20": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class, trees,
+# "combined_forest_m20": {...}, "combined_smooth_m20": {...}}}, each with global_accuracy, class_average_accuracy, mean_iou, per_class, trees, kt,
 # train_seconds, train_peak_rss_mb (auto-context runs: the first forest's training, then the fold
 # forests', the context channels' and the second forest's).
 # Training frames are extracted with --require-label (the training filters); test frames without it,

@@ -90,9 +90,12 @@ def print_fold_means(runs, folds, test):
 
 
 def summary(out, train, test, kt, trees, cross_validation=None):
-    runs = {}
+    runs, forest_kt = {}, {}
     for name, folder, trainings, title in RUNS:
         r = load(os.path.join(out, "eval", folder, "results.json"))
+        tested = trainings[-1]  # the forest the run labels with (auto-context: the second one)
+        if tested not in forest_kt:
+            forest_kt[tested] = load(os.path.join(out, "forests", tested + ".json"))["params"]["Kt"]
         measured = [load(os.path.join(out, "measure", t + ".json")) for t in trainings]
         m = {"seconds": sum(x["seconds"] for x in measured), "peak_rss_mb": max(x["peak_rss_mb"] for x in measured)}
         runs[name] = {
@@ -107,6 +110,7 @@ def summary(out, train, test, kt, trees, cross_validation=None):
             "smooth_ms_per_frame": 1000.0 * r.get("smooth_seconds_per_frame", 0.0),
             "test_frames": len(r["per_frame"]),
             "trees": r["params"]["trees"],
+            "kt": forest_kt[tested],
             "prior_power": r["params"].get("prior_power", 0.0),  # eval-forest records it when it is not 0
         }
     classes = list(runs["sm"]["per_class"].keys())
@@ -118,7 +122,9 @@ def summary(out, train, test, kt, trees, cross_validation=None):
                     + [pct(run["per_class"][c]["accuracy"]) for c in classes]
                     + [f"{run['train_seconds']:.0f}", f"{run['train_peak_rss_mb']:.0f}"])
     widths = [max(len(str(x[i])) for x in [head] + rows) for i in range(len(head))]
-    other = sorted({f"{name}: {run['trees']}" for name, run in runs.items() if run["trees"] != trees})
+    # Runs whose forest is not the common one (the headline's: M = 20, Kt = 60 000).
+    other = sorted({f"{name}: M = {run['trees']}, Kt = {run['kt']}" for name, run in runs.items()
+                    if run["trees"] != trees or run["kt"] != kt})
     print(f"CamVid: trained on {train}, tested on {test} ({runs['sm']['test_frames']} frames), Kt = {kt}, M = {trees}"
           + (f" ({', '.join(other)})" if other else "") + "; accuracies in %, per-class columns are per-class accuracy")
     for row in [head] + rows:

@@ -32,6 +32,8 @@ assert s["runs"]["sm_context"]["train_seconds"] > s["runs"]["sm_six"]["train_sec
 assert s["runs"]["combined_context"]["train_seconds"] > s["runs"]["combined_forest"]["train_seconds"], s["runs"]
 # SMSEG_M shrinks every forest, the headline's too; each run records the trees it used.
 assert all(r["trees"] == 2 for r in s["runs"].values()), {n: r["trees"] for n, r in s["runs"].items()}
+# SMSEG_KT likewise, the headline's Kt (60 000 by default) too; each run records its forest's.
+assert all(r["kt"] == 1000 for r in s["runs"].values()), {n: r["kt"] for n, r in s["runs"].items()}
 for name, r in s["runs"].items():
     for k in ("global_accuracy", "class_average_accuracy", "mean_iou"):
         assert 0.0 <= r[k] <= 1.0, (name, k, r[k])
