@@ -132,8 +132,7 @@ std::vector<Source> open_sources(const forest::Forest& forest, const std::vector
     check_forest_fits(forest, s.manifest);
     s.reads = feature_indices(s.manifest, forest.features, "the forest reads it");
     feature_indices(s.manifest, keep, "--features keeps it");
-    if (std::none_of(s.manifest.frames.begin(), s.manifest.frames.end(), [&](int f) { return frames.contains(f); }))
-      throw Error(w.string(), "frames", "no frame with a feature stack in " + frames.str());
+    stacks::frames_in_range(s.manifest, frames);  // at least one frame in range
     sources.push_back(std::move(s));
   }
   return sources;

@@ -218,6 +218,14 @@ StackManifest load_manifest(const fs::path& work, int depth) {
 
 StackManifest load_stack_manifest(const fs::path& work) { return load_manifest(work, 0); }
 
+std::vector<int> frames_in_range(const StackManifest& m, const FrameRange& range) {
+  std::vector<int> frames;
+  for (int f : m.frames)
+    if (range.contains(f)) frames.push_back(f);
+  if (frames.empty()) throw Error(m.work.string(), "frames", "no frame with a feature stack in " + range.str());
+  return frames;
+}
+
 StackManifest extending_manifest(const StackManifest& m, const fs::path& out, const std::vector<std::string>& keep,
                                  const std::vector<std::string>& added) {
   StackManifest e = m;

@@ -14,15 +14,6 @@ namespace smseg::stacks {
 
 namespace {
 
-/// The frames of m inside the range; Error naming the folder when there is none.
-std::vector<int> frames_in(const StackManifest& m, const FrameRange& range) {
-  std::vector<int> frames;
-  for (int f : m.frames)
-    if (range.contains(f)) frames.push_back(f);
-  if (frames.empty()) throw Error(m.work.string(), "frames", "no frame with a feature stack in " + range.str());
-  return frames;
-}
-
 /// Frame f's colour image from the folder's sequence, checked against the stacks' size.
 cv::Mat colour_image(const sequence::Sequence& seq, const StackManifest& m, int f) {
   cv::Mat bgr = seq.load_left(f);
@@ -48,7 +39,7 @@ cv::Mat texton_samples(const std::vector<fs::path>& works, const FrameRange& ran
   for (std::size_t w = 0; w < works.size(); ++w) {
     const StackManifest m = load_stack_manifest(works[w]);
     const sequence::Sequence seq = sequence::load_sequence(m.sequence);
-    const std::vector<int> frames = frames_in(m, range);
+    const std::vector<int> frames = frames_in_range(m, range);
     std::vector<cv::Mat> samples(frames.size());
     Progress bar("learn-textons " + m.work.filename().string(), static_cast<long>(frames.size()), progress);
     tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t i) {
@@ -74,7 +65,7 @@ int add_texton_channels(const TextonDictionary& dictionary, const fs::path& dict
     const StackManifest& m = sources.back();
     if (std::any_of(m.features.begin(), m.features.end(), is_texton_feature))
       throw Error(m.manifest_path().string(), "features", "already has texton channels (fTx...): give add-textons the folder they extend");
-    frames_in(m, range);
+    frames_in_range(m, range);
   }
   int written = 0;
   for (std::size_t w = 0; w < works.size(); ++w) {
@@ -85,7 +76,7 @@ int add_texton_channels(const TextonDictionary& dictionary, const fs::path& dict
                               {"textons", dictionary.count()},
                               {"frames", range.str()}};
     const sequence::Sequence seq = sequence::load_sequence(m.sequence);
-    const std::vector<int> frames = frames_in(m, range);
+    const std::vector<int> frames = frames_in_range(m, range);
     Progress bar("add-textons " + m.work.filename().string(), static_cast<long>(frames.size()), progress);
     tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t i) {
       const cv::Mat index = assign_textons(colour_image(seq, m, frames[i]), dictionary);

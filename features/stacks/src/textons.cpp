@@ -16,7 +16,7 @@ namespace smseg::stacks {
 
 namespace {
 
-constexpr int kFilterBankVersion = 1;
+constexpr int kDictionaryVersion = 1;  // of the "smseg-textons" file
 constexpr const char* kFilterBankName = "winn17-lab";  // the header's bank: a file of another is refused
 
 cv::Mat gaussian(const cv::Mat& plane, double sigma) {
@@ -219,7 +219,7 @@ void save_texton_dictionary(const fs::path& path, const TextonDictionary& d) {
     centres.push_back(std::vector<double>(c, c + kFilterBankSize));
   }
   write_json_atomic(path, {{"format", kTextonFormat},
-                           {"version", kFilterBankVersion},
+                           {"version", kDictionaryVersion},
                            {"filter_bank", kFilterBankName},
                            {"textons", d.count()},
                            {"mean", d.mean},
@@ -231,7 +231,7 @@ void save_texton_dictionary(const fs::path& path, const TextonDictionary& d) {
 TextonDictionary load_texton_dictionary(const fs::path& path) {
   const Json j = read_json(path);
   const JsonView v(j, path);
-  check_format(v, kTextonFormat, {kFilterBankVersion});
+  check_format(v, kTextonFormat, {kDictionaryVersion});
   if (v.str("filter_bank") != kFilterBankName)
     v.at("filter_bank").fail(std::string("is not ") + kFilterBankName + ", the filter bank this build computes");
   const std::int64_t k = v.integer("textons");

@@ -134,6 +134,9 @@ struct FrameRange {
   std::string str() const;
 };
 
+/// The frames of m inside the range, ascending; Error naming the folder when there is none.
+std::vector<int> frames_in_range(const StackManifest& m, const FrameRange& range);
+
 /// Frames of several work folders as the forest's Dataset, with the memory maps that back it.
 struct StackSet {
   std::vector<StackManifest> manifests;
