@@ -74,7 +74,7 @@ struct Args {
   std::string frames = "0:", features_opt, learned_from, out, corpus;
   smseg::forest::TrainParams p;
   int threads = 0, corpus_tree = 0;
-  bool quiet = false;
+  bool quiet = false, mirror = false;
   std::string tree_range;
   std::vector<std::string> merge;
   smseg::forest::SlurmTraining slurm;
@@ -100,6 +100,9 @@ void add_options(CLI::App& app, Args& a) {
                       "-o"},
                      a.on_slurm, a.slurm.tasks, a.slurm_dir, a.slurm.sbatch_options, a.no_wait, a.slurm.mode);
   app.add_option("--features", a.features_opt, "comma-separated features to use (default: all in the stacks)");
+  app.add_flag("--mirror", a.mirror,
+               "also train on every frame mirrored left to right (its channels mirrored as they would be: fOx "
+               "negated, fG1 and fG3 swapped, fCol kept; texton channels refused)");
   app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   add_threads_option(app, a.threads, "the forest does not depend on it");
   app.add_option("--export-corpus", a.corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
@@ -148,9 +151,10 @@ smseg::stacks::StackSet open_training_stacks(const Args& a) {
   stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
                                                  true, smseg::split_comma_list(a.features_opt));
   check_points(set, a.quiet);
+  if (a.mirror) stacks::add_mirrored_frames(set);
   if (!a.quiet)
-    std::cerr << "train-forest: " << set.dataset.frames.size() << " labelled frames, " << set.dataset.features.size()
-              << " features, K=" << a.p.K << " M=" << a.p.M << "\n";
+    std::cerr << "train-forest: " << set.origin.size() << " labelled frames" << (a.mirror ? " and their mirrors, " : ", ")
+              << set.dataset.features.size() << " features, K=" << a.p.K << " M=" << a.p.M << "\n";
   return set;
 }
 
@@ -190,7 +194,8 @@ int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   if (!a.merge.empty()) return merge_parts(a.merge, a.works, a.tree_range, a.on_slurm, a.out);
   const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
   const stacks::StackSet set = open_training_stacks(a);
-  const std::string on_frames = "on " + std::to_string(set.dataset.frames.size()) + " frames";
+  const std::string on_frames =
+      "on " + std::to_string(set.origin.size()) + " frames" + (set.mirrored ? " and their mirrors" : "");
   if (a.on_slurm) return train_on_slurm(a, on_frames, argc, argv);
   if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
   if (trees) {

@@ -11,6 +11,7 @@
 #include "smseg/common/digest.hpp"
 #include "smseg/common/io.hpp"
 #include "smseg/eval/context.hpp"
+#include "smseg/stacks/mirror.hpp"
 #include "temp_dir.hpp"
 
 namespace {
@@ -23,6 +24,19 @@ TEST(Context, FoldsAreContiguousAndEven) {
   EXPECT_EQ(eval::contiguous_folds(4, 4), (std::vector<int>{0, 1, 2, 3}));
   EXPECT_THROW(eval::contiguous_folds(3, 4), Error);  // more folds than frames
   EXPECT_THROW(eval::contiguous_folds(5, 1), Error);  // one fold holds out everything
+}
+
+// stacks/mirror.cpp spells add-context's prefix again (stacks sits below eval): its posterior channels
+// must mirror as they are, like any channel that does not depend on left and right.
+TEST(MirrorPlan, ContextChannelsFlip) {
+  const auto names = eval::context_feature_names({"Road", "Car", "Pole"});
+  const auto plan = stacks::mirror_plan(names, "test");
+  ASSERT_EQ(plan.size(), names.size());
+  for (std::size_t k = 0; k < plan.size(); ++k) {
+    EXPECT_EQ(plan[k].source, k);
+    EXPECT_TRUE(plan[k].flip);
+    EXPECT_FALSE(plan[k].negate);
+  }
 }
 
 TEST(Context, ChannelNames) {

@@ -438,6 +438,39 @@ forest::FrameData FrameStack::view() const {
   return d;
 }
 
+FrameStack FrameStack::mirror_of(const forest::FrameData& frame, const std::vector<ChannelMirror>& plan,
+                                 int frame_number) {
+  CV_Assert(plan.size() == frame.sats.size() && frame.gray);
+  const std::size_t H = static_cast<std::size_t>(frame.height), W = static_cast<std::size_t>(frame.width);
+  const std::size_t table = (H + 1) * (W + 1) * sizeof(double);
+  FrameStack s;
+  s.frame_ = frame_number;
+  s.size_ = cv::Size(frame.width, frame.height);
+  auto scratch = Mapping::scratch(plan.size() * table + (frame.labels ? 2 : 1) * H * W);
+  char* next = scratch->writable();
+  for (const ChannelMirror& c : plan) {
+    auto* out = reinterpret_cast<double*>(next);
+    const double* source = frame.sats[c.source];
+    if (c.flip)
+      mirror_table(source, frame.width, frame.height, c.negate, out);
+    else
+      std::copy(source, source + table / sizeof(double), out);
+    s.sats_.push_back(out);
+    next += table;
+  }
+  auto* gray = reinterpret_cast<std::uint8_t*>(next);
+  mirror_image(frame.gray, frame.width, frame.height, gray);
+  s.gray_ = gray;
+  if (frame.labels) {
+    auto* labels = gray + H * W;
+    mirror_image(frame.labels, frame.width, frame.height, labels);
+    s.labels_ = labels;
+  }
+  scratch->drop_pages();
+  s.mappings_.push_back(std::move(scratch));
+  return s;
+}
+
 FrameRange FrameRange::parse(const std::string& text, const std::string& option) {
   FrameRange r;
   const auto colon = text.find(':');
@@ -583,7 +616,7 @@ bool holds_points(const forest::FrameData& frame) {
 
 std::vector<std::pair<int, int>> frames_without_points(const StackSet& set) {
   std::vector<std::pair<int, int>> empty;
-  for (std::size_t i = 0; i < set.dataset.frames.size(); ++i)
+  for (std::size_t i = 0; i < set.origin.size(); ++i)  // the frames read (a mirror holds what its frame holds)
     if (!holds_points(set.dataset.frames[i])) empty.push_back(set.origin[i]);
   return empty;
 }
@@ -607,6 +640,29 @@ std::string frames_without_points_message(const StackSet& set, const std::vector
   return text;
 }
 
+void add_mirrored_frames(StackSet& set) {
+  CV_Assert(!set.mirrored && set.dataset.frames.size() == set.origin.size());
+  const auto plan = mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
+  const std::size_t n = set.dataset.frames.size();
+  std::vector<std::optional<FrameStack>> mirrors(n);
+  std::vector<std::exception_ptr> errors(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    try {
+      const forest::FrameData& frame = set.dataset.frames[i];
+      mirrors[i].emplace(FrameStack::mirror_of(frame, plan, set.origin[i].second));
+      if (frame.release) frame.release();  // read once more to be mirrored; training reads it again later
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  });
+  for (std::size_t i = 0; i < n; ++i) {
+    if (errors[i]) std::rethrow_exception(errors[i]);
+    set.stacks.push_back(std::move(*mirrors[i]));
+    set.dataset.frames.push_back(set.stacks.back().view());
+  }
+  set.mirrored = true;
+}
+
 Json training_data_record(const StackSet& set) {
   Json works = Json::array();
   for (std::size_t w = 0; w < set.manifests.size(); ++w) {
@@ -620,7 +676,9 @@ Json training_data_record(const StackSet& set) {
                      {"stacks_json_fnv1a64", fnv1a64_hex(read_file(m.manifest_path()))},
                      {"frames", frames}});
   }
-  return {{"works", works}, {"features", set.dataset.features}};
+  Json record = {{"works", works}, {"features", set.dataset.features}};
+  if (set.mirrored) record["mirrored"] = true;  // only then: records of earlier parts stay as they were
+  return record;
 }
 
 }  // namespace smseg::stacks

@@ -25,6 +25,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/forest/data.hpp"
+#include "smseg/stacks/mirror.hpp"
 
 namespace smseg::stacks {
 
@@ -111,6 +112,9 @@ class FrameStack {
   /// The forest's view of this frame (borrowed pointers: keep the FrameStack alive). Its `release`
   /// drops the frame's mapped pages from memory (they are read from the file again when touched).
   forest::FrameData view() const;
+  /// `frame` (a stack's view, its features selected) mirrored left to right by `plan` (mirror.hpp):
+  /// tables, greyscale and labels in a scratch mapping of its own, its pages dropped once written.
+  static FrameStack mirror_of(const forest::FrameData& frame, const std::vector<ChannelMirror>& plan, int frame_number);
 
  private:
   struct Mapping;
@@ -141,12 +145,18 @@ std::vector<int> frames_in_range(const StackManifest& m, const FrameRange& range
 struct StackSet {
   std::vector<StackManifest> manifests;
   std::vector<FrameStack> stacks;  ///< owns the mappings that dataset.frames point into
-  std::vector<std::pair<int, int>> origin;  ///< per dataset frame: (work folder index, frame)
-  forest::Dataset dataset;
+  std::vector<std::pair<int, int>> origin;  ///< per frame read: (work folder index, frame)
+  forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if `mirrored`
+  bool mirrored = false;
 };
 
+/// Appends the mirror of every frame of `set` (train-forest --mirror, mirror.hpp) to its dataset, the
+/// frames mirrored in parallel; Error naming the first work folder's stacks.json for a channel that has
+/// no mirror. Call it once, after the checks that read `origin` beside the dataset's frames.
+void add_mirrored_frames(StackSet& set);
+
 /// What a training read from `set`: per work folder its path, a digest of its stacks.json and the
-/// labelled frames used, and the features. Forest parts record it, so that only parts trained on the
+/// labelled frames used, and the features (and "mirrored": true when their mirrors were added). Forest parts record it, so that only parts trained on the
 /// same data are merged (forest/parts.hpp).
 Json training_data_record(const StackSet& set);
 
