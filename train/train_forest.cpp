@@ -151,7 +151,10 @@ smseg::stacks::StackSet open_training_stacks(const Args& a) {
   stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
                                                  true, smseg::split_comma_list(a.features_opt));
   check_points(set, a.quiet);
-  if (a.mirror) stacks::add_mirrored_frames(set);
+  if (a.mirror && a.on_slurm)  // the tasks mirror their own frames: here only whether every channel can be
+    stacks::mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
+  else if (a.mirror)
+    stacks::add_mirrored_frames(set);
   if (!a.quiet)
     std::cerr << "train-forest: " << set.origin.size() << " labelled frames" << (a.mirror ? " and their mirrors, " : ", ")
               << set.dataset.features.size() << " features, K=" << a.p.K << " M=" << a.p.M << "\n";
@@ -195,7 +198,7 @@ int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
   const stacks::StackSet set = open_training_stacks(a);
   const std::string on_frames =
-      "on " + std::to_string(set.origin.size()) + " frames" + (set.mirrored ? " and their mirrors" : "");
+      "on " + std::to_string(set.origin.size()) + " frames" + (a.mirror ? " and their mirrors" : "");
   if (a.on_slurm) return train_on_slurm(a, on_frames, argc, argv);
   if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
   if (trees) {

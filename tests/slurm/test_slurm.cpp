@@ -164,6 +164,18 @@ TEST_F(SlurmCluster, TrainForestOnSlurmIsTheLocalForestAndResumes) {
   EXPECT_FALSE(fs::exists(d / "other.json"));
 }
 
+// --mirror on Slurm: the tasks mirror their own frames (the submitter only checks the channels) and the
+// merged forest is the local mirrored one.
+TEST_F(SlurmCluster, MirroredTrainingOnSlurmIsTheLocalMirroredForest) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("train-mirror");
+  ASSERT_EQ(run(train_command(work, "-q --mirror", d / "local.json")).status, 0);
+  const auto slurm = run(train_command(work, "--mirror --slurm --tasks 2 --poll 0.2", d / "slurm.json"));
+  ASSERT_EQ(slurm.status, 0) << slurm.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "slurm.json"), forest_bytes_without_timing(d / "local.json"));
+  EXPECT_EQ(smseg::read_json(d / "slurm.json.slurm/parts/part-0.json")["training_data"]["mirrored"], true);
+}
+
 TEST_F(SlurmCluster, RunExperimentOnSlurmWritesTheLocalRecords) {
   const fs::path d = test_dir("experiment");
   smseg::write_json_atomic(d / "tiny.json", tiny_config());
@@ -287,6 +299,29 @@ TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
                          q(d / "mixed.json"));
   EXPECT_EQ(mixed.status, 1) << mixed.out;
   EXPECT_EQ(count_lines(mixed.out), 1) << mixed.out;
+  EXPECT_NE(mixed.out.find("the parts were trained on other data"), std::string::npos) << mixed.out;
+  EXPECT_FALSE(fs::exists(d / "mixed.json"));
+}
+
+// train-forest --mirror: parts of mirrored training merge into the mirrored forest, and the record
+// keeps them apart from parts trained on the frames alone.
+TEST(SlurmUsage, MirroredPartsMergeIntoTheMirroredForestAndOnlyWithEachOther) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("merge-mirror");
+  const auto whole = run(train_command(work, "--mirror", d / "whole.json"));
+  ASSERT_EQ(whole.status, 0) << whole.out;
+  EXPECT_NE(whole.out.find("on 3 frames and their mirrors"), std::string::npos) << whole.out;
+  ASSERT_EQ(run(train_command(work, "", d / "plain.json")).status, 0);
+  EXPECT_NE(forest_bytes_without_timing(d / "whole.json"), forest_bytes_without_timing(d / "plain.json"));
+  ASSERT_EQ(run(train_command(work, "-q --mirror --trees 0:3", d / "a.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --mirror --trees 3:", d / "b.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --trees 3:", d / "b-plain.json")).status, 0);
+  const auto m = run(tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d / "b.json") + " -o " + q(d / "m.json"));
+  ASSERT_EQ(m.status, 0) << m.out;
+  EXPECT_EQ(forest_bytes_without_timing(d / "m.json"), forest_bytes_without_timing(d / "whole.json"));
+  const auto mixed = run(tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d / "b-plain.json") + " -o " +
+                         q(d / "mixed.json"));
+  EXPECT_EQ(mixed.status, 1) << mixed.out;
   EXPECT_NE(mixed.out.find("the parts were trained on other data"), std::string::npos) << mixed.out;
   EXPECT_FALSE(fs::exists(d / "mixed.json"));
 }
