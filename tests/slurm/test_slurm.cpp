@@ -277,15 +277,22 @@ TEST_F(SlurmCluster, SbatchRefusingTheJobIsOneLine) {
 
 // Without a cluster.
 
-TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
-  const fs::path work = tiny_work();
-  const fs::path d = test_dir("merge");
-  ASSERT_EQ(run(train_command(work, "-q", d / "whole.json")).status, 0);
-  ASSERT_EQ(run(train_command(work, "-q --trees 3:", d / "b.json")).status, 0);
-  ASSERT_EQ(run(train_command(work, "-q --trees 0:3", d / "a.json")).status, 0);
+/// Trains the forest whole (d/whole.json) and as parts 3: and 0:3 (d/b.json, d/a.json) with the
+/// train-forest options `extra`, merges the parts (given out of order) and checks the merged forest is
+/// the whole one.
+void expect_parts_merge_into_the_whole_forest(const fs::path& work, const fs::path& d, const std::string& extra) {
+  ASSERT_EQ(run(train_command(work, "-q " + extra, d / "whole.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --trees 3: " + extra, d / "b.json")).status, 0);
+  ASSERT_EQ(run(train_command(work, "-q --trees 0:3 " + extra, d / "a.json")).status, 0);
   const auto m = run(tool("train-forest") + " --merge " + q(d / "b.json") + " " + q(d / "a.json") + " -o " + q(d / "m.json"));
   ASSERT_EQ(m.status, 0) << m.out;
   EXPECT_EQ(forest_bytes_without_timing(d / "m.json"), forest_bytes_without_timing(d / "whole.json"));
+}
+
+TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("merge");
+  expect_parts_merge_into_the_whole_forest(work, d, "");
   const auto gap = run(tool("train-forest") + " --merge " + q(d / "a.json") + " -o " + q(d / "g.json"));
   EXPECT_EQ(gap.status, 1) << gap.out;
   EXPECT_EQ(count_lines(gap.out), 1) << gap.out;
@@ -308,17 +315,13 @@ TEST(SlurmUsage, TreeRangesAndMergeGiveTheLocalForest) {
 TEST(SlurmUsage, MirroredPartsMergeIntoTheMirroredForestAndOnlyWithEachOther) {
   const fs::path work = tiny_work();
   const fs::path d = test_dir("merge-mirror");
-  const auto whole = run(train_command(work, "--mirror", d / "whole.json"));
-  ASSERT_EQ(whole.status, 0) << whole.out;
-  EXPECT_NE(whole.out.find("on 3 frames and their mirrors"), std::string::npos) << whole.out;
+  const auto said = run(train_command(work, "--mirror", d / "said.json"));
+  ASSERT_EQ(said.status, 0) << said.out;
+  EXPECT_NE(said.out.find("on 3 frames and their mirrors"), std::string::npos) << said.out;
+  expect_parts_merge_into_the_whole_forest(work, d, "--mirror");
   ASSERT_EQ(run(train_command(work, "", d / "plain.json")).status, 0);
   EXPECT_NE(forest_bytes_without_timing(d / "whole.json"), forest_bytes_without_timing(d / "plain.json"));
-  ASSERT_EQ(run(train_command(work, "-q --mirror --trees 0:3", d / "a.json")).status, 0);
-  ASSERT_EQ(run(train_command(work, "-q --mirror --trees 3:", d / "b.json")).status, 0);
   ASSERT_EQ(run(train_command(work, "-q --trees 3:", d / "b-plain.json")).status, 0);
-  const auto m = run(tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d / "b.json") + " -o " + q(d / "m.json"));
-  ASSERT_EQ(m.status, 0) << m.out;
-  EXPECT_EQ(forest_bytes_without_timing(d / "m.json"), forest_bytes_without_timing(d / "whole.json"));
   const auto mixed = run(tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d / "b-plain.json") + " -o " +
                          q(d / "mixed.json"));
   EXPECT_EQ(mixed.status, 1) << mixed.out;
