@@ -26,8 +26,8 @@ TEST(Context, FoldsAreContiguousAndEven) {
   EXPECT_THROW(eval::contiguous_folds(5, 1), Error);  // one fold holds out everything
 }
 
-// stacks/mirror.cpp spells add-context's prefix again (stacks sits below eval): its posterior channels
-// must mirror as they are, like any channel that does not depend on left and right.
+// add-context's posterior channels mirror as they are, like any channel that does not depend on left
+// and right (stacks/mirror.cpp knows them by the prefix eval names them with).
 TEST(MirrorPlan, ContextChannelsFlip) {
   const auto names = eval::context_feature_names({"Road", "Car", "Pole"});
   const auto plan = stacks::mirror_plan(names, "test");

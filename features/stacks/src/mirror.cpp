@@ -6,14 +6,11 @@
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/point_features.hpp"
+#include "smseg/stacks/stack.hpp"
 #include "smseg/stacks/textons.hpp"
 
 namespace smseg::stacks {
 namespace {
-
-// add-context's posterior channels (eval/context.hpp's kContextPrefix: stacks sits below eval, so the
-// prefix is spelled here again; MirrorPlan.ContextChannelsFlip in the eval tests keeps the two alike).
-constexpr const char* kPosteriorPrefix = "fCtx:";
 
 bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
 
@@ -25,7 +22,7 @@ bool in(const std::vector<std::string>& names, const std::string& name) {
 bool mirrors_as_is(const std::string& name) {
   if (name == "fOx" || name == "fG1" || name == "fG3" || name == "fCol") return false;
   return in(structure_feature_names(), name) || in(appearance_feature_names(), name) ||
-         in(dense_feature_names(), name) || starts_with(name, kPosteriorPrefix);
+         in(dense_feature_names(), name) || starts_with(name, kContextChannelPrefix);
 }
 
 }  // namespace

@@ -641,7 +641,7 @@ std::string frames_without_points_message(const StackSet& set, const std::vector
 }
 
 void add_mirrored_frames(StackSet& set) {
-  CV_Assert(!set.mirrored && set.dataset.frames.size() == set.origin.size());
+  CV_Assert(!set.mirrored());
   const auto plan = mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
   const std::size_t n = set.dataset.frames.size();
   std::vector<std::optional<FrameStack>> mirrors(n);
@@ -660,7 +660,6 @@ void add_mirrored_frames(StackSet& set) {
     set.stacks.push_back(std::move(*mirrors[i]));
     set.dataset.frames.push_back(set.stacks.back().view());
   }
-  set.mirrored = true;
 }
 
 Json training_data_record(const StackSet& set) {
@@ -677,7 +676,7 @@ Json training_data_record(const StackSet& set) {
                      {"frames", frames}});
   }
   Json record = {{"works", works}, {"features", set.dataset.features}};
-  if (set.mirrored) record["mirrored"] = true;  // only then: records of earlier parts stay as they were
+  if (set.mirrored()) record["mirrored"] = true;  // only then: records of earlier parts stay as they were
   return record;
 }
 

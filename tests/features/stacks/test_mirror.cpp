@@ -148,7 +148,7 @@ TEST_F(MirroredSet, GrowsByTheMirrorOfEachFrame) {
   add_mirrored_frames(set);
   ASSERT_EQ(set.origin.size(), 2u);
   ASSERT_EQ(set.dataset.frames.size(), 4u);
-  EXPECT_TRUE(set.mirrored);
+  EXPECT_TRUE(set.mirrored());
   const forest::FrameData& mirror = set.dataset.frames[2];
   const auto table = [&](const forest::FrameData& d, std::size_t f) {
     return cv::Mat(size.height + 1, size.width + 1, CV_64FC1, const_cast<double*>(d.sats[f])).clone();

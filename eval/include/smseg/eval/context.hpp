@@ -31,7 +31,7 @@
 namespace smseg::eval {
 
 /// The prefix of the context channels' names: "fCtx:Sky", "fCtx:Road", ...
-inline constexpr const char* kContextPrefix = "fCtx:";
+inline constexpr const char* kContextPrefix = stacks::kContextChannelPrefix;
 
 /// "fCtx:<class>" for each class, in class order.
 std::vector<std::string> context_feature_names(const std::vector<std::string>& classes);

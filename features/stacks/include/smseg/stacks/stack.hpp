@@ -30,6 +30,9 @@
 namespace smseg::stacks {
 
 inline constexpr const char* kStacksFormat = "smseg-stacks";
+/// The names of add-context's posterior channels start with it ("fCtx:Road"; eval/context.hpp makes
+/// them): spelled here, below eval, so that stacks can tell them apart (mirror.cpp).
+inline constexpr const char* kContextChannelPrefix = "fCtx:";
 inline constexpr int kStacksVersion = 2;
 
 /// What a folder that extends another (add-context's output) reads from it.
@@ -146,8 +149,10 @@ struct StackSet {
   std::vector<StackManifest> manifests;
   std::vector<FrameStack> stacks;  ///< owns the mappings that dataset.frames point into
   std::vector<std::pair<int, int>> origin;  ///< per frame read: (work folder index, frame)
-  forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if `mirrored`
-  bool mirrored = false;
+  forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if any
+
+  /// Whether add_mirrored_frames added the frames' mirrors (the dataset then holds twice the frames read).
+  bool mirrored() const { return dataset.frames.size() > origin.size(); }
 };
 
 /// Appends the mirror of every frame of `set` (train-forest --mirror, mirror.hpp) to its dataset, the
@@ -156,8 +161,8 @@ struct StackSet {
 void add_mirrored_frames(StackSet& set);
 
 /// What a training read from `set`: per work folder its path, a digest of its stacks.json and the
-/// labelled frames used, and the features (and "mirrored": true when their mirrors were added). Forest parts record it, so that only parts trained on the
-/// same data are merged (forest/parts.hpp).
+/// labelled frames used, and the features (and "mirrored": true when their mirrors were added). Forest
+/// parts record it, so that only parts trained on the same data are merged (forest/parts.hpp).
 Json training_data_record(const StackSet& set);
 
 /// Opens the frames of `works` inside `range` (labelled only if `labelled_only`; with labels if
