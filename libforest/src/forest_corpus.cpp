@@ -160,11 +160,18 @@ TableView interleave_tables(const FrameData& frame, std::vector<double>& out) {
   const std::size_t cells = table_cells(frame), F = frame.sats.size();
   out.resize(cells * F);
   TableView view{std::vector<const double*>(F), F};
-  for (std::size_t f = 0; f < F; ++f) {
-    const double* sat = frame.sats[f];
-    double* to = out.data() + f;
-    for (std::size_t i = 0; i < cells; ++i) to[i * F] = sat[i];
-    view.at[f] = to;
+  for (std::size_t f = 0; f < F; ++f) view.at[f] = out.data() + f;
+  // In blocks of cells whose copy stays in L1 (256 cells of 15 features: 30 KB): each table is read in
+  // order and each block written while cached. Feature by feature over the whole frame, every write
+  // went to a line long evicted (a fifth of the headline forest's training time, 2026-12-07).
+  constexpr std::size_t kCells = 256;
+  for (std::size_t b = 0; b < cells; b += kCells) {
+    const std::size_t e = std::min(cells, b + kCells);
+    for (std::size_t f = 0; f < F; ++f) {
+      const double* sat = frame.sats[f];
+      double* to = out.data() + f;
+      for (std::size_t i = b; i < e; ++i) to[i * F] = sat[i];
+    }
   }
   return view;
 }

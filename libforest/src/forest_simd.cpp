@@ -25,6 +25,7 @@
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "forest_simd.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
 #include "forest_simd.hpp"
@@ -325,6 +326,53 @@ void SumVotes(const float* probs, std::size_t padded, std::size_t classes, const
   }
 }
 
+// The grower's node scan (SimdKernels::row_range, count_below). Rows lie anywhere in the value matrix
+// (a node's tests are scattered over it): the block's part of the row kRowsAhead tests on is asked for
+// while this one is read, as the grower's own loops do.
+constexpr std::size_t kRowsAhead = 4;
+HWY_INLINE void prefetch_block(const float* r, std::size_t B) {
+  for (std::size_t j = 0; j < B; j += 64 / sizeof(float)) hwy::Prefetch(r + j);
+}
+
+void RowRange(const float* rows, std::size_t nc, const std::uint32_t* ord, std::size_t m, std::size_t j0,
+              std::size_t B, float* lo, float* hi) {
+  const hn::ScalableTag<float> d;
+  const std::size_t N = hn::Lanes(d), BN = B - B % N;
+  const float* first = rows + std::size_t{ord[0]} * nc + j0;
+  std::copy(first, first + B, lo);
+  std::copy(first, first + B, hi);
+  for (std::size_t i = 1; i < m; ++i) {
+    const float* r = rows + std::size_t{ord[i]} * nc + j0;
+    if (i + kRowsAhead < m) prefetch_block(rows + std::size_t{ord[i + kRowsAhead]} * nc + j0, B);
+    for (std::size_t j = 0; j < BN; j += N) {
+      // IfThenElse, not Min / Max: the grower's `v < lo ? v : lo` whatever a NaN does to Min.
+      const auto v = hn::LoadU(d, r + j), l = hn::LoadU(d, lo + j), h = hn::LoadU(d, hi + j);
+      hn::StoreU(hn::IfThenElse(hn::Lt(v, l), v, l), d, lo + j);
+      hn::StoreU(hn::IfThenElse(hn::Gt(v, h), v, h), d, hi + j);
+    }
+    for (std::size_t j = BN; j < B; ++j) {
+      lo[j] = r[j] < lo[j] ? r[j] : lo[j];
+      hi[j] = r[j] > hi[j] ? r[j] : hi[j];
+    }
+  }
+}
+
+void CountBelow(const float* rows, std::size_t nc, const std::uint32_t* ord, std::size_t i0, std::size_t i1,
+                std::size_t m, std::size_t j0, std::size_t B, const float* tf, std::int32_t* cnt) {
+  const hn::ScalableTag<float> d;
+  const hn::RebindToSigned<decltype(d)> di;
+  const std::size_t N = hn::Lanes(d), BN = B - B % N;
+  for (std::size_t i = i0; i < i1; ++i) {
+    const float* r = rows + std::size_t{ord[i]} * nc + j0;
+    if (i + kRowsAhead < m) prefetch_block(rows + std::size_t{ord[i + kRowsAhead]} * nc + j0, B);
+    for (std::size_t j = 0; j < BN; j += N) {
+      const auto below = hn::RebindMask(di, hn::Lt(hn::LoadU(d, r + j), hn::LoadU(d, tf + j)));
+      hn::StoreU(hn::Sub(hn::LoadU(di, cnt + j), hn::VecFromMask(di, below)), di, cnt + j);  // true is -1
+    }
+    for (std::size_t j = BN; j < B; ++j) cnt[j] += r[j] < tf[j] ? 1 : 0;
+  }
+}
+
 // The target's name for SMSEG_SIMD: Highway's, in lower case ("avx2", "neon"), but "avx512" for AVX3.
 std::string target_name() {
   if (HWY_TARGET == HWY_AVX3) return "avx512";
@@ -335,7 +383,7 @@ std::string target_name() {
 
 const SimdKernels* Kernels() {
   static const std::string name = target_name();
-  static const SimdKernels kernels{name.c_str(), &SplitChunks, &LeafRows, &Walk, &SumVotes};
+  static const SimdKernels kernels{name.c_str(), &SplitChunks, &LeafRows, &Walk, &SumVotes, &RowRange, &CountBelow};
   return &kernels;
 }
 

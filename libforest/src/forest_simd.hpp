@@ -87,6 +87,20 @@ struct SimdKernels {
   /// first class of the largest sum; labels[i], and dists[i * classes + c] unless dists is null.
   void (*sum_votes)(const float* probs, std::size_t padded, std::size_t classes, const std::int32_t* leaf,
                     std::size_t n, std::size_t M, std::uint8_t* labels, float* dists);
+
+  // Training (forest_train.cpp, the grower's scan of a node over a block of candidates): `rows` are
+  // test-major values (row t at rows + t * nc), a node's tests the rows ord[i]; the block is the B
+  // candidates from j0. Each gives the grower's own loops' result bit for bit, NaN included: rows are
+  // taken in order and compared as those loops compare them.
+
+  /// lo[j] = the least and hi[j] the greatest value of candidate j0 + j over the rows ord[0, m), j < B,
+  /// folded row by row as `v < lo ? v : lo` and `v > hi ? v : hi` from the first row's values.
+  void (*row_range)(const float* rows, std::size_t nc, const std::uint32_t* ord, std::size_t m, std::size_t j0,
+                    std::size_t B, float* lo, float* hi);
+  /// cnt[j] += the number of rows ord[i], i in [i0, i1), whose value of candidate j0 + j is below tf[j],
+  /// j < B. `m` bounds the rows it may ask the memory for ahead of time (ord[0, m) are readable).
+  void (*count_below)(const float* rows, std::size_t nc, const std::uint32_t* ord, std::size_t i0, std::size_t i1,
+                      std::size_t m, std::size_t j0, std::size_t B, const float* tf, std::int32_t* cnt);
 };
 
 /// The kernels of target `name`, null for "scalar" (the reference loops). Error naming `what` when the

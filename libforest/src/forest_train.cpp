@@ -15,6 +15,7 @@
 #include <oneapi/tbb/parallel_reduce.h>
 
 #include "forest_corpus.hpp"
+#include "forest_simd.hpp"
 #include "smseg/common/error.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/io.hpp"
@@ -91,7 +92,8 @@ class Grower {
         score_(score),
         C_(static_cast<std::size_t>(corpus.num_classes)),
         candidates_(corpus.candidates),
-        rows_(rows) {
+        rows_(rows),
+        simd_(detail::default_simd_kernels()) {
     xlogx_.resize(n_ + 1);
     xlogx_[0] = 0.0;
     for (std::size_t i = 1; i <= n_; ++i) xlogx_[i] = static_cast<double>(i) * std::log(static_cast<double>(i));
@@ -179,13 +181,9 @@ class Grower {
 
   static constexpr std::size_t kBlock = 256;  // candidates per block (scratch stays in L1)
 
-  /// The best split of a node over candidates [j0, j1): every candidate that is not constant over
-  /// the node's tests gets one threshold uniform in (min, max] and is scored.
-  Split scan_block(int node, const std::uint32_t* ord, std::size_t m, const std::vector<std::uint32_t>& counts,
-                   double sum_nc, std::size_t j0, std::size_t j1) const {
-    const std::size_t B = j1 - j0;
-    alignas(64) float lo[kBlock], hi[kBlock], tf[kBlock];
-    alignas(64) std::int32_t cnt[kBlock];
+  // The node scan's two loops in 4-float vectors, the reference the SIMD targets' kernels match
+  // (SimdKernels::row_range and count_below say what each computes).
+  void row_range(const std::uint32_t* ord, std::size_t m, std::size_t j0, std::size_t B, float* lo, float* hi) const {
     {
       const float* r = rows_ + ord[0] * nc_ + j0;
       std::copy(r, r + B, lo);
@@ -206,6 +204,33 @@ class Grower {
         hi[j] = v > hi[j] ? v : hi[j];
       }
     }
+  }
+
+  void count_below(const std::uint32_t* ord, std::size_t i0, std::size_t i1, std::size_t m, std::size_t j0,
+                   std::size_t B, const float* tf, std::int32_t* cnt) const {
+    const std::size_t B4 = B & ~std::size_t{3};
+    for (std::size_t i = i0; i < i1; ++i) {
+      const float* r = rows_ + ord[i] * nc_ + j0;
+      if (i + kAhead < m) prefetch_row(rows_ + ord[i + kAhead] * nc_ + j0, B);
+      for (std::size_t j = 0; j < B4; j += 4) {
+        v4i c;
+        std::memcpy(&c, cnt + j, sizeof c);
+        c -= load4(r + j) < load4(tf + j);  // true is -1
+        std::memcpy(cnt + j, &c, sizeof c);
+      }
+      for (std::size_t j = B4; j < B; ++j) cnt[j] += r[j] < tf[j] ? 1 : 0;
+    }
+  }
+
+  /// The best split of a node over candidates [j0, j1): every candidate that is not constant over
+  /// the node's tests gets one threshold uniform in (min, max] and is scored.
+  Split scan_block(int node, const std::uint32_t* ord, std::size_t m, const std::vector<std::uint32_t>& counts,
+                   double sum_nc, std::size_t j0, std::size_t j1) const {
+    const std::size_t B = j1 - j0;
+    alignas(64) float lo[kBlock], hi[kBlock], tf[kBlock];
+    alignas(64) std::int32_t cnt[kBlock];
+    if (simd_) simd_->row_range(rows_, nc_, ord, m, j0, B, lo, hi);
+    else row_range(ord, m, j0, B, lo, hi);
     double thr[kBlock];
     for (std::size_t j = 0; j < B; ++j) {
       const double dlo = lo[j], dhi = hi[j];
@@ -218,32 +243,32 @@ class Grower {
       thr[j] = t;
       tf[j] = float_ceil(t);
     }
-    // Class-wise counts below the thresholds: left[k * B + j].
-    std::vector<std::uint32_t> left(C_ * B);
+    // Per candidate, what the score needs of the class-wise counts below its threshold, class by
+    // class in order: how many go left, and the sums of x log x of the left and right counts. Classes
+    // the node lacks are skipped: their terms are 0 (x log x of 0), which leaves a sum as it is.
+    alignas(64) std::uint32_t nl[kBlock];
+    alignas(64) double sum_l[kBlock], sum_r[kBlock];
+    std::fill(nl, nl + B, 0u);
+    std::fill(sum_l, sum_l + B, 0.0);
+    std::fill(sum_r, sum_r + B, 0.0);
     std::size_t s = 0;
     for (std::size_t k = 0; k < C_; ++k) {
       if (counts[k] == 0) continue;
       std::fill(cnt, cnt + B, 0);
-      for (std::size_t i = s; i < s + counts[k]; ++i) {
-        const float* r = rows_ + ord[i] * nc_ + j0;
-        if (i + kAhead < m) prefetch_row(rows_ + ord[i + kAhead] * nc_ + j0, B);
-        for (std::size_t j = 0; j < B4; j += 4) {
-          v4i c;
-          std::memcpy(&c, cnt + j, sizeof c);
-          c -= load4(r + j) < load4(tf + j);  // true is -1
-          std::memcpy(cnt + j, &c, sizeof c);
-        }
-        for (std::size_t j = B4; j < B; ++j) cnt[j] += r[j] < tf[j] ? 1 : 0;
+      if (simd_) simd_->count_below(rows_, nc_, ord, s, s + counts[k], m, j0, B, tf, cnt);
+      else count_below(ord, s, s + counts[k], m, j0, B, tf, cnt);
+      for (std::size_t j = 0; j < B; ++j) {
+        const auto left = static_cast<std::uint32_t>(cnt[j]);
+        nl[j] += left;
+        sum_l[j] += xlogx_[left];
+        sum_r[j] += xlogx_[counts[k] - left];
       }
-      for (std::size_t j = 0; j < B; ++j) left[k * B + j] = static_cast<std::uint32_t>(cnt[j]);
       s += counts[k];
     }
     Split best;
-    std::vector<std::uint32_t> lj(C_);
     for (std::size_t j = 0; j < B; ++j) {
       if (!(lo[j] < hi[j])) continue;
-      for (std::size_t k = 0; k < C_; ++k) lj[k] = left[k * B + j];
-      const Split cand{score(lj, counts, m, sum_nc), j0 + j, thr[j]};
+      const Split cand{score(nl[j], sum_l[j], sum_r[j], m, sum_nc), j0 + j, thr[j]};
       if (cand.better_than(best)) best = cand;
     }
     return best;
@@ -273,15 +298,9 @@ class Grower {
 
   /// The split score in n log n form (natural logs): Wehenkel-Pavella 2 n I / (n H(C) + n H(S)), or
   /// the information gain n I / n = I(C;S) in nats.
-  double score(const std::vector<std::uint32_t>& left, const std::vector<std::uint32_t>& counts,
-               std::size_t n, double sum_nc) const {
-    std::size_t nl = 0;
-    double sum_l = 0.0, sum_r = 0.0;
-    for (std::size_t k = 0; k < C_; ++k) {
-      nl += left[k];
-      sum_l += xlogx_[left[k]];
-      sum_r += xlogx_[counts[k] - left[k]];
-    }
+  /// `nl` of the n tests go left; sum_l and sum_r: the sums over classes of x log x of the left and
+  /// right class counts; sum_nc: of the node's class counts.
+  double score(std::size_t nl, double sum_l, double sum_r, std::size_t n, double sum_nc) const {
     const std::size_t nr = n - nl;
     if (nl == 0 || nr == 0) return 0.0;
     const double nlogn = xlogx_[n];
@@ -303,6 +322,7 @@ class Grower {
   std::vector<std::uint8_t> labels_;   // by test index
   std::vector<std::uint32_t> order_;   // test indices; every node is a range, grouped by class
   const float* rows_;                  // test-major values: rows_[t * nc_ + c]
+  const detail::SimdKernels* simd_;    // the node scan's vector kernels; null: the loops above
 };
 
 }  // namespace
@@ -434,10 +454,17 @@ Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRa
   std::vector<double> tree_seconds(static_cast<std::size_t>(count), 0.0);
 
   // Trees in batches of as many as the budget holds: a batch's corpora are filled in one pass over
-  // the frames, then its trees grow in parallel and their value matrices are freed. Tree t is the same
+  // the frames, then its trees grow in parallel; the next batch fills the same matrices. Tree t is the same
   // whichever range or batch it is trained in: its draws depend on (seed, t) only.
   Progress progress("train trees", count, params.progress);
   const int batch = static_cast<int>(plan.trees_at_once);
+  // The value matrices, kept from batch to batch: a fresh one costs the faults and zeroing of its
+  // pages again (1.8 GB a tree for the CamVid headline forest, whose batches hold one tree each).
+  struct Matrix {
+    std::unique_ptr<float[]> rows;
+    std::size_t values = 0;
+  };
+  std::vector<Matrix> matrices;
   for (int first = range.begin; first < range.end; first += batch) {
     const int in_batch = std::min(batch, range.end - first);
     const auto tb = Clock::now();
@@ -445,22 +472,22 @@ Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRa
     tbb::parallel_for(0, in_batch, [&](int i) {
       corpora[static_cast<std::size_t>(i)] = detail::draw_corpus(data, params, sampler, first + i);
     });
-    std::vector<std::unique_ptr<float[]>> rows;
+    matrices.resize(corpora.size());  // a smaller last batch frees the matrices it does not need
     std::vector<const Corpus*> corpus_ptrs;
     std::vector<float*> row_ptrs;
-    for (const Corpus& c : corpora) {
-      rows.push_back(std::make_unique_for_overwrite<float[]>(std::max<std::size_t>(1, c.tests.size() * c.candidates.size())));
-      corpus_ptrs.push_back(&c);
-      row_ptrs.push_back(rows.back().get());
+    for (std::size_t i = 0; i < corpora.size(); ++i) {
+      const std::size_t values = std::max<std::size_t>(1, corpora[i].tests.size() * corpora[i].candidates.size());
+      if (matrices[i].values != values) matrices[i] = {std::make_unique_for_overwrite<float[]>(values), values};
+      corpus_ptrs.push_back(&corpora[i]);
+      row_ptrs.push_back(matrices[i].rows.get());
     }
     detail::fill_rows(data, corpus_ptrs, row_ptrs);
     const double fill_seconds = seconds_since(tb) / in_batch;
     tbb::parallel_for(0, in_batch, [&](int i) {
       const auto tt = Clock::now();
       const auto slot = static_cast<std::size_t>(first + i - range.begin);
-      forest.trees[slot] = Grower(corpora[static_cast<std::size_t>(i)], rows[static_cast<std::size_t>(i)].get(),
+      forest.trees[slot] = Grower(corpora[static_cast<std::size_t>(i)], row_ptrs[static_cast<std::size_t>(i)],
                                   params.n_min, tree_seed(params.seed, first + i), params.score).grow();
-      rows[static_cast<std::size_t>(i)].reset();
       tree_seconds[slot] = fill_seconds + seconds_since(tt);
       progress.tick();
     });

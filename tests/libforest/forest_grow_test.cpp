@@ -2,6 +2,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
+#include <limits>
+#include <string>
 #include <numeric>
 
 #include "forest_test_util.hpp"
@@ -236,6 +239,45 @@ TEST(GrowTree, EqualsTheReferenceGrowerOnRandomCorpora) {
       EXPECT_EQ(total, static_cast<std::uint64_t>(n));
     }
   }
+}
+
+// The node scan's vector kernels (forest_simd.hpp) against the grower's own loops (SMSEG_SIMD=scalar):
+// the same trees on every target the processor runs. Corpora wide enough for several candidate blocks
+// and vector tails (up to 700 candidates, blocks of 256), large enough for the parallel scan of a
+// node (tests x candidates >= 2^19), with ties, constants, NaN and infinities, whose folding order a
+// Min or Max instruction would change.
+TEST(GrowTree, EverySimdTargetGrowsTheScalarLoopsTree) {
+  const std::vector<std::string> targets = Classifier::simd_targets();
+  const char* before = std::getenv("SMSEG_SIMD");
+  const std::string saved = before ? before : "";
+  for (int trial = 0; trial < 4; ++trial) {
+    SCOPED_TRACE("trial " + std::to_string(trial));
+    Rng rng(77 + static_cast<std::uint64_t>(trial));
+    const int C = 3 + trial, n = trial == 3 ? 1100 : 300 + 150 * trial, K = trial == 3 ? 500 : 37 + 221 * trial;
+    std::vector<int> labels(static_cast<std::size_t>(n));
+    for (auto& l : labels) l = static_cast<int>(rng.below(static_cast<std::uint64_t>(C)));
+    std::vector<std::vector<float>> cols(static_cast<std::size_t>(K));
+    for (int k = 0; k < K; ++k)
+      for (int i = 0; i < n; ++i) {
+        float v = static_cast<float>(rng.uniform()) + 0.4f * static_cast<float>(labels[static_cast<std::size_t>(i)] % 2);
+        if (k % 3 == 1) v = static_cast<float>(rng.below(4));
+        if (k % 11 == 6) v = 2.5f;
+        if (k % 5 == 2 && rng.below(9) == 0) v = std::numeric_limits<float>::quiet_NaN();
+        if (k % 7 == 3 && rng.below(13) == 0) v = rng.below(2) ? std::numeric_limits<float>::infinity()
+                                                                : -std::numeric_limits<float>::infinity();
+        cols[static_cast<std::size_t>(k)].push_back(v);
+      }
+    const Corpus c = make_corpus(C, labels, cols);
+    ASSERT_EQ(::setenv("SMSEG_SIMD", "scalar", 1), 0);
+    const Tree scalar = grow_tree(c, 1, 5 + static_cast<std::uint64_t>(trial));
+    EXPECT_GT(scalar.nodes.size(), 9u);
+    for (const std::string& t : targets) {
+      SCOPED_TRACE("SMSEG_SIMD=" + t);
+      ASSERT_EQ(::setenv("SMSEG_SIMD", t.c_str(), 1), 0);
+      expect_same_tree(grow_tree(c, 1, 5 + static_cast<std::uint64_t>(trial)), scalar);
+    }
+  }
+  if (before) ::setenv("SMSEG_SIMD", saved.c_str(), 1); else ::unsetenv("SMSEG_SIMD");
 }
 
 TEST(GrowTree, EqualsTheReferenceOnARealCorpusWithTextons) {
