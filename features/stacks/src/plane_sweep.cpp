@@ -64,8 +64,8 @@ PreparedView prepare(const SweepView& v, const sequence::Pose& reference_pose) {
 
 // One row of plane_scores: s = ZNCC where the window is inside and both windows have texture, else -1.
 // Without branches and through restrict pointers, so that the compiler makes vector code of it (this file
-// is compiled with -fno-math-errno for the vector square root): the same float operations in the same
-// order as one pixel at a time, the quotient computed everywhere and kept where it counts.
+// is compiled with -fno-math-errno and -fno-trapping-math: see CMakeLists.txt): the same float operations
+// in the same order as one pixel at a time, the quotient computed everywhere and kept where it counts.
 void zncc_row(const float* __restrict mj, const float* __restrict qj, const float* __restrict mij,
               const float* __restrict mi, const float* __restrict si, const std::uint8_t* __restrict in, int n,
               float* __restrict s) {
@@ -130,7 +130,7 @@ struct BestPlane {
   }
   static void update_row(const float* in, int n, int p, float* b, int* k) {
     int x = 0;
-    for (; x + 4 <= n; x += 4) {  // four lanes (vector_ops below), then one at a time
+    for (; x + 4 <= n; x += 4) {  // four lanes (the vector helpers above), then one at a time
       const V4i better = load<V4f>(in + x) > load<V4f>(b + x);
       store(b + x, select(better, load<V4f>(in + x), load<V4f>(b + x)));
       store(k + x, select(better, V4i{p, p, p, p}, load<V4i>(k + x)));
@@ -148,7 +148,7 @@ constexpr float kNoScore = -2.0f;  // below any ZNCC: "no such plane"
 // The joint best plane, and the scores of the planes either side of it: a new best at p takes the
 // previous plane's score as its left one; the plane after the best gives its right one.
 // `worst` keeps the lowest score (how flat the scores are).
-// One row of update_joint: four lanes at a time (vector_ops above), then one at a time.
+// One row of update_joint: four lanes at a time (the vector helpers above), then one at a time.
 void update_joint_row(const float* s, const float* before, int n, int p, float* b, int* k, float* l, float* r,
                       float* w) {
   int x = 0;
