@@ -189,24 +189,24 @@ TEST(Classifier, SimdTargetsAreTheProcessorsAndSmsegSimdForcesOne) {
     EXPECT_EQ(targets, (std::vector<std::string>{"scalar", "avx2", "avx512"}));
   }
 #endif
-  const char* before = std::getenv("SMSEG_SIMD");
-  const std::string saved = before ? before : "";
-  ::unsetenv("SMSEG_SIMD");
-  EXPECT_EQ(Classifier(f).simd_target(), targets.back());  // the widest by default
-  for (const std::string& t : targets) {
-    ::setenv("SMSEG_SIMD", t.c_str(), 1);
-    EXPECT_EQ(Classifier(f).simd_target(), t);
+  {
+    const RestoreEnv restore("SMSEG_SIMD");
+    ::unsetenv("SMSEG_SIMD");
+    EXPECT_EQ(Classifier(f).simd_target(), targets.back());  // the widest by default
+    for (const std::string& t : targets) {
+      ::setenv("SMSEG_SIMD", t.c_str(), 1);
+      EXPECT_EQ(Classifier(f).simd_target(), t);
+    }
+    // An unknown name: one line naming the variable and the names it takes.
+    ::setenv("SMSEG_SIMD", "avx9", 1);
+    try {
+      Classifier clf(f);
+      ADD_FAILURE() << "SMSEG_SIMD=avx9 was taken";
+    } catch (const smseg::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("SMSEG_SIMD"), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("expected scalar|"), std::string::npos) << e.what();
+    }
   }
-  // An unknown name: one line naming the variable and the names it takes.
-  ::setenv("SMSEG_SIMD", "avx9", 1);
-  try {
-    Classifier clf(f);
-    ADD_FAILURE() << "SMSEG_SIMD=avx9 was taken";
-  } catch (const smseg::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("SMSEG_SIMD"), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("expected scalar|"), std::string::npos) << e.what();
-  }
-  if (before) ::setenv("SMSEG_SIMD", saved.c_str(), 1); else ::unsetenv("SMSEG_SIMD");
   Classifier clf(f);
   EXPECT_THROW(clf.set_simd_target("sse2"), smseg::Error);
   clf.set_simd_target("scalar");

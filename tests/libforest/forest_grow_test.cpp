@@ -4,8 +4,8 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
-#include <string>
 #include <numeric>
+#include <string>
 
 #include "forest_test_util.hpp"
 #include "smseg/common/error.hpp"
@@ -248,8 +248,7 @@ TEST(GrowTree, EqualsTheReferenceGrowerOnRandomCorpora) {
 // Min or Max instruction would change.
 TEST(GrowTree, EverySimdTargetGrowsTheScalarLoopsTree) {
   const std::vector<std::string> targets = Classifier::simd_targets();
-  const char* before = std::getenv("SMSEG_SIMD");
-  const std::string saved = before ? before : "";
+  const RestoreEnv restore("SMSEG_SIMD");
   for (int trial = 0; trial < 4; ++trial) {
     SCOPED_TRACE("trial " + std::to_string(trial));
     Rng rng(77 + static_cast<std::uint64_t>(trial));
@@ -277,7 +276,6 @@ TEST(GrowTree, EverySimdTargetGrowsTheScalarLoopsTree) {
       expect_same_tree(grow_tree(c, 1, 5 + static_cast<std::uint64_t>(trial)), scalar);
     }
   }
-  if (before) ::setenv("SMSEG_SIMD", saved.c_str(), 1); else ::unsetenv("SMSEG_SIMD");
 }
 
 TEST(GrowTree, EqualsTheReferenceOnARealCorpusWithTextons) {

@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -20,6 +22,25 @@ using namespace smseg::forest;
 namespace fs = std::filesystem;
 
 inline fs::path temp_dir(const std::string& name) { return smseg::test::temp_dir("forest_" + name); }
+
+/// Puts an environment variable back as it was (set or not) when the scope ends, a failed ASSERT's
+/// early return included: a test that forces SMSEG_SIMD does not force it on the tests after it.
+class RestoreEnv {
+ public:
+  explicit RestoreEnv(const char* name) : name_(name) {
+    if (const char* v = std::getenv(name)) saved_ = v;
+  }
+  ~RestoreEnv() {
+    if (saved_) ::setenv(name_, saved_->c_str(), 1);
+    else ::unsetenv(name_);
+  }
+  RestoreEnv(const RestoreEnv&) = delete;
+  RestoreEnv& operator=(const RestoreEnv&) = delete;
+
+ private:
+  const char* name_;
+  std::optional<std::string> saved_;
+};
 
 /// Sum of image over the window rectangle clipped to the image, by brute force.
 inline double brute_window_sum(const std::vector<double>& img, int W, int H, int x, int y, const Window& win) {
