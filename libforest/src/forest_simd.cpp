@@ -1,4 +1,4 @@
-// The classifier's vector kernels (forest_simd.hpp), once for every Highway target: Highway's
+// The classifier's and the grower's vector kernels (forest_simd.hpp), once for every Highway target: Highway's
 // foreach_target compiles this file again per target (AVX2 and AVX-512 on x86-64), and
 // simd_kernels picks among them at run time. The dispatch is ours, not HWY_DYNAMIC_DISPATCH: that one
 // asks libhwy which targets the processor runs, and smseg's static library would then make every

@@ -1,5 +1,5 @@
 #pragma once
-// The classifier's vector kernels (forest_simd.cpp), written once with Google Highway and compiled for
+// The classifier's and the grower's vector kernels (forest_simd.cpp), written once with Google Highway and compiled for
 // each target Highway builds here (AVX2 and AVX-512 on x86-64, NEON or SVE elsewhere); the target is
 // chosen at run time among those the processor runs (or forced by SMSEG_SIMD). Each gives the scalar
 // loops' result bit for bit (forest_tiles.cpp): the same double window sums, rounded to float and
