@@ -74,7 +74,7 @@ void zncc_row(const float* __restrict mj, const float* __restrict qj, const floa
     const float sj = std::sqrt(variance > 0.0f ? variance : 0.0f);  // std::max(0.0f, variance)
     const float denominator = si[x] * sj;
     const float zncc = (mij[x] - mi[x] * mj[x]) / denominator;
-    s[x] = (in[x] != 0) & (denominator > 1e-3f) ? zncc : -1.0f;
+    s[x] = ((in[x] != 0) & (denominator > 1e-3f)) ? zncc : -1.0f;
   }
 }
 
