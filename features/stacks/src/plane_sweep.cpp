@@ -13,8 +13,93 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/frontend/trajectory.hpp"
+#include "plane_sweep_rows.hpp"
 
 namespace smseg::stacks {
+
+namespace sweep_rows {
+
+// One row of plane_scores: s = ZNCC where the window is inside and both windows have texture, else -1.
+// Without branches and through restrict pointers, so that the compiler makes vector code of it (this file
+// is compiled with -fno-math-errno and -fno-trapping-math: see CMakeLists.txt): the same float operations
+// in the same order as one pixel at a time, the quotient computed everywhere and kept where it counts.
+void zncc(const float* __restrict mj, const float* __restrict qj, const float* __restrict mij,
+          const float* __restrict mi, const float* __restrict si, const std::uint8_t* __restrict in, int n,
+          float* __restrict s) {
+  for (int x = 0; x < n; ++x) {
+    const float variance = qj[x] - mj[x] * mj[x];
+    const float sj = std::sqrt(variance > 0.0f ? variance : 0.0f);  // std::max(0.0f, variance)
+    const float denominator = si[x] * sj;
+    const float zncc = (mij[x] - mi[x] * mj[x]) / denominator;
+    s[x] = ((in[x] != 0) & (denominator > 1e-3f)) ? zncc : -1.0f;
+  }
+}
+
+namespace {
+
+// Four lanes in GCC / Clang vector extensions (SSE2 on any x86-64): comparisons and selects only, so
+// every lane is what the one-at-a-time loops give. `select(m, a, b)`: a where m is all ones, else b.
+typedef float V4f __attribute__((vector_size(16)));
+typedef std::int32_t V4i __attribute__((vector_size(16)));
+template <class V, class T>
+V load(const T* p) {
+  V v;
+  std::memcpy(&v, p, sizeof v);
+  return v;
+}
+template <class T, class V>
+void store(T* p, V v) {
+  std::memcpy(p, &v, sizeof v);
+}
+inline V4f select(V4i m, V4f a, V4f b) { return (V4f)(((V4i)a & m) | ((V4i)b & ~m)); }  // casts keep the bits
+inline V4i select(V4i m, V4i a, V4i b) { return (a & m) | (b & ~m); }
+
+}  // namespace
+
+// Four lanes at a time (the vector helpers above), then one at a time.
+void best_plane(const float* in, int n, int p, float* b, int* k) {
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    const V4i better = load<V4f>(in + x) > load<V4f>(b + x);
+    store(b + x, select(better, load<V4f>(in + x), load<V4f>(b + x)));
+    store(k + x, select(better, V4i{p, p, p, p}, load<V4i>(k + x)));
+  }
+  for (; x < n; ++x)
+    if (in[x] > b[x]) {
+      b[x] = in[x];
+      k[x] = p;
+    }
+}
+
+// The same.
+void joint_best_plane(const float* s, const float* before, int n, int p, float* b, int* k, float* l, float* r,
+                      float* w) {
+  int x = 0;
+  for (; x + 4 <= n; x += 4) {
+    const V4f sv = load<V4f>(s + x), bv = load<V4f>(b + x), wv = load<V4f>(w + x);
+    const V4i kv = load<V4i>(k + x);
+    store(w + x, select(sv < wv, sv, wv));  // std::min(w, s)
+    const V4i better = sv > bv;
+    const V4i next = kv == (V4i{p, p, p, p} - 1);  // the plane after the best so far: its score is the right one
+    store(b + x, select(better, sv, bv));
+    store(l + x, select(better, load<V4f>(before + x), load<V4f>(l + x)));
+    store(r + x, select(better, V4f{kNoScore, kNoScore, kNoScore, kNoScore}, select(next, sv, load<V4f>(r + x))));
+    store(k + x, select(better, V4i{p, p, p, p}, kv));
+  }
+  for (; x < n; ++x) {
+    w[x] = std::min(w[x], s[x]);
+    if (s[x] > b[x]) {
+      b[x] = s[x];
+      k[x] = p;
+      l[x] = before[x];
+      r[x] = kNoScore;
+    } else if (k[x] == p - 1) {
+      r[x] = s[x];
+    }
+  }
+}
+
+}  // namespace sweep_rows
 
 namespace {
 
@@ -62,22 +147,6 @@ PreparedView prepare(const SweepView& v, const sequence::Pose& reference_pose) {
   return p;
 }
 
-// One row of plane_scores: s = ZNCC where the window is inside and both windows have texture, else -1.
-// Without branches and through restrict pointers, so that the compiler makes vector code of it (this file
-// is compiled with -fno-math-errno and -fno-trapping-math: see CMakeLists.txt): the same float operations
-// in the same order as one pixel at a time, the quotient computed everywhere and kept where it counts.
-void zncc_row(const float* __restrict mj, const float* __restrict qj, const float* __restrict mij,
-              const float* __restrict mi, const float* __restrict si, const std::uint8_t* __restrict in, int n,
-              float* __restrict s) {
-  for (int x = 0; x < n; ++x) {
-    const float variance = qj[x] - mj[x] * mj[x];
-    const float sj = std::sqrt(variance > 0.0f ? variance : 0.0f);  // std::max(0.0f, variance)
-    const float denominator = si[x] * sj;
-    const float zncc = (mij[x] - mi[x] * mj[x]) / denominator;
-    s[x] = ((in[x] != 0) & (denominator > 1e-3f)) ? zncc : -1.0f;
-  }
-}
-
 // ZNCC per pixel of the reference against the neighbour warped through the plane Z = depth of the
 // reference camera; -1 where the window reaches outside the neighbour's image.
 void plane_scores(const ReferenceWindows& ref, const PreparedView& v, const Eigen::Matrix3d& K, double depth,
@@ -99,26 +168,9 @@ void plane_scores(const ReferenceWindows& ref, const PreparedView& v, const Eige
   const cv::Mat mean_cross = box_mean(warped.mul(ref.image), window);
   score.create(ref.image.size(), CV_32F);
   for (int y = 0; y < score.rows; ++y)
-    zncc_row(mean.ptr<float>(y), mean_sq.ptr<float>(y), mean_cross.ptr<float>(y), ref.mean.ptr<float>(y),
-             ref.stddev.ptr<float>(y), inside.ptr<std::uint8_t>(y), score.cols, score.ptr<float>(y));
+    sweep_rows::zncc(mean.ptr<float>(y), mean_sq.ptr<float>(y), mean_cross.ptr<float>(y), ref.mean.ptr<float>(y),
+                     ref.stddev.ptr<float>(y), inside.ptr<std::uint8_t>(y), score.cols, score.ptr<float>(y));
 }
-
-// Four lanes in GCC / Clang vector extensions (SSE2 on any x86-64): comparisons and selects only, so
-// every lane is what the one-at-a-time loops give. `select(m, a, b)`: a where m is all ones, else b.
-typedef float V4f __attribute__((vector_size(16)));
-typedef std::int32_t V4i __attribute__((vector_size(16)));
-template <class V, class T>
-V load(const T* p) {
-  V v;
-  std::memcpy(&v, p, sizeof v);
-  return v;
-}
-template <class T, class V>
-void store(T* p, V v) {
-  std::memcpy(p, &v, sizeof v);
-}
-inline V4f select(V4i m, V4f a, V4f b) { return (V4f)(((V4i)a & m) | ((V4i)b & ~m)); }  // casts keep the bits
-inline V4i select(V4i m, V4i a, V4i b) { return (a & m) | (b & ~m); }
 
 // The best plane so far per pixel.
 struct BestPlane {
@@ -126,61 +178,22 @@ struct BestPlane {
   explicit BestPlane(cv::Size size)
       : score(size, CV_32F, cv::Scalar(-std::numeric_limits<float>::infinity())), plane(size, CV_32S, cv::Scalar(-1)) {}
   void update(const cv::Mat& s, int p) {
-    for (int y = 0; y < s.rows; ++y) update_row(s.ptr<float>(y), s.cols, p, score.ptr<float>(y), plane.ptr<int>(y));
-  }
-  static void update_row(const float* in, int n, int p, float* b, int* k) {
-    int x = 0;
-    for (; x + 4 <= n; x += 4) {  // four lanes (the vector helpers above), then one at a time
-      const V4i better = load<V4f>(in + x) > load<V4f>(b + x);
-      store(b + x, select(better, load<V4f>(in + x), load<V4f>(b + x)));
-      store(k + x, select(better, V4i{p, p, p, p}, load<V4i>(k + x)));
-    }
-    for (; x < n; ++x)
-      if (in[x] > b[x]) {
-        b[x] = in[x];
-        k[x] = p;
-      }
+    for (int y = 0; y < s.rows; ++y)
+      sweep_rows::best_plane(s.ptr<float>(y), s.cols, p, score.ptr<float>(y), plane.ptr<int>(y));
   }
 };
 
-constexpr float kNoScore = -2.0f;  // below any ZNCC: "no such plane"
+using sweep_rows::kNoScore;
 
 // The joint best plane, and the scores of the planes either side of it: a new best at p takes the
 // previous plane's score as its left one; the plane after the best gives its right one.
 // `worst` keeps the lowest score (how flat the scores are).
-// One row of update_joint: four lanes at a time (the vector helpers above), then one at a time.
-void update_joint_row(const float* s, const float* before, int n, int p, float* b, int* k, float* l, float* r,
-                      float* w) {
-  int x = 0;
-  for (; x + 4 <= n; x += 4) {
-    const V4f sv = load<V4f>(s + x), bv = load<V4f>(b + x), wv = load<V4f>(w + x);
-    const V4i kv = load<V4i>(k + x);
-    store(w + x, select(sv < wv, sv, wv));  // std::min(w, s)
-    const V4i better = sv > bv;
-    const V4i next = kv == (V4i{p, p, p, p} - 1);  // the plane after the best so far: its score is the right one
-    store(b + x, select(better, sv, bv));
-    store(l + x, select(better, load<V4f>(before + x), load<V4f>(l + x)));
-    store(r + x, select(better, V4f{kNoScore, kNoScore, kNoScore, kNoScore}, select(next, sv, load<V4f>(r + x))));
-    store(k + x, select(better, V4i{p, p, p, p}, kv));
-  }
-  for (; x < n; ++x) {
-    w[x] = std::min(w[x], s[x]);
-    if (s[x] > b[x]) {
-      b[x] = s[x];
-      k[x] = p;
-      l[x] = before[x];
-      r[x] = kNoScore;
-    } else if (k[x] == p - 1) {
-      r[x] = s[x];
-    }
-  }
-}
-
 void update_joint(const cv::Mat& joint, const cv::Mat& previous, int p, BestPlane& best, cv::Mat& left, cv::Mat& right,
                   cv::Mat& worst) {
   for (int y = 0; y < joint.rows; ++y)
-    update_joint_row(joint.ptr<float>(y), previous.ptr<float>(y), joint.cols, p, best.score.ptr<float>(y),
-                     best.plane.ptr<int>(y), left.ptr<float>(y), right.ptr<float>(y), worst.ptr<float>(y));
+    sweep_rows::joint_best_plane(joint.ptr<float>(y), previous.ptr<float>(y), joint.cols, p, best.score.ptr<float>(y),
+                                 best.plane.ptr<int>(y), left.ptr<float>(y), right.ptr<float>(y),
+                                 worst.ptr<float>(y));
 }
 
 }  // namespace
