@@ -7,6 +7,7 @@
 #include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/stacks/stack.hpp"
+#include "smseg/forest/classify.hpp"
 #include "smseg/forest/slurm_train.hpp"
 #include "smseg/forest/train.hpp"
 #include "smseg/common/slurm.hpp"
@@ -136,6 +137,7 @@ std::optional<smseg::forest::TreeRange> check_training_options(Args& a, const sm
   resolve_learned_windows(a);
   a.p.progress = !a.quiet;
   validate_options(option_of, [&] { a.p.validate(""); });
+  if (!a.on_slurm) forest::Classifier::default_simd_target();  // a bad SMSEG_SIMD before the stacks are read
   if (!a.corpus.empty() && (a.corpus_tree < 0 || a.corpus_tree >= a.p.M))
     throw UsageError("", "--corpus-tree", "is " + std::to_string(a.corpus_tree) + ", expected 0.." + std::to_string(a.p.M - 1));
   std::optional<forest::TreeRange> trees;

@@ -63,6 +63,11 @@ void Classifier::set_simd_target(std::string_view name) { simd_ = detail::simd_k
 
 std::vector<std::string> Classifier::simd_targets() { return detail::simd_target_names(); }
 
+std::string Classifier::default_simd_target() {
+  const detail::SimdKernels* kernels = detail::default_simd_kernels();
+  return kernels ? kernels->name : "scalar";
+}
+
 void Classifier::build_compact(const Forest& forest) {
   // The vector walk (SimdKernels::walk) reads the nodes as two 64-bit words: the rectangle, then
   // threshold and link.

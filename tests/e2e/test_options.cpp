@@ -96,6 +96,15 @@ TEST_F(Options, TrainForestRefusesAbsurdValues) {
   }
 }
 
+// An unknown SIMD target in the environment is named before any work: train-forest says so before it
+// reads the stacks (here a work folder that does not exist, whose error would otherwise come first).
+TEST_F(Options, TrainForestNamesAnUnknownSimdTargetBeforeReadingTheStacks) {
+  const Outcome r = run("SMSEG_SIMD=avx9 timeout 120 " + tool("train-forest") + " -q " + expand("{O}-missing -o {O}"));
+  expect_one_line({"SMSEG_SIMD=avx9", 1, "SMSEG_SIMD"}, r);
+  EXPECT_NE(r.out.find("avx9"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(dir / "out"));
+}
+
 TEST_F(Options, EvalForestRefusesAbsurdValues) {
   const std::vector<Absurd> cases = {
       {"{F} {W} --grid -4 -o {O}", 2, "--grid"},

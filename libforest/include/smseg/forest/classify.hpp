@@ -85,6 +85,9 @@ class Classifier {
   void set_simd_target(std::string_view name);
   /// The targets this processor runs, "scalar" first, then from the narrowest vectors to the widest.
   static std::vector<std::string> simd_targets();
+  /// The target a new Classifier (and the trainer) takes: SMSEG_SIMD's, else the best this processor
+  /// runs; Error naming SMSEG_SIMD as simd_target(). Tools call it before reading their data.
+  static std::string default_simd_target();
 
  private:
   struct PackedNode {
