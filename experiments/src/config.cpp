@@ -255,7 +255,7 @@ FrontEnd side_front_end(const Raw& raw, const std::string& side) {
   const std::string m = raw.has(side + "_motion") ? side + "_motion" : "motion";
   const std::string c = raw.has(side + "_causal") ? side + "_causal" : "causal";
   const std::string t = raw.has(side + "_tracker") ? side + "_tracker" : "tracker";
-  fe.stereo = raw.choice(s, "bm", stereo_methods);
+  fe.stereo = raw.choice(s, frontend::stereo_method_name(frontend::stereo_default_stereo().method), stereo_methods);
   fe.motion = raw.choice(m, "stereo", motions);
   fe.tracker = raw.choice(t, "klt", trackers);
   fe.causal = raw.boolean(c, false);

@@ -29,7 +29,7 @@ struct StreamCase {
   frontend::KeypointMethod detector;
   int grid = 0;
   bool textons = false;
-  frontend::StereoMethod stereo = frontend::StereoMethod::BM;
+  frontend::StereoMethod stereo = frontend::stereo_default_stereo().method;  // the tools' default (sparse)
   friend void PrintTo(const StreamCase& c, std::ostream* os) { *os << c.name; }
 };
 
@@ -120,11 +120,12 @@ TEST_P(LabelStream, SameLabelsAsCausalExtractionAndEvaluation) {
 
 INSTANTIATE_TEST_SUITE_P(
     Trackers, LabelStream,
-    ::testing::Values(StreamCase{"descriptors_pixel_textons", frontend::FrameTracker::Descriptors,
-                                 frontend::KeypointMethod::Sift, 0, true},
-                      StreamCase{"descriptors_grid", frontend::FrameTracker::Descriptors, frontend::KeypointMethod::Sift,
-                                 20, false},
-                      StreamCase{"klt_gftt_pixel", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 0, false},
+    ::testing::Values(StreamCase{"descriptors_bm_pixel_textons", frontend::FrameTracker::Descriptors,
+                                 frontend::KeypointMethod::Sift, 0, true, frontend::StereoMethod::BM},
+                      StreamCase{"descriptors_bm_grid", frontend::FrameTracker::Descriptors,
+                                 frontend::KeypointMethod::Sift, 20, false, frontend::StereoMethod::BM},
+                      StreamCase{"klt_gftt_bm_pixel", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 0, false,
+                                 frontend::StereoMethod::BM},
                       StreamCase{"klt_gftt_sparse_grid", frontend::FrameTracker::Klt, frontend::KeypointMethod::Gftt, 20,
                                  false, frontend::StereoMethod::Sparse}),
     [](const ::testing::TestParamInfo<StreamCase>& i) { return i.param.name; });

@@ -54,7 +54,7 @@ TEST(ExperimentConfig, SweepsExpandIntoTheProductWithTrainingParametersOutside) 
   EXPECT_EQ(p.json["test"], json::array({"c"}));
   EXPECT_EQ(p.json["train_frames"], "0:101");
   EXPECT_EQ(p.json["test_frames"], "110:");
-  EXPECT_EQ(p.json["train_stereo"], "bm");
+  EXPECT_EQ(p.json["train_stereo"], "sparse");  // the stereo front end's default (frontend::stereo_default_stereo)
   EXPECT_EQ(p.json["trees"], 3);
   EXPECT_EQ(p.train_params.M, 3);
   EXPECT_EQ(p.eval.grid, 0);
@@ -80,8 +80,8 @@ TEST(ExperimentConfig, CasesSetSeveralParametersAndSidesHaveTheirOwnFrontEnd) {
   ASSERT_EQ(ex.points.size(), 2u);
   EXPECT_EQ(ex.points[0].label, "C on L");
   EXPECT_EQ(ex.points[0].train_front_end.stereo, "sgbm");
-  EXPECT_EQ(ex.points[0].test_front_end.stereo, "bm");
-  EXPECT_EQ(ex.points[0].json["test_stereo"], "bm");
+  EXPECT_EQ(ex.points[0].test_front_end.stereo, "sparse");  // the default
+  EXPECT_EQ(ex.points[0].json["test_stereo"], "sparse");
   EXPECT_TRUE(ex.points[1].train_front_end.causal);
   EXPECT_TRUE(ex.points[1].test_front_end.causal);
   EXPECT_EQ(ex.points[0].describe(), "C on L");  // a case is named by its label

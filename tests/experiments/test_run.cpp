@@ -228,7 +228,7 @@ TEST_F(Run, PreparedSequencesAndWorkFoldersPlugIn) {
     EXPECT_EQ(got["tree_nodes"], want["tree_nodes"]) << kind;
     // A prepared work folder keeps its own front end: the point does not claim one.
     if (std::string(kind) == "work") EXPECT_TRUE(got["point"]["train_stereo"].is_null());
-    else EXPECT_EQ(got["point"]["train_stereo"], "bm");
+    else EXPECT_EQ(got["point"]["train_stereo"], "sparse");  // the stereo front end's default
   }
 }
 

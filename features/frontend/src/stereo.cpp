@@ -106,7 +106,8 @@ void StereoOptions::validate() const {
     bad_option("block_size", "must be in 5..255 for " + std::string(stereo_method_name(method)) + ", got " +
                                  std::to_string(block_size));
   if (method == StereoMethod::Sparse && lr_check == LeftRightCheck::Matcher)
-    bad_option("lr_check", "matcher is bm's own check from the whole map's costs; sparse makes the mirrored one");
+    bad_option("lr_check", "matcher needs stereo bm (--stereo bm): it is bm's own check from the whole map's costs; "
+                           "sparse makes the mirrored one");
   if (method == StereoMethod::SGBM && (block_size < 1 || block_size > 21))
     bad_option("block_size", "must be in 1..21 for sgbm, got " + std::to_string(block_size));
   if (texture_threshold < 0) bad_option("texture_threshold", "must be >= 0");

@@ -131,7 +131,9 @@ TEST(DisparityOffset, KittiSeq2StreamAndWholeSequenceFindTheSameOffset) {
   const FrontEndResult whole = run_stereo_front_end(seq, fe);
   ASSERT_TRUE(whole.summary.offset_estimate);
   EXPECT_TRUE(whole.summary.offset_estimate->kept);
-  EXPECT_NEAR(whole.summary.disparity_offset, 0.86, 0.25);  // what the whole slice's tracks ask for
+  // What the whole slice's tracks ask for: near the 1.25 px that experiments/kitti/self_calibrate_offset.py
+  // finds offline (measured: 1.16 with the default sparse matcher, 0.86 with bm's speckle filter).
+  EXPECT_NEAR(whole.summary.disparity_offset, 1.25, 0.25);
 
   StereoFrontEndStream stream(seq.calibration, seq.camera_height, fe, "seq2");
   EXPECT_NE(test::error_of([&] { stream.push(seq.load_left_gray(0), seq.load_right_gray(0)); }).find("calibrate"),
