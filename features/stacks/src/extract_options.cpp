@@ -53,7 +53,8 @@ void declare_choices(options::Table<E>& t) {
       .checked_as("stereo.block_size");
   t.named("lr_check", "--lr-check",
           "bm's left-right check: mirrored (a second match on the mirrored pair; the stricter) | matcher\n"
-          "(OpenCV's own from the left match's costs: half the matching time, more pixels and more wrong ones)",
+          "(OpenCV's own from the left match's costs: half the matching time, more pixels and more wrong ones;\n"
+          "with --stereo bm only)",
           [](auto& o) -> auto& { return o.front_end.stereo.lr_check; }, "mirrored | matcher",
           +[](const std::string& s, const std::string& f) { return frontend::parse_left_right_check(s, f); },
           +[](const frontend::LeftRightCheck& c) { return std::string(frontend::left_right_check_name(c)); })

@@ -35,6 +35,26 @@ void zncc(const float* __restrict mj, const float* __restrict qj, const float* _
   }
 }
 
+void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out) {
+  // v + 1.5 * 2^52 - 1.5 * 2^52 is v rounded to nearest, ties to even, for |v| < 2^51 (cvtpd_epi32's
+  // rounding); larger values, infinities and NaN stay outside the image, as OpenCV's saturated ones do.
+  constexpr double kRound = 6755399441055744.0;
+  const double width = cols, height = rows;
+  for (int xb = 0; xb < cols; xb += block_cols) {
+    const int bw = std::min(block_cols, cols - xb);
+    const double X0 = M[0] * xb + M[1] * y + M[2], Y0 = M[3] * xb + M[4] * y + M[5], W0 = M[6] * xb + M[7] * y + M[8];
+    std::uint8_t* __restrict o = out + xb;
+    for (int x1 = 0; x1 < bw; ++x1) {
+      const double x = x1;
+      const double w = M[6] * x + W0;
+      const double inverse = w != 0.0 ? 1.0 / w : 0.0;
+      const double X = ((X0 + M[0] * x) * inverse + kRound) - kRound;
+      const double Y = ((Y0 + M[3] * x) * inverse + kRound) - kRound;
+      o[x1] = static_cast<std::uint8_t>((X >= 0.0) & (X < width) & (Y >= 0.0) & (Y < height));
+    }
+  }
+}
+
 namespace {
 
 // Four lanes in GCC / Clang vector extensions (SSE2 on any x86-64): comparisons and selects only, so
@@ -129,10 +149,10 @@ ReferenceWindows reference_windows(const cv::Mat& gray, int window) {
   return r;
 }
 
-// A neighbour prepared for warping: its float image, a mask of ones, and the reference-to-neighbour
+// A neighbour prepared for warping: its float image and the reference-to-neighbour
 // camera motion (X_n = R X_r + t).
 struct PreparedView {
-  cv::Mat image, ones;
+  cv::Mat image;
   Eigen::Matrix3d R;
   Eigen::Vector3d t;
 };
@@ -140,7 +160,6 @@ struct PreparedView {
 PreparedView prepare(const SweepView& v, const sequence::Pose& reference_pose) {
   PreparedView p;
   v.gray.convertTo(p.image, CV_32F);
-  p.ones = cv::Mat(v.gray.size(), CV_8UC1, cv::Scalar(1));
   const Eigen::Matrix3d Rr = frontend::pose_rotation(reference_pose), Rn = frontend::pose_rotation(v.pose);
   p.R = Rn.transpose() * Rr;
   p.t = Rn.transpose() * (frontend::pose_centre(reference_pose) - frontend::pose_centre(v.pose));
@@ -159,8 +178,12 @@ void plane_scores(const ReferenceWindows& ref, const PreparedView& v, const Eige
   // WARP_INVERSE_MAP: warped(x) = neighbour(H x), H taking reference pixels to neighbour pixels.
   cv::warpPerspective(v.image, warped, Hcv, ref.image.size(), cv::INTER_LINEAR | cv::WARP_INVERSE_MAP,
                       cv::BORDER_REPLICATE);
-  cv::warpPerspective(v.ones, inside, Hcv, ref.image.size(), cv::INTER_NEAREST | cv::WARP_INVERSE_MAP,
-                      cv::BORDER_CONSTANT, cv::Scalar(0));
+  // Where the neighbour's pixel is: the nearest-neighbour warp of an image of ones, computed here
+  // (sweep_rows::inside_row; the neighbour and the reference have one size).
+  inside.create(ref.image.size(), CV_8UC1);
+  const int block_cols = sweep_rows::warp_block_cols(inside.cols, inside.rows);
+  for (int y = 0; y < inside.rows; ++y)
+    sweep_rows::inside_row(Hcv.val, y, inside.cols, inside.rows, block_cols, inside.ptr(y));
   cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)), cv::Point(-1, -1), 1,
             cv::BORDER_CONSTANT, cv::Scalar(0));
   const cv::Mat mean = box_mean(warped, window);

@@ -24,4 +24,20 @@ void best_plane(const float* in, int n, int p, float* b, int* k);
 void joint_best_plane(const float* s, const float* before, int n, int p, float* b, int* k, float* l, float* r,
                       float* w);
 
+// Row y of the mask cv::warpPerspective makes of an image of ones (INTER_NEAREST | WARP_INVERSE_MAP,
+// BORDER_CONSTANT 0) with the 3x3 matrix M (row-major): 1 where the source pixel round(M (x, y, 1)) lies
+// inside the cols x rows source, else 0. The coordinates are computed as OpenCV 4.6 computes them
+// (imgproc/src/imgwarp.cpp, WarpPerspectiveInvoker, and its SSE4.1 processNN): for each block of
+// `block_cols` columns from xb, X0 = M0 xb + M1 y + M2 (and Y0, W0 alike); for column xb + x1,
+// W = M6 x1 + W0, its inverse (0 where W is 0), fX = (X0 + M0 x1) / W rounded to nearest, ties to even,
+// so that the mask is OpenCV's bit for bit at about a third of its cost (tests/features/stacks/
+// test_plane_sweep_rows.cpp compares them).
+void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out);
+
+// The block width OpenCV 4.6's warpPerspective uses for a destination of cols x rows.
+inline int warp_block_cols(int cols, int rows) {
+  const int block_rows = rows < 16 ? rows : 16;
+  return 1024 / block_rows < cols ? 1024 / block_rows : cols;
+}
+
 }  // namespace smseg::stacks::sweep_rows

@@ -4,6 +4,8 @@
 // windows and scores at the thresholds.
 #include <gtest/gtest.h>
 
+#include <opencv2/imgproc.hpp>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -143,6 +145,51 @@ TEST(PlaneSweepRows, JointBestPlaneIsTheOnePixelLoop) {
     expect_same_bits(r_got, r_want, "right score", n);
     expect_same_bits(w_got, w_want, "worst score", n);
   }
+}
+
+// The inside mask against OpenCV's own nearest-neighbour warp of an image of ones, which it replaces: bit
+// for bit for the sweep's homographies (near the identity, the neighbour a few pixels off, at the sizes
+// the sweep runs at) and for wild ones (strong perspective, a vanishing line through the image, where W
+// is 0 or changes sign), exact ties, on images wider and narrower than a warp block and shorter than its
+// 16 rows. (Whether X0 is taken at the block's first column or the row's first changes no mask here.)
+TEST(PlaneSweepRows, InsideMaskIsOpenCvsNearestWarpOfOnes) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const std::vector<cv::Size> sizes = {{480, 360}, {240, 180}, {320, 240}, {37, 23}, {100, 7}, {1241, 376}, {65, 17}};
+  // Exact ties: half-pixel shifts put the last column at width - 0.5 (an odd width rounds it to even,
+  // inside) and the first at -0.5 (to -0, inside); a last row of zeros makes W 0 everywhere (OpenCV then
+  // takes the source pixel (0, 0)).
+  const std::vector<cv::Matx33d> special = {{1, 0, 0.5, 0, 1, 0.5, 0, 0, 1},   {1, 0, -0.5, 0, 1, -0.5, 0, 0, 1},
+                                            {1, 0, 1.5, 0, 1, -1.5, 0, 0, 1},  {2, 0, -0.5, 0, 2, 0.5, 0, 0, 2},
+                                            {1, 0.3, 2, 0.1, 1, -3, 0, 0, 0}};
+  int compared = 0;
+  for (const cv::Size size : sizes) {
+    const cv::Mat ones(size, CV_8UC1, cv::Scalar(1));
+    for (int trial = 0; trial < 60 + int(special.size()); ++trial) {
+      cv::Matx33d H;
+      if (trial >= 60) {
+        H = special[trial - 60];
+      } else if (trial % 3 == 0) {  // wild: anything, the last row too
+        for (double& m : H.val) m = u(rng) * (trial % 2 ? 2.0 : 0.02);
+        H(2, 2) = u(rng);
+      } else {  // a plane sweep's: near the identity, shifted by up to a tenth of the image
+        const double s = trial % 3 == 1 ? 1e-3 : 3e-2;
+        H = cv::Matx33d(1 + s * u(rng), s * u(rng), 0.1 * size.width * u(rng), s * u(rng), 1 + s * u(rng),
+                        0.1 * size.height * u(rng), 1e-4 * u(rng), 1e-4 * u(rng), 1 + s * u(rng));
+      }
+      cv::Mat want;
+      cv::warpPerspective(ones, want, H, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
+                          cv::Scalar(0));
+      cv::Mat got(size, CV_8UC1);
+      const int block_cols = smseg::stacks::sweep_rows::warp_block_cols(size.width, size.height);
+      for (int y = 0; y < size.height; ++y)
+        smseg::stacks::sweep_rows::inside_row(H.val, y, size.width, size.height, block_cols, got.ptr(y));
+      const int differ = cv::countNonZero(got != want);
+      EXPECT_EQ(differ, 0) << size << " trial " << trial << " H " << H;
+      compared += cv::countNonZero(want) > 0 && cv::countNonZero(want) < size.area();  // a border inside
+    }
+  }
+  EXPECT_GT(compared, 100) << "too few masks with both inside and outside pixels to mean anything";
 }
 
 }  // namespace
