@@ -35,23 +35,69 @@ void zncc(const float* __restrict mj, const float* __restrict qj, const float* _
   }
 }
 
-void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out) {
+namespace {
+
+// One block's columns of inside_row as 0 / 1 in 64-bit lanes (doubles and 64-bit integers, one width),
+// so that the compiler makes vector code of it: inlined into one function per instruction set below.
+__attribute__((always_inline)) inline void inside_block(const double* M, double X0, double Y0, double W0, int bw,
+                                                        double width, double height, std::int64_t* __restrict in) {
   // v + 1.5 * 2^52 - 1.5 * 2^52 is v rounded to nearest, ties to even, for |v| < 2^51 (cvtpd_epi32's
   // rounding); larger values, infinities and NaN stay outside the image, as OpenCV's saturated ones do.
   constexpr double kRound = 6755399441055744.0;
-  const double width = cols, height = rows;
+  const double m0 = M[0], m3 = M[3], m6 = M[6];
+  for (int x1 = 0; x1 < bw; ++x1) {
+    const double x = x1;
+    const double w = m6 * x + W0;
+    const double inverse = w != 0.0 ? 1.0 / w : 0.0;
+    const double X = ((X0 + m0 * x) * inverse + kRound) - kRound;
+    const double Y = ((Y0 + m3 * x) * inverse + kRound) - kRound;
+    in[x1] = (X >= 0.0) & (X < width) & (Y >= 0.0) & (Y < height);
+  }
+}
+
+#if defined(__x86_64__) || defined(__i386__)
+#define SMSEG_INSIDE_BLOCK_ARGS                                                                            \
+  const double *M, double X0, double Y0, double W0, int bw, double width, double height, std::int64_t *in
+void inside_block_sse2(SMSEG_INSIDE_BLOCK_ARGS) { inside_block(M, X0, Y0, W0, bw, width, height, in); }
+__attribute__((target("avx2"))) void inside_block_avx2(SMSEG_INSIDE_BLOCK_ARGS) {
+  inside_block(M, X0, Y0, W0, bw, width, height, in);
+}
+__attribute__((target("avx512f"))) void inside_block_avx512(SMSEG_INSIDE_BLOCK_ARGS) {
+  inside_block(M, X0, Y0, W0, bw, width, height, in);
+}
+#undef SMSEG_INSIDE_BLOCK_ARGS
+#endif
+
+}  // namespace
+
+#if defined(__x86_64__) || defined(__i386__)
+std::vector<InsideIsa> inside_isas() {
+  std::vector<InsideIsa> isas{InsideIsa::Sse2};
+  if (__builtin_cpu_supports("avx2")) isas.push_back(InsideIsa::Avx2);
+  if (__builtin_cpu_supports("avx512f")) isas.push_back(InsideIsa::Avx512);
+  return isas;
+}
+#else
+std::vector<InsideIsa> inside_isas() { return {InsideIsa::Best}; }  // the compiler's own vectors elsewhere
+#endif
+
+void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out, InsideIsa isa) {
+#if defined(__x86_64__) || defined(__i386__)
+  static const InsideIsa best = inside_isas().back();
+  const InsideIsa use = isa == InsideIsa::Best ? best : isa;
+  const auto block = use == InsideIsa::Avx512 ? &inside_block_avx512
+                     : use == InsideIsa::Avx2 ? &inside_block_avx2
+                                              : &inside_block_sse2;
+#else
+  (void)isa;
+  const auto block = &inside_block;
+#endif
+  std::int64_t in[1024];  // a block has at most 1024 columns (warp_block_cols)
   for (int xb = 0; xb < cols; xb += block_cols) {
     const int bw = std::min(block_cols, cols - xb);
     const double X0 = M[0] * xb + M[1] * y + M[2], Y0 = M[3] * xb + M[4] * y + M[5], W0 = M[6] * xb + M[7] * y + M[8];
-    std::uint8_t* __restrict o = out + xb;
-    for (int x1 = 0; x1 < bw; ++x1) {
-      const double x = x1;
-      const double w = M[6] * x + W0;
-      const double inverse = w != 0.0 ? 1.0 / w : 0.0;
-      const double X = ((X0 + M[0] * x) * inverse + kRound) - kRound;
-      const double Y = ((Y0 + M[3] * x) * inverse + kRound) - kRound;
-      o[x1] = static_cast<std::uint8_t>((X >= 0.0) & (X < width) & (Y >= 0.0) & (Y < height));
-    }
+    block(M, X0, Y0, W0, bw, cols, rows, in);
+    for (int x1 = 0; x1 < bw; ++x1) out[xb + x1] = static_cast<std::uint8_t>(in[x1]);
   }
 }
 

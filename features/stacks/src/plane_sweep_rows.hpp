@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <vector>
 
 namespace smseg::stacks::sweep_rows {
 
@@ -32,7 +33,12 @@ void joint_best_plane(const float* s, const float* before, int n, int p, float* 
 // W = M6 x1 + W0, its inverse (0 where W is 0), fX = (X0 + M0 x1) / W rounded to nearest, ties to even,
 // so that the mask is OpenCV's bit for bit at about a third of its cost (tests/features/stacks/
 // test_plane_sweep_rows.cpp compares them).
-void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out);
+// The same code compiled for SSE2 (any x86-64), AVX2 and AVX-512 (where the processor has them: the
+// widest by default); each must give the same mask, which the tests check.
+enum class InsideIsa { Best, Sse2, Avx2, Avx512 };
+std::vector<InsideIsa> inside_isas();  // what this processor runs, SSE2 first
+void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out,
+                InsideIsa isa = InsideIsa::Best);
 
 // The block width OpenCV 4.6's warpPerspective uses for a destination of cols x rows.
 inline int warp_block_cols(int cols, int rows) {
