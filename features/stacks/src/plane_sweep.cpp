@@ -81,7 +81,7 @@ std::vector<InsideIsa> inside_isas() {
 std::vector<InsideIsa> inside_isas() { return {InsideIsa::Best}; }  // the compiler's own vectors elsewhere
 #endif
 
-void inside_row(const double* M, int y, int cols, int rows, int block_cols, std::uint8_t* out, InsideIsa isa) {
+void inside_row(const double* M, int y, int cols, int rows, std::uint8_t* out, InsideIsa isa) {
 #if defined(__x86_64__) || defined(__i386__)
   static const InsideIsa best = inside_isas().back();
   const InsideIsa use = isa == InsideIsa::Best ? best : isa;
@@ -92,7 +92,9 @@ void inside_row(const double* M, int y, int cols, int rows, int block_cols, std:
   (void)isa;
   const auto block = &inside_block;
 #endif
-  std::int64_t in[1024];  // a block has at most 1024 columns (warp_block_cols)
+  // OpenCV's blocks: 16 rows (fewer in a shorter image) of 1024 / 16 columns (at most the image's).
+  const int block_cols = std::min(1024 / std::min(16, rows), cols);
+  std::int64_t in[1024];
   for (int xb = 0; xb < cols; xb += block_cols) {
     const int bw = std::min(block_cols, cols - xb);
     const double X0 = M[0] * xb + M[1] * y + M[2], Y0 = M[3] * xb + M[4] * y + M[5], W0 = M[6] * xb + M[7] * y + M[8];
@@ -227,9 +229,7 @@ void plane_scores(const ReferenceWindows& ref, const PreparedView& v, const Eige
   // Where the neighbour's pixel is: the nearest-neighbour warp of an image of ones, computed here
   // (sweep_rows::inside_row; the neighbour and the reference have one size).
   inside.create(ref.image.size(), CV_8UC1);
-  const int block_cols = sweep_rows::warp_block_cols(inside.cols, inside.rows);
-  for (int y = 0; y < inside.rows; ++y)
-    sweep_rows::inside_row(Hcv.val, y, inside.cols, inside.rows, block_cols, inside.ptr(y));
+  for (int y = 0; y < inside.rows; ++y) sweep_rows::inside_row(Hcv.val, y, inside.cols, inside.rows, inside.ptr(y));
   cv::erode(inside, inside, cv::getStructuringElement(cv::MORPH_RECT, cv::Size(window, window)), cv::Point(-1, -1), 1,
             cv::BORDER_CONSTANT, cv::Scalar(0));
   const cv::Mat mean = box_mean(warped, window);

@@ -180,11 +180,10 @@ TEST(PlaneSweepRows, InsideMaskIsOpenCvsNearestWarpOfOnes) {
       cv::Mat want;
       cv::warpPerspective(ones, want, H, size, cv::INTER_NEAREST | cv::WARP_INVERSE_MAP, cv::BORDER_CONSTANT,
                           cv::Scalar(0));
-      const int block_cols = smseg::stacks::sweep_rows::warp_block_cols(size.width, size.height);
       for (const auto isa : smseg::stacks::sweep_rows::inside_isas()) {  // every instruction set it runs
         cv::Mat got(size, CV_8UC1);
         for (int y = 0; y < size.height; ++y)
-          smseg::stacks::sweep_rows::inside_row(H.val, y, size.width, size.height, block_cols, got.ptr(y), isa);
+          smseg::stacks::sweep_rows::inside_row(H.val, y, size.width, size.height, got.ptr(y), isa);
         const int differ = cv::countNonZero(got != want);
         EXPECT_EQ(differ, 0) << size << " trial " << trial << " instruction set " << int(isa) << " H " << H;
       }
