@@ -57,16 +57,17 @@ void visit_depth_first(const Nodes* nodes, Runs& runs, std::uint32_t root, std::
 }
 }  // namespace
 
-std::string Classifier::simd_target() const { return simd_ ? simd_->name : "scalar"; }
+namespace {
+std::string target_name(const detail::SimdKernels* kernels) { return kernels ? kernels->name : "scalar"; }
+}  // namespace
+
+std::string Classifier::simd_target() const { return target_name(simd_); }
 
 void Classifier::set_simd_target(std::string_view name) { simd_ = detail::simd_kernels(name, "SIMD target"); }
 
 std::vector<std::string> Classifier::simd_targets() { return detail::simd_target_names(); }
 
-std::string Classifier::default_simd_target() {
-  const detail::SimdKernels* kernels = detail::default_simd_kernels();
-  return kernels ? kernels->name : "scalar";
-}
+std::string Classifier::default_simd_target() { return target_name(detail::default_simd_kernels()); }
 
 void Classifier::build_compact(const Forest& forest) {
   // The vector walk (SimdKernels::walk) reads the nodes as two 64-bit words: the rectangle, then
