@@ -74,6 +74,7 @@ void TrainParams::validate(const std::string& source) const {
   if (kt() > 100000000) bad("Kt", "must be <= 100000000");
   if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
+  if (pair_tests < 0 || pair_tests > 1000000) bad("pair_tests", "must be in [0, 1000000], got " + std::to_string(pair_tests));
   if (memory_mb < 1 || memory_mb > (std::size_t{1} << 30)) bad("memory_mb", "must be 1 .. 2^30 MiB (1 PiB)");
   if (score != Score::WehenkelPavella && score != Score::InformationGain)
     bad("score", "is not wehenkel-pavella or information-gain");
@@ -154,6 +155,10 @@ const options::Table<TrainParams>& train_params_table() {
              [](auto& p) -> auto& { return p.balance; }, kBalanceNames);
     t.flag("textons", "--textons", "add the texton tests fP, fPs, fPd, fPda on the greyscale image",
            [](auto& p) -> auto& { return p.textons; });
+    t.number("pair_tests", "--pair-tests",
+             "pair tests per tree: the difference of two windows' means over one feature (0: none, the thesis)",
+             [](auto& p) -> auto& { return p.pair_tests; }, 0, 1000000)
+        .recorded_unless_default();  // files written before the option have none
     t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", [](auto& p) -> auto& { return p.score; },
              kScoreNames)
         .optional_in_files()  // files written before the option: the thesis's score

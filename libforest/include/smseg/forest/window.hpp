@@ -62,6 +62,16 @@ inline double window_sum(const double* sat, int width, int height, int x, int y,
   return (bot[xb] - top[xb]) - (bot[xa] - top[xa]);
 }
 
+/// A pair test (TextonBoost's and semantic texton forests' difference of two rectangles): two windows
+/// A and B of one feature; its value is float(a / area(A) - b / area(B)), where a and b are the two
+/// windows' values (float(sum), as above) and an area is w x h whether or not the window is clipped:
+/// the difference of the two windows' means. Both terms are quotients, so no compiler can fuse them
+/// into a multiply-add: training and classification compute the same float.
+inline double window_area(const Window& w) { return static_cast<double>(w.w) * w.h; }
+inline float pair_value(float a, double area_a, float b, double area_b) {
+  return static_cast<float>(static_cast<double>(a) / area_a - static_cast<double>(b) / area_b);
+}
+
 /// Texton tests, in the order of their attribute indices after the window features.
 inline constexpr int kNumTextonTests = 4;
 inline const std::array<std::string, kNumTextonTests>& texton_names() {
