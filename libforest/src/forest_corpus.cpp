@@ -112,7 +112,7 @@ TestPoint TestSampler::draw(Rng& rng, Balance balance) const {
 
 Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSampler& sampler, int tree) {
   Rng rng(tree_seed(params.seed, tree));
-  const WindowSampler windows(params.windows, WindowBounds::for_image(data.width, data.height));
+  const WindowSampler windows(params.windows, WindowBounds::for_image(data.width, data.height, params.windows.reach));
   const int Ks = params.ks(), Kt = params.kt();
   const int F = static_cast<int>(data.features.size());
   std::vector<Window> wins(static_cast<std::size_t>(Ks));

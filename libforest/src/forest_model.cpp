@@ -54,7 +54,7 @@ std::string Forest::attribute_name(int f) const {
 void Forest::compute_stats() {
   stats.trees.resize(trees.size());
   stats.nodes_per_feature.assign(static_cast<std::size_t>(num_attributes()), 0);
-  stats.windows = WindowHistograms::zeros(WindowBounds::for_image(width, height));
+  stats.windows = WindowHistograms::zeros(WindowBounds::for_image(width, height, params.windows.reach));
   for (std::size_t t = 0; t < trees.size(); ++t) {
     const auto& nodes = trees[t].nodes;
     TreeStats& s = stats.trees[t];
@@ -133,7 +133,7 @@ Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path&
   f.textons = j.boolean("textons");
   if (f.features.empty() && !f.textons) j.fail("is empty (and no texton tests)", "features");
   f.params = params_from_json(j.at("params"));
-  const WindowBounds bounds = WindowBounds::for_image(f.width, f.height);
+  const WindowBounds bounds = WindowBounds::for_image(f.width, f.height, f.params.windows.reach);
   const int num_attr = f.num_attributes();
   const int nf = static_cast<int>(f.features.size());
   const JsonView trees = j.at("trees");

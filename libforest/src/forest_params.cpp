@@ -149,6 +149,10 @@ const options::Table<TrainParams>& train_params_table() {
             [](auto& p) -> auto& { return p.windows.mode; }, "uniform | thesis-biased | learned",
             &window_sampling_from_string, +[](const WindowSampling& w) { return to_string(w); })
         .only(options::kCommandLine | options::kConfig | options::kPython);
+    t.number("window_reach", "--window-reach",
+             "window offsets reach N x W/16 and N x H/16 from the pixel (1: the thesis)",
+             [](auto& p) -> auto& { return p.windows.reach; }, 0.0625, 8.0)
+        .only(options::kCommandLine | options::kConfig | options::kPython);
     t.choice("balance", "--balance",
              "draw tests per class so no class swamps the rest (classes: each class equally often; sqrt: in "
              "proportion to the square root of its pixel count)",
@@ -179,6 +183,7 @@ nlohmann::json params_to_json(const TrainParams& p) {
                       {"thesis_dy_share", p.windows.thesis_dy_share},
                       {"thesis_size_share", p.windows.thesis_size_share}};
   if (p.windows.mode == WindowSampling::Learned) w["learned"] = histograms_to_json(p.windows.learned);
+  if (p.windows.reach != 1) w["reach"] = p.windows.reach;  // files before it: 1
   j["windows"] = w;
   return j;
 }
@@ -195,6 +200,7 @@ TrainParams params_from_json(const JsonView& j) {
   p.windows.thesis_dy_share = w.num("thesis_dy_share");
   p.windows.thesis_size_share = w.num("thesis_size_share");
   if (p.windows.mode == WindowSampling::Learned) p.windows.learned = histograms_from_json(w.at("learned"));
+  if (w.has("reach")) p.windows.reach = w.num("reach");
   try {
     p.validate(j.file().string());
   } catch (const Error& e) {
