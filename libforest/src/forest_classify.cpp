@@ -85,19 +85,6 @@ Classifier::Classifier(const Forest& forest)
           inner_x1_ = std::min(inner_x1_, width_ - r.x1);
           inner_y0_ = std::max(inner_y0_, -r.y0);
           inner_y1_ = std::min(inner_y1_, height_ - r.y1);
-          if (nd.pair) {
-            const RelRect r2 = rel_rect(nd.win2);
-            p.pair = true;
-            p.x0b = static_cast<std::int16_t>(r2.x0);
-            p.x1b = static_cast<std::int16_t>(r2.x1);
-            p.y0b = static_cast<std::int16_t>(r2.y0);
-            p.y1b = static_cast<std::int16_t>(r2.y1);
-            inner_x0_ = std::max(inner_x0_, -r2.x0);
-            inner_x1_ = std::min(inner_x1_, width_ - r2.x1);
-            inner_y0_ = std::max(inner_y0_, -r2.y0);
-            inner_y1_ = std::min(inner_y1_, height_ - r2.y1);
-            pairs_ = true;
-          }
         } else {
           p.x0 = static_cast<std::int16_t>(nd.win.dx);
           p.y0 = static_cast<std::int16_t>(nd.win.dy);
@@ -146,13 +133,7 @@ int Classifier::run(const FrameData& frame, int x, int y, float* acc) const {
       }
       float v;
       if (!kTextons || nd.feature < num_features_) {
-        const RelRect r{nd.x0, nd.x1, nd.y0, nd.y1};
-        v = static_cast<float>(window_sum(sats[nd.feature], width_, height_, x, y, r));
-        if (nd.pair) {
-          const RelRect r2{nd.x0b, nd.x1b, nd.y0b, nd.y1b};
-          const float v2 = static_cast<float>(window_sum(sats[nd.feature], width_, height_, x, y, r2));
-          v = pair_value(v, double(r.x1 - r.x0) * (r.y1 - r.y0), v2, double(r2.x1 - r2.x0) * (r2.y1 - r2.y0));
-        }
+        v = static_cast<float>(window_sum(sats[nd.feature], width_, height_, x, y, RelRect{nd.x0, nd.x1, nd.y0, nd.y1}));
       } else {
         v = texton_value(frame.gray, width_, height_, x, y, nd.x0, nd.y0, nd.feature - num_features_);
       }
@@ -187,7 +168,6 @@ void Classifier::classify_pixels(const FrameData& frame, std::span<const Pixel> 
   for (std::size_t i = 0; i < pixels.size(); ++i)
     if (pixels[i].x < 0 || pixels[i].y < 0 || pixels[i].x >= width_ || pixels[i].y >= height_)
       throw Error("", "pixels[" + std::to_string(i) + "]", "outside the image");
-  if (pairs_) return classify_reference(frame, pixels.size(), pixels.data(), labels, dists);
   const std::size_t chunk = pixel_chunk(pixels.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, (pixels.size() + chunk - 1) / chunk, 1), [&](const tbb::blocked_range<std::size_t>& r) {
     Scratch s;
@@ -216,7 +196,6 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
   const std::size_t C = static_cast<std::size_t>(num_classes_);
   if (labels.size() != n) throw Error("", "labels", "needs width x height entries");
   if (!dists.empty() && dists.size() != n * C) throw Error("", "dists", "needs width x height x classes entries (or none)");
-  if (pairs_) return classify_reference(frame, n, nullptr, labels, dists);
   // The copy is this thread's: isolated, so that while this thread waits for the tiles TBB cannot
   // hand it another frame's classify_frame (from a caller's parallel loop), which would refill it.
   // Every pixel reads the copy without clipping. The copy costs a pass over the tables; a few pixels
@@ -225,20 +204,6 @@ void Classifier::classify_frame(const FrameData& frame, std::span<std::uint8_t> 
   tbb::this_task_arena::isolate([&] {
     const int pad_x = std::max(inner_x0_, width_ - inner_x1_), pad_y = std::max(inner_y0_, height_ - inner_y1_);
     classify_tiles(frame, this_threads_copy.fill(frame, pad_x, pad_y), labels, dists);
-  });
-}
-
-void Classifier::classify_reference(const FrameData& frame, std::size_t n, const Pixel* pixels,
-                                    std::span<std::uint8_t> labels, std::span<float> dists) const {
-  const std::size_t C = static_cast<std::size_t>(num_classes_);
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 1024), [&](const tbb::blocked_range<std::size_t>& r) {
-    float acc[kMaxClasses];
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      const int x = pixels ? pixels[i].x : static_cast<int>(i % static_cast<std::size_t>(width_));
-      const int y = pixels ? pixels[i].y : static_cast<int>(i / static_cast<std::size_t>(width_));
-      labels[i] = static_cast<std::uint8_t>(textons_ ? run<true>(frame, x, y, acc) : run<false>(frame, x, y, acc));
-      if (!dists.empty()) std::copy_n(acc, C, dists.data() + i * C);
-    }
   });
 }
 

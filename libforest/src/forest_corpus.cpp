@@ -112,7 +112,7 @@ TestPoint TestSampler::draw(Rng& rng, Balance balance) const {
 
 Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSampler& sampler, int tree) {
   Rng rng(tree_seed(params.seed, tree));
-  const WindowSampler windows(params.windows, WindowBounds::for_image(data.width, data.height, params.windows.reach));
+  const WindowSampler windows(params.windows, WindowBounds::for_image(data.width, data.height));
   const int Ks = params.ks(), Kt = params.kt();
   const int F = static_cast<int>(data.features.size());
   std::vector<Window> wins(static_cast<std::size_t>(Ks));
@@ -126,27 +126,11 @@ Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSam
   corpus.num_classes = static_cast<int>(data.classes.size());
   corpus.tests.resize(static_cast<std::size_t>(Kt));
   for (auto& t : corpus.tests) t = sampler.draw(rng, params.balance);
-  corpus.candidates.reserve(static_cast<std::size_t>(Ks) * (F + (params.textons ? kNumTextonTests : 0)) +
-                            static_cast<std::size_t>(F > 0 ? params.pair_tests : 0));
-  const auto single = [](const Window& w, int f) {
-    Candidate c;
-    c.win = w;
-    c.feature = f;
-    return c;
-  };
+  corpus.candidates.reserve(static_cast<std::size_t>(Ks) * (F + (params.textons ? kNumTextonTests : 0)));
   for (const Window& w : wins)
-    for (int f = 0; f < F; ++f) corpus.candidates.push_back(single(w, f));
+    for (int f = 0; f < F; ++f) corpus.candidates.push_back({w, f});
   for (const Window& o : offsets)
-    for (int k = 0; k < kNumTextonTests; ++k) corpus.candidates.push_back(single(o, F + k));
-  // Pair tests last (fill_row computes them from the window candidates' values), drawn after the
-  // tests so that a forest without them draws what it always drew.
-  for (int i = 0; F > 0 && i < params.pair_tests; ++i) {
-    const auto a = static_cast<std::int32_t>(rng.below(static_cast<std::uint64_t>(Ks)));
-    const auto b = static_cast<std::int32_t>(rng.below(static_cast<std::uint64_t>(Ks)));
-    const auto f = static_cast<std::int32_t>(rng.below(static_cast<std::uint64_t>(F)));
-    Candidate pair{wins[static_cast<std::size_t>(a)], f, true, wins[static_cast<std::size_t>(b)], a * F + f, b * F + f};
-    corpus.candidates.push_back(pair);
-  }
+    for (int k = 0; k < kNumTextonTests; ++k) corpus.candidates.push_back({o, F + k});
   // Sorted by class, then frame and position: the grower keeps each node's tests grouped by class
   // (stable partitions), and tests that follow each other read nearby table rows.
   std::sort(corpus.tests.begin(), corpus.tests.end(), [](const TestPoint& a, const TestPoint& b) {
@@ -202,7 +186,7 @@ void fill_row(const FrameData& frame, const TableView& tables, const Corpus& cor
   const Candidate* cands = corpus.candidates.data();
   const std::size_t n = corpus.candidates.size();
   std::size_t c = 0;
-  while (c < n && !cands[c].pair && static_cast<std::size_t>(cands[c].feature) < F) {
+  while (c < n && static_cast<std::size_t>(cands[c].feature) < F) {
     const Window& win = cands[c].win;
     const RelRect r = rel_rect(win);
     const std::size_t xa = static_cast<std::size_t>(std::clamp(t.x + r.x0, 0, W));
@@ -210,17 +194,13 @@ void fill_row(const FrameData& frame, const TableView& tables, const Corpus& cor
     const std::size_t ta = static_cast<std::size_t>(std::clamp(t.y + r.y0, 0, H)) * S;
     const std::size_t tb = static_cast<std::size_t>(std::clamp(t.y + r.y1, 0, H)) * S;
     const std::size_t bb = (tb + xb) * step, ab = (ta + xb) * step, ba = (tb + xa) * step, aa = (ta + xa) * step;
-    for (; c < n && cands[c].win == win && !cands[c].pair && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
+    for (; c < n && cands[c].win == win && static_cast<std::size_t>(cands[c].feature) < F; ++c) {
       const double* sat = tables.at[static_cast<std::size_t>(cands[c].feature)];
       row[c] = static_cast<float>((sat[bb] - sat[ab]) - (sat[ba] - sat[aa]));
     }
   }
   for (; c < n; ++c) {
     const Candidate& cand = cands[c];
-    if (cand.pair) {  // its windows' candidates come before it
-      row[c] = pair_value(row[cand.first], window_area(cand.win), row[cand.second], window_area(cand.win2));
-      continue;
-    }
     const auto f = static_cast<std::size_t>(cand.feature);
     row[c] = f < F ? static_cast<float>(window_sum(frame.sats[f], W, H, t.x, t.y, rel_rect(cand.win)))
                    : texton_value(frame.gray, W, H, t.x, t.y, cand.win.dx, cand.win.dy, static_cast<int>(f - F));
@@ -263,8 +243,7 @@ void fill_rows(const Dataset& data, std::span<const Corpus* const> corpora, std:
 
 MemoryPlan plan_memory(const Dataset& data, const TrainParams& params) {
   const std::size_t candidates =
-      static_cast<std::size_t>(params.ks()) * (data.features.size() + (params.textons ? kNumTextonTests : 0)) +
-      (data.features.empty() ? 0 : static_cast<std::size_t>(params.pair_tests));
+      static_cast<std::size_t>(params.ks()) * (data.features.size() + (params.textons ? kNumTextonTests : 0));
   const std::size_t kt = static_cast<std::size_t>(params.kt());
   const std::size_t cells = static_cast<std::size_t>(data.width + 1) * static_cast<std::size_t>(data.height + 1);
   const std::size_t pixels = static_cast<std::size_t>(data.width) * static_cast<std::size_t>(data.height);

@@ -1,4 +1,4 @@
-// The forest model: statistics and the "smseg-forest" JSON format (versions 1 and 2).
+// The forest model: statistics and the "smseg-forest" JSON format (version 1).
 #include <cmath>
 #include <limits>
 #include <new>
@@ -13,10 +13,8 @@ namespace smseg::forest {
 
 namespace {
 constexpr const char* kFormat = "smseg-forest";
-constexpr int kVersion = 1;      // what a forest without pair tests is written as (older builds read it)
-constexpr int kPairVersion = 2;  // with a pair test: a build that reads version 1 only refuses it
+constexpr int kVersion = 1;
 constexpr const char* kSplitKeys[] = {"f", "dx", "dy", "w", "h", "t", "left", "right"};
-constexpr const char* kPairKeys[] = {"dx2", "dy2", "w2", "h2"};
 
 std::vector<std::string> read_names(const JsonView& a, bool allow_empty) {
   std::vector<std::string> names;
@@ -54,7 +52,7 @@ std::string Forest::attribute_name(int f) const {
 void Forest::compute_stats() {
   stats.trees.resize(trees.size());
   stats.nodes_per_feature.assign(static_cast<std::size_t>(num_attributes()), 0);
-  stats.windows = WindowHistograms::zeros(WindowBounds::for_image(width, height, params.windows.reach));
+  stats.windows = WindowHistograms::zeros(WindowBounds::for_image(width, height));
   for (std::size_t t = 0; t < trees.size(); ++t) {
     const auto& nodes = trees[t].nodes;
     TreeStats& s = stats.trees[t];
@@ -72,7 +70,7 @@ void Forest::compute_stats() {
       depth[static_cast<std::size_t>(n.left)] = depth[i] + 1;
       depth[static_cast<std::size_t>(n.right)] = depth[i] + 1;
       if (n.feature < num_attributes()) ++stats.nodes_per_feature[static_cast<std::size_t>(n.feature)];
-      if (!n.pair && n.feature < static_cast<int>(features.size()) && stats.windows.bounds.contains(n.win))
+      if (n.feature < static_cast<int>(features.size()) && stats.windows.bounds.contains(n.win))
         stats.windows.add(n.win);
     }
   }
@@ -80,7 +78,6 @@ void Forest::compute_stats() {
 
 nlohmann::json forest_to_json(const Forest& forest) {
   nlohmann::json trees = nlohmann::json::array();
-  bool pairs = false;
   for (const Tree& tree : forest.trees) {
     nlohmann::json nodes = nlohmann::json::array();
     for (const Node& n : tree.nodes) {
@@ -89,11 +86,6 @@ nlohmann::json forest_to_json(const Forest& forest) {
       } else {
         nodes.push_back({{"dx", n.win.dx}, {"dy", n.win.dy}, {"w", n.win.w}, {"h", n.win.h},
                          {"f", n.feature}, {"t", n.threshold}, {"left", n.left}, {"right", n.right}});
-        if (n.pair) {
-          nlohmann::json& j = nodes.back();
-          j["dx2"] = n.win2.dx, j["dy2"] = n.win2.dy, j["w2"] = n.win2.w, j["h2"] = n.win2.h;
-          pairs = true;
-        }
       }
     }
     trees.push_back({{"nodes", std::move(nodes)}});
@@ -105,7 +97,7 @@ nlohmann::json forest_to_json(const Forest& forest) {
   for (std::size_t f = 0; f < forest.stats.nodes_per_feature.size(); ++f)
     per_feature[forest.attribute_name(static_cast<int>(f))] = forest.stats.nodes_per_feature[f];
   return {{"format", kFormat},
-          {"version", pairs ? kPairVersion : kVersion},
+          {"version", kVersion},
           {"image", {{"width", forest.width}, {"height", forest.height}}},
           {"classes", forest.classes},
           {"features", forest.features},
@@ -121,8 +113,7 @@ nlohmann::json forest_to_json(const Forest& forest) {
 
 Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path& file) {
   const JsonView j(json, file);
-  check_format(j, kFormat, {kVersion, kPairVersion});
-  const bool pairs_allowed = j.integer("version") >= kPairVersion;
+  check_format(j, kFormat, {kVersion});
   Forest f;
   const JsonView image = j.at("image");
   f.width = read_int(image, "width", 1, 32000);
@@ -133,7 +124,7 @@ Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path&
   f.textons = j.boolean("textons");
   if (f.features.empty() && !f.textons) j.fail("is empty (and no texton tests)", "features");
   f.params = params_from_json(j.at("params"));
-  const WindowBounds bounds = WindowBounds::for_image(f.width, f.height, f.params.windows.reach);
+  const WindowBounds bounds = WindowBounds::for_image(f.width, f.height);
   const int num_attr = f.num_attributes();
   const int nf = static_cast<int>(f.features.size());
   const JsonView trees = j.at("trees");
@@ -152,8 +143,6 @@ Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path&
         // A leaf holds counts and nothing else: a node with both would be read as a leaf and its split
         // silently dropped, changing every result below it.
         for (const char* key : kSplitKeys)
-          if (jn.has(key)) jn.fail("has both \"counts\" (a leaf) and the split field \"" + std::string(key) + "\"");
-        for (const char* key : kPairKeys)
           if (jn.has(key)) jn.fail("has both \"counts\" (a leaf) and the split field \"" + std::string(key) + "\"");
         if (counts->size() != f.classes.size())
           counts->fail("has " + std::to_string(counts->size()) + " entries, expected one per class (" +
@@ -175,20 +164,6 @@ Forest forest_from_json(const nlohmann::json& json, const std::filesystem::path&
       node.win.h = read_int(jn, "h", 1, bounds.max_h);
       if (node.feature >= nf && (node.win.w != 1 || node.win.h != 1))
         jn.fail("a texton test has w = h = 1");
-      node.pair = jn.has("dx2");
-      if (node.pair) {
-        // Version 1 has no pair test: such a node in it is a foreign or damaged file, not one to read
-        // as its first window alone.
-        if (!pairs_allowed) jn.fail("is a pair test, which needs version 2 (the file says 1)", "dx2");
-        if (node.feature >= nf) jn.fail("a pair test reads a feature, not a texton test", "f");
-        node.win2.dx = read_int(jn, "dx2", -bounds.max_dx, bounds.max_dx);
-        node.win2.dy = read_int(jn, "dy2", -bounds.max_dy, bounds.max_dy);
-        node.win2.w = read_int(jn, "w2", 1, bounds.max_w);
-        node.win2.h = read_int(jn, "h2", 1, bounds.max_h);
-      } else {
-        for (const char* key : kPairKeys)
-          if (jn.has(key)) jn.fail("is part of a pair test, which needs \"dx2\" too", key);
-      }
       node.threshold = jn.num("t");
       if (!std::isfinite(node.threshold)) jn.fail("must be finite", "t");
       node.left = read_int(jn, "left", static_cast<long>(i) + 1, static_cast<long>(n) - 1);

@@ -74,7 +74,6 @@ void TrainParams::validate(const std::string& source) const {
   if (kt() > 100000000) bad("Kt", "must be <= 100000000");
   if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
-  if (pair_tests < 0 || pair_tests > 1000000) bad("pair_tests", "must be in [0, 1000000], got " + std::to_string(pair_tests));
   if (memory_mb < 1 || memory_mb > (std::size_t{1} << 30)) bad("memory_mb", "must be 1 .. 2^30 MiB (1 PiB)");
   if (score != Score::WehenkelPavella && score != Score::InformationGain)
     bad("score", "is not wehenkel-pavella or information-gain");
@@ -149,20 +148,12 @@ const options::Table<TrainParams>& train_params_table() {
             [](auto& p) -> auto& { return p.windows.mode; }, "uniform | thesis-biased | learned",
             &window_sampling_from_string, +[](const WindowSampling& w) { return to_string(w); })
         .only(options::kCommandLine | options::kConfig | options::kPython);
-    t.number("window_reach", "--window-reach",
-             "window offsets reach N x W/16 and N x H/16 from the pixel (1: the thesis)",
-             [](auto& p) -> auto& { return p.windows.reach; }, 0.0625, 8.0)
-        .only(options::kCommandLine | options::kConfig | options::kPython);
     t.choice("balance", "--balance",
              "draw tests per class so no class swamps the rest (classes: each class equally often; sqrt: in "
              "proportion to the square root of its pixel count)",
              [](auto& p) -> auto& { return p.balance; }, kBalanceNames);
     t.flag("textons", "--textons", "add the texton tests fP, fPs, fPd, fPda on the greyscale image",
            [](auto& p) -> auto& { return p.textons; });
-    t.number("pair_tests", "--pair-tests",
-             "pair tests per tree: the difference of two windows' means over one feature (0: none, the thesis)",
-             [](auto& p) -> auto& { return p.pair_tests; }, 0, 1000000)
-        .recorded_unless_default();  // files written before the option have none
     t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", [](auto& p) -> auto& { return p.score; },
              kScoreNames)
         .optional_in_files()  // files written before the option: the thesis's score
@@ -183,7 +174,6 @@ nlohmann::json params_to_json(const TrainParams& p) {
                       {"thesis_dy_share", p.windows.thesis_dy_share},
                       {"thesis_size_share", p.windows.thesis_size_share}};
   if (p.windows.mode == WindowSampling::Learned) w["learned"] = histograms_to_json(p.windows.learned);
-  if (p.windows.reach != 1) w["reach"] = p.windows.reach;  // files before it: 1
   j["windows"] = w;
   return j;
 }
@@ -200,7 +190,6 @@ TrainParams params_from_json(const JsonView& j) {
   p.windows.thesis_dy_share = w.num("thesis_dy_share");
   p.windows.thesis_size_share = w.num("thesis_size_share");
   if (p.windows.mode == WindowSampling::Learned) p.windows.learned = histograms_from_json(w.at("learned"));
-  if (w.has("reach")) p.windows.reach = w.num("reach");
   try {
     p.validate(j.file().string());
   } catch (const Error& e) {

@@ -131,8 +131,6 @@ class Grower {
       const Candidate& cand = candidates_[best.candidate];
       node.feature = cand.feature;
       node.win = cand.win;
-      node.pair = cand.pair;
-      node.win2 = cand.win2;
       node.threshold = best.threshold;
       // Stable partition of the node's tests (value < threshold first).
       const float tf = float_ceil(best.threshold);
@@ -506,12 +504,9 @@ std::string candidate_name(const Candidate& c, const std::vector<std::string>& f
   std::string name = c.feature < F ? features[static_cast<std::size_t>(c.feature)]
                      : c.feature < F + kNumTextonTests ? texton_names()[static_cast<std::size_t>(c.feature - F)]
                                                        : "?";
-  const auto window = [&](const Window& w) {
-    std::string s = "[dx=" + std::to_string(w.dx) + ";dy=" + std::to_string(w.dy);
-    if (c.feature < F) s += ";w=" + std::to_string(w.w) + ";h=" + std::to_string(w.h);
-    return s + "]";
-  };
-  return name + window(c.win) + (c.pair ? "-" + window(c.win2) : "");
+  name += "[dx=" + std::to_string(c.win.dx) + ";dy=" + std::to_string(c.win.dy);
+  if (c.feature < F) name += ";w=" + std::to_string(c.win.w) + ";h=" + std::to_string(c.win.h);
+  return name + "]";
 }
 
 void export_corpus_csv(const Dataset& data, const TrainParams& params, int tree, const std::filesystem::path& path) {

@@ -47,7 +47,6 @@ void WindowHistograms::add(const WindowHistograms& other) {
 double WindowHistograms::total() const { return std::accumulate(dx.begin(), dx.end(), 0.0); }
 
 void WindowParams::validate() const {
-  if (!(reach >= 0.0625 && reach <= 8.0)) throw Error("", "windows.reach", "must be in [0.0625, 8], got " + std::to_string(reach));
   if (!(thesis_dy_share >= 0.0 && thesis_dy_share <= 1.0))
     throw Error("", "windows.thesis_dy_share", "must be in [0, 1]");
   if (!(thesis_size_share >= 0.0 && thesis_size_share <= 1.0))

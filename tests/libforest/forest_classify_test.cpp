@@ -132,44 +132,6 @@ TEST(Classifier, WholeFrameEqualsThePerPixelReferenceOnTrainedForests) {
   }
 }
 
-// Pair tests (the difference of two windows' means) on every path: whole frames and pixel lists equal
-// the reference, which computes each pair from the raw images.
-TEST(Classifier, PairTestsEqualThePerPixelReference) {
-  const SyntheticData train = frames(3, 1, true), test = frames(2, 2, false);
-  for (const bool textons : {false, true}) {
-    TrainParams p;
-    p.K = 150;
-    p.M = 4;
-    p.textons = textons;
-    p.pair_tests = 2000;  // most of the candidates: a noise split takes a pair as often
-    const Forest f = train_forest(train.data, p);
-    std::size_t pairs = 0;
-    for (const Tree& t : f.trees)
-      for (const Node& n : t.nodes) pairs += n.pair;
-    if (!textons) {  // with textons the synthetic grey level gives the label away at the root
-      EXPECT_GT(pairs, 5u);
-    }
-    expect_matches_reference(f, test);
-    expect_pixel_lists_match_frames(Classifier(f), f, test);
-  }
-  // Random pair nodes, windows partly outside the image (clipped sums over the unclipped area).
-  const SyntheticData s = frames(2, 3, false);
-  for (std::uint64_t seed = 1; seed <= 2; ++seed) {
-    Forest f = random_forest(s, seed, false);
-    Rng rng(seed + 10);
-    const WindowBounds b = WindowBounds::for_image(f.width, f.height);
-    for (Tree& t : f.trees)
-      for (Node& n : t.nodes)
-        if (!n.is_leaf() && rng.below(2)) {
-          n.pair = true;
-          n.win2 = Window{rng.uniform_int(-b.max_dx, b.max_dx), rng.uniform_int(-b.max_dy, b.max_dy),
-                          rng.uniform_int(1, b.max_w), rng.uniform_int(1, b.max_h)};
-          n.threshold = brute_node_value(s, 0, n, rng.uniform_int(0, f.width - 1), rng.uniform_int(0, f.height - 1));
-        }
-    expect_matches_reference(f, s);
-  }
-}
-
 TEST(Classifier, WholeFrameEqualsThePerPixelReferenceOnRandomForests) {
   const SyntheticData s = frames(2, 3, false);
   for (std::uint64_t seed = 1; seed <= 4; ++seed) expect_matches_reference(random_forest(s, seed, seed % 2 == 0), s);

@@ -42,8 +42,7 @@ Corpus make_corpus(int num_classes, const std::vector<int>& labels, const std::v
   c.num_classes = num_classes;
   for (int l : labels) c.tests.push_back({0, 0, 0, static_cast<std::uint8_t>(l)});
   for (std::size_t k = 0; k < columns.size(); ++k) {
-    c.candidates.emplace_back();
-    c.candidates.back().win = Window{static_cast<int>(k), 0, 1, 1};
+    c.candidates.push_back({Window{static_cast<int>(k), 0, 1, 1}, 0});
     c.values.insert(c.values.end(), columns[k].begin(), columns[k].end());
   }
   return c;

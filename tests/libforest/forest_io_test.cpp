@@ -1,4 +1,4 @@
-// The forest file: round trip, and refusal of anything that is not a valid smseg-forest v1 or v2.
+// The forest file: round trip, and refusal of anything that is not a valid smseg-forest v1.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -91,64 +91,7 @@ TEST(ForestFile, CorruptedForeignAndWrongVersionFilesAreRefused) {
 
   EXPECT_NE(fx.error_of([](smseg::Json& j) { j["format"] = "smseg-sequence"; }).find("format"), std::string::npos);
   EXPECT_NE(fx.error_of([](smseg::Json& j) { j.erase("format"); }).find("format"), std::string::npos);
-  EXPECT_NE(fx.error_of([](smseg::Json& j) { j["version"] = 3; }).find("version"), std::string::npos);
-}
-
-// Pair tests (train.hpp step 3) are version 2: a forest with one is written as version 2 (a build that
-// reads version 1 refuses it instead of reading the pair's first window alone), one without stays
-// version 1 byte for byte, and pair fields where they cannot be are refused naming the field.
-TEST(ForestFile, PairTestsAreVersionTwoAndRoundTrip) {
-  const Fixture fx;
-  EXPECT_EQ(forest_to_json(fx.forest)["version"], 1);
-  EXPECT_FALSE(forest_to_json(fx.forest)["params"].contains("pair_tests"));
-  TrainParams p = fx.forest.params;
-  p.pair_tests = 3000;
-  const Forest paired = train_forest(fx.s.data, p);
-  std::size_t pairs = 0;
-  for (const Tree& t : paired.trees)
-    for (const Node& n : t.nodes) pairs += n.pair;
-  ASSERT_GT(pairs, 0u);
-  const smseg::Json j = forest_to_json(paired);
-  EXPECT_EQ(j["version"], 2);
-  EXPECT_EQ(j["params"]["pair_tests"], 3000);
-  save_forest(paired, fx.dir / "paired.json");
-  const Forest back = load_forest(fx.dir / "paired.json");
-  EXPECT_EQ(forest_to_json(back).dump(), j.dump());
-  EXPECT_EQ(back.params.pair_tests, 3000);
-
-  auto first_pair = [](smseg::Json& f) -> smseg::Json& {
-    for (auto& n : f["trees"][0]["nodes"])
-      if (n.contains("dx2")) return n;
-    for (auto& n : f["trees"][0]["nodes"])  // the first tree has none: make its root one
-      if (n.contains("f")) return n = {{"dx", 0}, {"dy", 0}, {"w", 1}, {"h", 1}, {"dx2", 1}, {"dy2", 0}, {"w2", 1},
-                                        {"h2", 1}, {"f", 0}, {"t", 0.5}, {"left", n["left"]}, {"right", n["right"]}};
-    throw std::runtime_error("no split");
-  };
-  const auto error_of = [&](const std::function<void(smseg::Json&)>& edit) {
-    smseg::Json e = j;
-    edit(e);
-    smseg::write_json_atomic(fx.dir / "edited.json", e);
-    try {
-      load_forest(fx.dir / "edited.json");
-    } catch (const smseg::Error& err) {
-      return err.field() + ": " + err.reason();
-    }
-    return std::string("(accepted)");
-  };
-  EXPECT_EQ(error_of([](smseg::Json&) {}), "(accepted)");
-  EXPECT_NE(error_of([&](smseg::Json& e) { e["version"] = 1; first_pair(e); }).find("needs version 2"), std::string::npos);
-  EXPECT_NE(error_of([&](smseg::Json& e) { first_pair(e).erase("dx2"); }).find("needs \"dx2\" too"), std::string::npos);
-  EXPECT_NE(error_of([&](smseg::Json& e) { first_pair(e)["w2"] = 0; }).find("w2"), std::string::npos);
-  EXPECT_NE(error_of([&](smseg::Json& e) { first_pair(e)["f"] = 3; }).find("not a texton test"), std::string::npos);
-  EXPECT_NE(error_of([&](smseg::Json& e) {
-              for (auto& n : e["trees"][0]["nodes"])
-                if (n.contains("counts")) {
-                  n["h2"] = 1;
-                  break;
-                }
-            }).find("split field \"h2\""),
-            std::string::npos);
-  EXPECT_NE(error_of([](smseg::Json& e) { e["params"]["pair_tests"] = -1; }).find("params.pair_tests"), std::string::npos);
+  EXPECT_NE(fx.error_of([](smseg::Json& j) { j["version"] = 2; }).find("version"), std::string::npos);
 }
 
 TEST(ForestFile, InconsistentContentIsRefusedNamingTheField) {

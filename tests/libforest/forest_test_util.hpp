@@ -69,19 +69,6 @@ inline float brute_value(const SyntheticData& s, int fi, int f, const Window& wi
   return brute_texton(s.gray[static_cast<std::size_t>(fi)], W, H, x, y, win.dx, win.dy, f - F);
 }
 
-/// A pair test's value by its definition (window.hpp): the first window's mean minus the second's, each
-/// window's float value divided by its whole area w x h, the difference rounded to float.
-inline float brute_pair_value(const SyntheticData& s, int fi, int f, const Window& a, const Window& b, int x, int y) {
-  const double mean_a = static_cast<double>(brute_value(s, fi, f, a, x, y)) / (a.w * a.h);
-  const double mean_b = static_cast<double>(brute_value(s, fi, f, b, x, y)) / (b.w * b.h);
-  return static_cast<float>(mean_a - mean_b);
-}
-
-/// The value a split node tests at a pixel.
-inline float brute_node_value(const SyntheticData& s, int fi, const Node& n, int x, int y) {
-  return n.pair ? brute_pair_value(s, fi, n.feature, n.win, n.win2, x, y) : brute_value(s, fi, n.feature, n.win, x, y);
-}
-
 /// Per-pixel reference classifier: walks the model's nodes with double thresholds
 /// (float(value) < t goes left), sums float(count / total) over trees in order, MAP with ties to the
 /// lowest class. Values from the raw images (exact when features are integers).
@@ -92,7 +79,7 @@ inline int reference_classify(const Forest& forest, const SyntheticData& s, int 
     std::size_t i = 0;
     while (!tree.nodes[i].is_leaf()) {
       const Node& n = tree.nodes[i];
-      const float v = brute_node_value(s, fi, n, x, y);
+      const float v = brute_value(s, fi, n.feature, n.win, x, y);
       i = static_cast<std::size_t>(static_cast<double>(v) < n.threshold ? n.left : n.right);
     }
     const Node& leaf = tree.nodes[i];

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <fstream>
 #include <map>
-#include <set>
 #include <sstream>
 
 #include "forest_test_util.hpp"
@@ -121,43 +120,6 @@ TEST(Corpus, ValuesEqualBruteForceAndTestsAreLabelledNonVoid) {
   EXPECT_EQ(again.values, c.values);
   const Corpus other = build_corpus(s.data, p, 1);
   EXPECT_NE(other.values, c.values);
-}
-
-// Pair tests come after every other candidate, drawn after the tests: the rest of the corpus is the one
-// without them, value for value, and each pair's value is the difference of its windows' means.
-TEST(Corpus, PairTestsAreTheDifferenceOfTwoWindowsMeans) {
-  SyntheticOptions o;
-  o.width = 48;
-  o.height = 40;
-  o.frames = 3;
-  o.features = 3;
-  o.integer_features = true;
-  const SyntheticData s = make_synthetic(o);
-  TrainParams p;
-  p.K = 60;
-  p.Kt = 200;
-  p.M = 2;
-  p.textons = true;
-  const Corpus plain = build_corpus(s.data, p, 1);
-  p.pair_tests = 90;
-  const Corpus c = build_corpus(s.data, p, 1);
-  const std::size_t n = c.tests.size(), singles = plain.candidates.size();
-  ASSERT_EQ(c.candidates.size(), singles + 90);
-  ASSERT_EQ(n, plain.tests.size());
-  for (std::size_t t = 0; t < n; ++t) ASSERT_EQ(c.tests[t].x * 1000 + c.tests[t].y, plain.tests[t].x * 1000 + plain.tests[t].y);
-  EXPECT_TRUE(std::equal(plain.values.begin(), plain.values.end(), c.values.begin()));
-  std::set<int> features;
-  for (std::size_t k = singles; k < c.candidates.size(); ++k) {
-    const Candidate& cand = c.candidates[k];
-    ASSERT_TRUE(cand.pair);
-    features.insert(cand.feature);
-    for (std::size_t t = 0; t < n; ++t) {
-      const TestPoint& tp = c.tests[t];
-      ASSERT_EQ(c.values[k * n + t], brute_pair_value(s, tp.frame, cand.feature, cand.win, cand.win2, tp.x, tp.y));
-    }
-  }
-  EXPECT_EQ(features.size(), 3u);  // every feature drawn
-  EXPECT_NE(candidate_name(c.candidates[singles], s.data.features).find("]-[dx="), std::string::npos);
 }
 
 TEST(Corpus, CsvExportIsTheExactCorpus) {

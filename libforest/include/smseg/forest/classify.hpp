@@ -95,13 +95,7 @@ class Classifier {
     std::int32_t feature;         // attribute; -1 leaf
     float threshold;              // smallest float >= the double threshold
     std::int32_t left, right;     // children; leaf: left = row of the leaf table
-    std::int16_t x0b, x1b, y0b, y1b;  // a pair test's second rectangle
-    bool pair;                        // a pair test (pair_value of the two rectangles)
   };
-  /// Whole frames and pixel lists of a forest with pair tests: posterior() pixel by pixel, in
-  /// parallel (the fast paths take single windows only).
-  void classify_reference(const FrameData& frame, std::size_t n, const Pixel* pixels,
-                          std::span<std::uint8_t> labels, std::span<float> dists) const;
   template <bool kTextons>
   int run(const FrameData& frame, int x, int y, float* acc) const;
   /// Compact breadth-first node of the fast path (16 bytes, four to a cache line): a split's two
@@ -213,7 +207,6 @@ class Classifier {
 
   int width_ = 0, height_ = 0, num_classes_ = 0, num_features_ = 0;
   bool textons_ = false;
-  bool pairs_ = false;  // a node is a pair test: classify_reference instead of the fast paths
   const detail::SimdKernels* simd_ = nullptr;  // the target's kernels (forest_simd.hpp); null: scalar
   std::vector<std::int32_t> roots_;
   std::vector<PackedNode> nodes_;  // the trees as in the file (posterior(): the reference path)

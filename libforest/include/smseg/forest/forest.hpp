@@ -1,18 +1,15 @@
 #pragma once
 // The forest model (docs/design.md section 3.4): classes, the image size its windows were sized for, feature
 // names, training parameters and seed, per tree a flat node array, and training statistics.
-// File format "smseg-forest" version 1, or 2 when a node is a pair test (JSON; a reader of version 1
-// must not take a pair test for the single window it also holds):
+// File format "smseg-forest" version 1 (JSON):
 //   { "format": "smseg-forest", "version": 1,
 //     "image": {"width": W, "height": H}, "classes": [...], "features": [...], "textons": bool,
 //     "params": {...},                       // TrainParams, see params_to_json
 //     "trees": [ {"nodes": [ {"dx","dy","w","h","f","t","left","right"}   // split node
-//                            | {..., "dx2","dy2","w2","h2"}               // pair test (version 2)
 //                            | {"counts": [n_0, ..., n_{C-1}]} ] } ],    // leaf: test counts per class
 //     "stats": { "seconds", "trees": [{"nodes","leaves","depth","seconds"}],
 //                "nodes_per_feature": {name: count}, "windows": {"bounds", "dx","dy","w","h"} } }
-// Node "f" indexes the attributes: the features in order, then (with textons) fP, fPs, fPd, fPda. A pair
-// test's "f" is a feature (both windows read it).
+// Node "f" indexes the attributes: the features in order, then (with textons) fP, fPs, fPd, fPda.
 // A split sends a pixel left when float(value) < t (t a double; value < t goes left). Node 0 is the
 // root; children have larger indices than their parent.
 
@@ -30,9 +27,7 @@ namespace smseg::forest {
 
 struct Node {
   int feature = -1;        ///< attribute index; -1 for a leaf
-  Window win;              ///< window (texton tests: the offset, w = h = 1); a pair test's first window
-  bool pair = false;       ///< a pair test (pair_value in window.hpp): win minus win2, as means
-  Window win2;             ///< a pair test's second window
+  Window win;              ///< window (texton tests: the offset, w = h = 1)
   double threshold = 0.0;  ///< value < threshold goes left
   int left = -1, right = -1;
   std::vector<std::uint32_t> counts;  ///< leaf only: tests per class

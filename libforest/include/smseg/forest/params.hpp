@@ -47,10 +47,6 @@ struct TrainParams {
   WindowParams windows;              ///< how the Ks windows are drawn (default uniform)
   Balance balance = Balance::None;   ///< default off
   bool textons = false;              ///< add the four texton tests at Ks random offsets
-  /// Pair tests per tree (train.hpp step 3): candidates that compare the means of two of the tree's
-  /// windows over one feature (a thin thing against what lies beside it). 0, the default: none, the
-  /// thesis's forest; files without it read as 0.
-  int pair_tests = 0;
   /// The split score (default: the thesis's). Forest files without it read as the default.
   Score score = Score::WehenkelPavella;
   /// Memory budget of training as a whole, in MiB: trees are built in batches of as many as fit

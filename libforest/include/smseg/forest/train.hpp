@@ -7,11 +7,9 @@
 //  2. draw Kt tests: a labelled frame uniformly, then a non-void pixel uniformly in it
 //     (Balance::Classes: a class uniformly, then a pixel of that class uniformly over all frames;
 //     Balance::Sqrt: a class in proportion to the square root of its pixel count, then likewise);
-//  3. with pair_tests P > 0, draw P pair tests: two of the Ks windows (each uniformly, independently)
-//     and a feature uniformly (after the tests, so that P = 0 draws what it always drew);
-//  4. evaluate every candidate attribute (window x feature, texton offset x test, pair) at every test:
+//  3. evaluate every candidate attribute (window x feature, texton offset x test) at every test:
 //     the corpus, a float matrix (Kt x candidates x 4 bytes);
-//  5. grow the tree depth first: at each node every non-constant candidate gets one threshold
+//  4. grow the tree depth first: at each node every non-constant candidate gets one threshold
 //     uniform in (min, max] of its values over the node's tests; the best Wehenkel-Pavella score
 //     2 I(C;S) / (H(C) + H(S)) splits (ties: lowest candidate index); with Score::InformationGain
 //     the best I(C;S) does. A node is a leaf when its tests
@@ -42,14 +40,10 @@ Forest train_forest(const Dataset& data, const TrainParams& params);
 /// Error unless 0 <= begin < end <= params.M.
 Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRange range);
 
-/// One candidate attribute: a window (or texton offset) and an attribute index; or a pair test of
-/// two windows of a feature, whose value is pair_value of the window candidates first and second.
+/// One candidate attribute: a window (or texton offset) and an attribute index.
 struct Candidate {
   Window win;
   int feature = 0;
-  bool pair = false;
-  Window win2;                           ///< a pair test's second window
-  std::int32_t first = -1, second = -1;  ///< a pair test: the candidates of win and win2 for `feature`
 };
 
 /// One test: a labelled pixel.
@@ -70,7 +64,7 @@ struct Corpus {
 /// The corpus tree `tree` of train_forest(data, params) is grown from.
 Corpus build_corpus(const Dataset& data, const TrainParams& params, int tree);
 
-/// Grows one tree from a corpus (step 5 above). seed: the tree's seed (thresholds); score: the
+/// Grows one tree from a corpus (steps 4 above). seed: the tree's seed (thresholds); score: the
 /// split score (TrainParams::score).
 Tree grow_tree(const Corpus& corpus, int n_min, std::uint64_t seed, Score score = Score::WehenkelPavella);
 

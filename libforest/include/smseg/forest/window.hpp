@@ -7,8 +7,7 @@
 // offset. Its value for a feature is the sum of the feature over the part of the window inside the
 // image (zero when the window lies wholly outside), read from the summed-area table in four reads,
 // then rounded to float: the attribute value is float(sum), in training and classification alike.
-// Bounds for a W x H image: |dx| <= W/16, |dy| <= H/16, 1 <= w <= max(1, W/8), 1 <= h <= max(1, H/8);
-// with a reach R (WindowParams::reach) the offsets go R times as far: |dx| <= R W/16, |dy| <= R H/16.
+// Bounds for a W x H image: |dx| <= W/16, |dy| <= H/16, 1 <= w <= max(1, W/8), 1 <= h <= max(1, H/8).
 //
 // Texton tests use the greyscale image at the test pixel pt and at the sample pixel ps = (x+dx, y+dy)
 // (ps = 0 when the sample pixel falls outside the image, like a clipped 1 x 1 window):
@@ -32,9 +31,8 @@ struct Window {
 /// The limits of windows for one image size.
 struct WindowBounds {
   int max_dx = 0, max_dy = 0, max_w = 1, max_h = 1;
-  static WindowBounds for_image(int width, int height, double reach = 1.0) {
-    return {static_cast<int>(reach * width / 16.0), static_cast<int>(reach * height / 16.0), std::max(1, width / 8),
-            std::max(1, height / 8)};
+  static WindowBounds for_image(int width, int height) {
+    return {width / 16, height / 16, std::max(1, width / 8), std::max(1, height / 8)};
   }
   bool contains(const Window& win) const {
     return win.dx >= -max_dx && win.dx <= max_dx && win.dy >= -max_dy && win.dy <= max_dy &&
@@ -62,16 +60,6 @@ inline double window_sum(const double* sat, int width, int height, int x, int y,
   const double* top = sat + static_cast<std::ptrdiff_t>(ya) * stride;
   const double* bot = sat + static_cast<std::ptrdiff_t>(yb) * stride;
   return (bot[xb] - top[xb]) - (bot[xa] - top[xa]);
-}
-
-/// A pair test (TextonBoost's and semantic texton forests' difference of two rectangles): two windows
-/// A and B of one feature; its value is float(a / area(A) - b / area(B)), where a and b are the two
-/// windows' values (float(sum), as above) and an area is w x h whether or not the window is clipped:
-/// the difference of the two windows' means. Both terms are quotients, so no compiler can fuse them
-/// into a multiply-add: training and classification compute the same float.
-inline double window_area(const Window& w) { return static_cast<double>(w.w) * w.h; }
-inline float pair_value(float a, double area_a, float b, double area_b) {
-  return static_cast<float>(static_cast<double>(a) / area_a - static_cast<double>(b) / area_b);
 }
 
 /// Texton tests, in the order of their attribute indices after the window features.
@@ -125,9 +113,6 @@ struct WindowHistograms {
 
 struct WindowParams {
   WindowSampling mode = WindowSampling::Uniform;
-  /// How far offsets reach, in W/16 and H/16 (WindowBounds::for_image): 1, the thesis's, up to 8 (half
-  /// the image). Files without it read as 1.
-  double reach = 1.0;
   double thesis_dy_share = 0.10;    ///< Thesis: share of dy drawn from the V-shaped law
   double thesis_size_share = 0.25;  ///< Thesis: share of w and of h drawn from the rising law
   /// Learned: the histograms to sample from (each bin gets +1 before sampling so no value is
