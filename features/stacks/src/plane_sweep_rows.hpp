@@ -35,7 +35,8 @@ void joint_best_plane(const float* s, const float* before, int n, int p, float* 
 // column xb + x1, W = M6 x1 + W0, its inverse (0 where W is 0), fX = (X0 + M0 x1) / W rounded to
 // nearest, ties to even. Without OpenCV's remapping of an image, BM_PlaneSweepCamVid takes 12 % less.
 // The same code compiled for SSE2 (any x86-64), AVX2 and AVX-512 (where the processor has them: the
-// widest by default); each must give the same mask, which the tests check.
+// widest by default); each must give the same mask, which the tests check. An explicit `isa` must be one
+// that inside_isas() lists: the loop of an instruction set the processor lacks would fault.
 enum class InsideIsa { Best, Sse2, Avx2, Avx512 };
 std::vector<InsideIsa> inside_isas();  // what this processor runs, SSE2 first
 void inside_row(const double* M, int y, int cols, int rows, std::uint8_t* out, InsideIsa isa = InsideIsa::Best);
