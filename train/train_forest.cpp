@@ -1,6 +1,7 @@
 // train-forest: extremely randomized trees over sampling windows, trained on feature stacks.
 #include <iostream>
 #include <optional>
+#include <sstream>
 
 #include "smseg/common/cli.hpp"
 #include "smseg/common/option_names.hpp"
@@ -76,6 +77,7 @@ struct Args {
   smseg::forest::TrainParams p;
   int threads = 0, corpus_tree = 0;
   bool quiet = false, mirror = false;
+  std::vector<double> exposures;
   std::string tree_range;
   std::vector<std::string> merge;
   smseg::forest::SlurmTraining slurm;
@@ -104,6 +106,11 @@ void add_options(CLI::App& app, Args& a) {
   app.add_flag("--mirror", a.mirror,
                "also train on every frame mirrored left to right (its channels mirrored as they would be: fOx "
                "negated, fG1 and fG3 swapped, fCol kept; texton channels refused)");
+  app.add_option("--exposures", a.exposures,
+                 "also train on every frame (and mirror) as the camera would have seen it with each of these "
+                 "fractions of the light, comma-separated, each in [0.01, 1) (Lab and gradient channels mapped "
+                 "as exposure maps them, geometry kept; texton and auto-context channels refused)")
+      ->delimiter(',');
   app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   add_threads_option(app, a.threads, "the forest does not depend on it");
   app.add_option("--export-corpus", a.corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
@@ -111,6 +118,19 @@ void add_options(CLI::App& app, Args& a) {
       ->check(options::in_range(0, 99999));
   app.add_flag("-q,--quiet", a.quiet, "no progress on stderr");
   app.add_option("-o,--out", a.out, "forest file to write (JSON; a forest part with --trees)")->required();
+}
+
+/// What the training frames are given with: " and their mirrors", " at exposures 1, 0.5", both or "".
+std::string copies_said(const Args& a) {
+  std::string said = a.mirror ? " and their mirrors" : "";
+  if (a.exposures.empty()) return said;
+  said += " at exposures 1";
+  for (double k : a.exposures) {
+    std::ostringstream number;
+    number << k;
+    said += ", " + number.str();
+  }
+  return said;
 }
 
 /// --windows learned: the windows the --learned-from forests chose.
@@ -142,6 +162,7 @@ std::optional<smseg::forest::TreeRange> check_training_options(Args& a, const sm
     throw UsageError("", "--corpus-tree", "is " + std::to_string(a.corpus_tree) + ", expected 0.." + std::to_string(a.p.M - 1));
   std::optional<forest::TreeRange> trees;
   if (!a.tree_range.empty()) trees = as_usage([&] { return forest::TreeRange::parse(a.tree_range, "--trees", a.p.M); });
+  as_usage([&] { stacks::check_exposures(a.exposures, "--exposures"); });
   if (a.on_slurm) check_slurm_options(a.slurm, a.p, a.tree_range, a.corpus);
   return trees;
 }
@@ -157,8 +178,12 @@ smseg::stacks::StackSet open_training_stacks(const Args& a) {
     stacks::mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
   else if (a.mirror)
     stacks::add_mirrored_frames(set);
+  if (a.on_slurm)  // likewise: whether every channel can be darkened
+    for (double k : a.exposures) stacks::exposure_plan(set.dataset.features, k, set.manifests.front().manifest_path().string());
+  else if (!a.exposures.empty())
+    stacks::add_exposed_frames(set, a.exposures);
   if (!a.quiet)
-    std::cerr << "train-forest: " << set.origin.size() << " labelled frames" << (a.mirror ? " and their mirrors, " : ", ")
+    std::cerr << "train-forest: " << set.origin.size() << " labelled frames" << copies_said(a) << ", "
               << set.dataset.features.size() << " features, K=" << a.p.K << " M=" << a.p.M << "\n";
   return set;
 }
@@ -200,7 +225,7 @@ int train(Args& a, const smseg::OptionNames& option_of, int argc, char** argv) {
   const std::optional<forest::TreeRange> trees = check_training_options(a, option_of);
   const stacks::StackSet set = open_training_stacks(a);
   const std::string on_frames =
-      "on " + std::to_string(set.origin.size()) + " frames" + (a.mirror ? " and their mirrors" : "");
+      "on " + std::to_string(set.origin.size()) + " frames" + copies_said(a);
   if (a.on_slurm) return train_on_slurm(a, on_frames, argc, argv);
   if (!a.corpus.empty()) forest::export_corpus_csv(set.dataset, a.p, a.corpus_tree, a.corpus);
   if (trees) {

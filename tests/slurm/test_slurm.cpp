@@ -329,6 +329,21 @@ TEST(SlurmUsage, MirroredPartsMergeIntoTheMirroredForestAndOnlyWithEachOther) {
   EXPECT_FALSE(fs::exists(d / "mixed.json"));
 }
 
+// train-forest --exposures: darker copies of the frames (and mirrors), said and recorded, and a forest
+// of their own (the tiny corridor's stacks have no appearance channel, but the texton tests read the
+// darker greyscale images).
+TEST(SlurmUsage, ExposuresAreSaidRecordedAndChangeTheForest) {
+  const fs::path work = tiny_work();
+  const fs::path d = test_dir("exposures");
+  const auto said = run(train_command(work, "--textons --mirror --exposures 0.5,0.25", d / "said.json"));
+  ASSERT_EQ(said.status, 0) << said.out;
+  EXPECT_NE(said.out.find("on 3 frames and their mirrors at exposures 1, 0.5, 0.25"), std::string::npos) << said.out;
+  ASSERT_EQ(run(train_command(work, "-q --textons --mirror --exposures 0.5,0.25 --trees 0:2", d / "part.json")).status, 0);
+  EXPECT_EQ(smseg::read_json(d / "part.json")["training_data"]["exposures"], json::array({0.5, 0.25}));
+  ASSERT_EQ(run(train_command(work, "-q --textons --mirror", d / "plain.json")).status, 0);
+  EXPECT_NE(forest_bytes_without_timing(d / "said.json"), forest_bytes_without_timing(d / "plain.json"));
+}
+
 TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
   const fs::path d = test_dir("usage");
   const std::string tf = tool("train-forest") + " " + q(d) + " -M 5 -o " + q(d / "f.json") + " ";
@@ -339,6 +354,8 @@ TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
       {tf + "--slurm --tasks 6", "--tasks: is 6, expected 1..5"},
       {tf + "--slurm --tasks -1", "--tasks: must be in [0, 100000], got -1"},
       {tf + "--tasks 2", "only with --slurm"},
+      {tf + "--exposures 1.5", "--exposures: exposure 1.5 is not in [0.01, 1) (darker copies only"},
+      {tf + "--exposures 0.5,0.5", "--exposures: exposure 0.5 is given twice"},
       {tf + "--slurm --trees 0:2", "--trees: not with --slurm"},
       {tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d) + " --trees 0:1 -o x.json", "--merge: not with"},
       {tool("run-experiment") + " " + q(d / "none.json") + " --tasks 2 -o " + q(d / "r"), "only with --slurm"}};

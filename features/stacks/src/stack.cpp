@@ -471,6 +471,37 @@ FrameStack FrameStack::mirror_of(const forest::FrameData& frame, const std::vect
   return s;
 }
 
+FrameStack FrameStack::exposed_copy(const forest::FrameData& frame, const std::vector<ChannelExposure>& plan, double k,
+                                    int frame_number) {
+  CV_Assert(plan.size() == frame.sats.size() && frame.gray);
+  const std::size_t H = static_cast<std::size_t>(frame.height), W = static_cast<std::size_t>(frame.width);
+  const std::size_t table = (H + 1) * (W + 1) * sizeof(double);
+  const auto changed = static_cast<std::size_t>(
+      std::count_if(plan.begin(), plan.end(), [](const ChannelExposure& e) { return !e.unchanged(); }));
+  FrameStack s;
+  s.frame_ = frame_number;
+  s.size_ = cv::Size(frame.width, frame.height);
+  auto scratch = Mapping::scratch(changed * table + H * W);
+  char* next = scratch->writable();
+  for (std::size_t c = 0; c < plan.size(); ++c) {
+    if (plan[c].unchanged()) {  // the frame's own table: no copy of what the light does not change
+      s.sats_.push_back(frame.sats[c]);
+      continue;
+    }
+    auto* out = reinterpret_cast<double*>(next);
+    exposed_table(frame.sats[c], frame.width, frame.height, plan[c], out);
+    s.sats_.push_back(out);
+    next += table;
+  }
+  auto* gray = reinterpret_cast<std::uint8_t*>(next);
+  exposed_gray(frame.gray, frame.width, frame.height, k, gray);
+  s.gray_ = gray;
+  s.labels_ = frame.labels;
+  scratch->drop_pages();
+  s.mappings_.push_back(std::move(scratch));
+  return s;
+}
+
 FrameRange FrameRange::parse(const std::string& text, const std::string& option) {
   FrameRange r;
   const auto colon = text.find(':');
@@ -641,7 +672,7 @@ std::string frames_without_points_message(const StackSet& set, const std::vector
 }
 
 void add_mirrored_frames(StackSet& set) {
-  CV_Assert(!set.mirrored());
+  CV_Assert(!set.mirror && set.exposures.empty());
   const auto plan = mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
   const std::size_t n = set.dataset.frames.size();
   std::vector<std::optional<FrameStack>> mirrors(n);
@@ -660,6 +691,42 @@ void add_mirrored_frames(StackSet& set) {
     set.stacks.push_back(std::move(*mirrors[i]));
     set.dataset.frames.push_back(set.stacks.back().view());
   }
+  set.mirror = true;
+}
+
+void add_exposed_frames(StackSet& set, const std::vector<double>& exposures) {
+  CV_Assert(set.exposures.empty());
+  const std::string source = set.manifests.front().manifest_path().string();
+  check_exposures(exposures, "--exposures");
+  const std::size_t n = set.dataset.frames.size();  // the frames read and their mirrors
+  for (double k : exposures) {
+    const auto plan = exposure_plan(set.dataset.features, k, source);
+    std::vector<std::optional<FrameStack>> copies(n);
+    std::vector<std::exception_ptr> errors(n);
+    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+      try {
+        const forest::FrameData& frame = set.dataset.frames[i];
+        const int number = i < set.origin.size() ? set.origin[i].second : set.origin[i - set.origin.size()].second;
+        copies[i].emplace(FrameStack::exposed_copy(frame, plan, k, number));
+        if (frame.release) frame.release();  // read once more to be copied; training reads it again later
+      } catch (...) {
+        errors[i] = std::current_exception();
+      }
+    });
+    for (std::size_t i = 0; i < n; ++i) {
+      if (errors[i]) std::rethrow_exception(errors[i]);
+      set.stacks.push_back(std::move(*copies[i]));
+      forest::FrameData view = set.stacks.back().view();
+      const forest::FrameData& frame = set.dataset.frames[i];
+      // The copy's release drops its own tables and its frame's (whose tables it shares).
+      view.release = [own = view.release, shared = frame.release] {
+        own();
+        if (shared) shared();
+      };
+      set.dataset.frames.push_back(view);
+    }
+  }
+  set.exposures = exposures;
 }
 
 Json training_data_record(const StackSet& set) {
@@ -677,6 +744,7 @@ Json training_data_record(const StackSet& set) {
   }
   Json record = {{"works", works}, {"features", set.dataset.features}};
   if (set.mirrored()) record["mirrored"] = true;  // only then: records of earlier parts stay as they were
+  if (!set.exposures.empty()) record["exposures"] = set.exposures;  // likewise
   return record;
 }
 

@@ -25,6 +25,7 @@
 
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/forest/data.hpp"
+#include "smseg/stacks/exposure.hpp"
 #include "smseg/stacks/mirror.hpp"
 
 namespace smseg::stacks {
@@ -118,6 +119,11 @@ class FrameStack {
   /// `frame` (a stack's view, its features selected) mirrored left to right by `plan` (mirror.hpp):
   /// tables, greyscale and labels in a scratch mapping of its own, its pages dropped once written.
   static FrameStack mirror_of(const forest::FrameData& frame, const std::vector<ChannelMirror>& plan, int frame_number);
+  /// `frame` at exposure k by `plan` (exposure.hpp): the changed tables and the greyscale in a scratch
+  /// mapping of its own, its pages dropped once written; the unchanged tables and the labels are
+  /// `frame`'s own pointers (the set that owns `frame` must outlive the copy).
+  static FrameStack exposed_copy(const forest::FrameData& frame, const std::vector<ChannelExposure>& plan, double k,
+                                 int frame_number);
 
  private:
   struct Mapping;
@@ -149,16 +155,23 @@ struct StackSet {
   std::vector<StackManifest> manifests;
   std::vector<FrameStack> stacks;  ///< owns the mappings that dataset.frames point into
   std::vector<std::pair<int, int>> origin;  ///< per frame read: (work folder index, frame)
-  forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if any
+  forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if any, then darker copies
+  bool mirror = false;              ///< add_mirrored_frames added the frames' mirrors
+  std::vector<double> exposures;    ///< add_exposed_frames added copies of the frames at these exposures
 
-  /// Whether add_mirrored_frames added the frames' mirrors (the dataset then holds twice the frames read).
-  bool mirrored() const { return dataset.frames.size() > origin.size(); }
+  bool mirrored() const { return mirror; }
 };
 
 /// Appends the mirror of every frame of `set` (train-forest --mirror, mirror.hpp) to its dataset, the
 /// frames mirrored in parallel; Error naming the first work folder's stacks.json for a channel that has
 /// no mirror. Call it once, after the checks that read `origin` beside the dataset's frames.
 void add_mirrored_frames(StackSet& set);
+
+/// Appends, for each exposure k (train-forest --exposures, exposure.hpp), a copy of every frame of the
+/// dataset (mirrors included) as the camera would have seen it with k times the light, the copies made
+/// in parallel; Error naming the first work folder's stacks.json for a channel no exposure map follows,
+/// an exposure outside [0.01, 1), or a repeated one. Call it once, after add_mirrored_frames if any.
+void add_exposed_frames(StackSet& set, const std::vector<double>& exposures);
 
 /// What a training read from `set`: per work folder its path, a digest of its stacks.json and the
 /// labelled frames used, and the features (and "mirrored": true when their mirrors were added). Forest

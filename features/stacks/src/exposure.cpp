@@ -1,0 +1,96 @@
+#include "smseg/stacks/exposure.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "smseg/common/error.hpp"
+#include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/point_features.hpp"
+#include "smseg/stacks/stack.hpp"
+#include "smseg/stacks/textons.hpp"
+
+namespace smseg::stacks {
+namespace {
+
+bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
+
+bool in(const std::vector<std::string>& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+/// Channels that do not see the light: the geometry's and the pixel's position.
+bool blind_to_light(const std::string& name) {
+  return in(structure_feature_names(), name) || in(dense_feature_names(), name) || name == "fRow" || name == "fCol";
+}
+
+std::string number_text(double k) {
+  std::ostringstream text;
+  text << k;
+  return text.str();
+}
+
+constexpr double kSrgbOffset = 0.055 * 255.0;  // V + this scales by k^(1/2.4) on sRGB's power segment
+
+}  // namespace
+
+void check_exposure(double k, const std::string& option) {
+  if (!(k >= 0.01 && k < 1.0))
+    throw Error("", option,
+                "exposure " + number_text(k) + " is not in [0.01, 1) (darker copies only: a brighter image "
+                "saturates at 255, which the tables cannot know)");
+}
+
+void check_exposures(const std::vector<double>& exposures, const std::string& option) {
+  for (auto k = exposures.begin(); k != exposures.end(); ++k) {
+    check_exposure(*k, option);
+    if (std::find(exposures.begin(), k, *k) != k) throw Error("", option, "exposure " + number_text(*k) + " is given twice");
+  }
+}
+
+std::vector<ChannelExposure> exposure_plan(const std::vector<std::string>& features, double k,
+                                           const std::string& source) {
+  check_exposure(k, "--exposures");
+  const double c = std::cbrt(k), g = std::pow(k, 1.0 / 2.4);
+  std::vector<ChannelExposure> plan;
+  for (const std::string& name : features) {
+    if (name == "fL") {
+      plan.push_back({c, 0.16 * (c - 1.0)});  // c (fL + 0.16) - 0.16
+    } else if (name == "fA" || name == "fB") {
+      plan.push_back({c, 128.0 / 255.0 * (1.0 - c)});  // c (fA - 128/255) + 128/255
+    } else if (name == "fG0" || name == "fG1" || name == "fG2" || name == "fG3") {
+      plan.push_back({g, 0.0});
+    } else if (blind_to_light(name)) {
+      plan.push_back({});
+    } else if (starts_with(name, kTextonPrefix) || starts_with(name, kContextChannelPrefix)) {
+      throw Error(source, "features", "--exposures cannot darken the channel " + name +
+                                          " (a texton or another forest's posterior is no affine function of the "
+                                          "light; train without it)");
+    } else {
+      throw Error(source, "features", "--exposures does not know how the channel " + name + " changes with the light");
+    }
+  }
+  return plan;
+}
+
+void exposed_table(const double* table, int width, int height, ChannelExposure e, double* out) {
+  const std::size_t stride = static_cast<std::size_t>(width) + 1;
+  for (std::size_t y = 0; y <= static_cast<std::size_t>(height); ++y) {
+    const double* row = table + y * stride;
+    double* dst = out + y * stride;
+    // The cell (x, y) sums x * y pixels: the offset of each of them.
+    for (std::size_t x = 0; x < stride; ++x) dst[x] = e.scale * row[x] + e.offset * double(x * y);
+  }
+}
+
+void exposed_gray(const std::uint8_t* image, int width, int height, double k, std::uint8_t* out) {
+  check_exposure(k, "--exposures");
+  const double g = std::pow(k, 1.0 / 2.4);
+  std::uint8_t map[256];
+  for (int v = 0; v < 256; ++v)
+    map[v] = static_cast<std::uint8_t>(std::clamp(std::lround(g * (v + kSrgbOffset) - kSrgbOffset), 0L, 255L));
+  const std::size_t n = static_cast<std::size_t>(width) * static_cast<std::size_t>(height);
+  for (std::size_t i = 0; i < n; ++i) out[i] = map[image[i]];
+}
+
+}  // namespace smseg::stacks
