@@ -108,9 +108,10 @@ void add_options(CLI::App& app, Args& a) {
                "negated, fG1 and fG3 swapped, fCol kept; texton channels refused)");
   app.add_option("--exposures", a.exposures,
                  "also train on every frame (and mirror) as the camera would have seen it with each of these "
-                 "fractions of the light, comma-separated, each in [0.01, 1) (Lab and gradient channels mapped "
+                 "fractions of the light, comma-separated (Lab and gradient channels mapped "
                  "as exposure maps them, geometry kept; texton and auto-context channels refused)")
-      ->delimiter(',');
+      ->delimiter(',')
+      ->check(smseg::options::in_range(0.01, 0.99));
   app.add_option("--learned-from", a.learned_from, "comma-separated forest files whose chosen windows --windows learned follows");
   add_threads_option(app, a.threads, "the forest does not depend on it");
   app.add_option("--export-corpus", a.corpus, "also write the training corpus of one tree as CSV (label, then every candidate's value)");
@@ -174,6 +175,7 @@ smseg::stacks::StackSet open_training_stacks(const Args& a) {
   stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
                                                  true, smseg::split_comma_list(a.features_opt));
   check_points(set, a.quiet);
+  stacks::lighten_frames(set, a.p.lightness);  // before mirrors and darker copies: they copy it
   if (a.mirror && a.on_slurm)  // the tasks mirror their own frames: here only whether every channel can be
     stacks::mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
   else if (a.mirror)

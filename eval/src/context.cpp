@@ -80,7 +80,8 @@ struct OutOfFold {
 
 OutOfFold train_fold_forests(const forest::Forest& forest, const std::vector<fs::path>& works,
                              const ContextOptions& options) {
-  const stacks::StackSet set = stacks::open_stacks(works, options.frames, true, true, forest.features);
+  stacks::StackSet set = stacks::open_stacks(works, options.frames, true, true, forest.features);
+  stacks::lighten_frames(set, forest.params.lightness);
   const std::vector<int> fold = contiguous_folds(set.dataset.frames.size(), options.folds);
   OutOfFold oof;
   oof.frames_per_fold.assign(options.folds, 0);
@@ -180,6 +181,10 @@ ContextReport add_context(const forest::Forest& forest, const fs::path& forest_f
       forest::FrameData input = stack.view();
       input.sats.clear();
       for (int i : src.reads) input.sats.push_back(stack.sat(i));
+      std::optional<stacks::FrameStack> lightened;  // owns the mapped tables while `input` is used
+      if (forest.params.lightness > 0)
+        lightened.emplace(stacks::lighten_frame(input, forest.features, forest.params.lightness, f,
+                                                m.manifest_path().string()));
       const auto fold = oof.fold_of.find({static_cast<int>(w), f});
       const bool out_of_fold = fold != oof.fold_of.end();
       const forest::Classifier& classifier = out_of_fold ? by_fold[fold->second] : whole;

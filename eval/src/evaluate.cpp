@@ -315,7 +315,8 @@ void label_batch(const forest::Classifier& classifier, const stacks::StackSet& s
 
 EvalResult evaluate(const forest::Forest& forest, const std::vector<fs::path>& works, const EvalOptions& opt) {
   opt.validate();
-  const stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
+  stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
+  stacks::lighten_frames(set, forest.params.lightness);
   return evaluate(forest, set, works, opt);
 }
 

@@ -160,7 +160,8 @@ SweepReport run_sweep(const forest::Forest& forest, const std::string& forest_fi
     done.push_back(rec["value"].get<int>());
   }
 
-  const stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
+  stacks::StackSet set = stacks::open_stacks(works, opt.frames, true, true, forest.features);
+  stacks::lighten_frames(set, forest.params.lightness);
   check_forest_fits(forest, set);
   SweepReport report;
   for (int v : spec.values()) {

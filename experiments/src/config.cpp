@@ -372,7 +372,8 @@ json Point::training_key() const {
     k[key] = json.at(key);
   for (const auto& key : config_keys(stacks::extract_options_table()))
     if (json.contains("train_" + key)) k["train_" + key] = json.at("train_" + key);
-  for (const auto& key : config_keys(forest::train_params_table())) k[key] = json.at(key);
+  for (const auto& key : config_keys(forest::train_params_table()))  // a field at its default may be left out
+    if (json.contains(key)) k[key] = json.at(key);
   return k;
 }
 
@@ -386,7 +387,9 @@ std::string Point::describe() const {
     if (json.contains(k)) {
       v = text(json.at(k));
     } else if (!json.contains("train_" + k)) {  // a value a point records only when not the default
-      v = text(eval::eval_options_table().find_on(k, options::kConfig)->write(eval::EvalOptions{}));
+      const auto* eval_field = eval::eval_options_table().find_on(k, options::kConfig);
+      v = text(eval_field ? eval_field->write(eval::EvalOptions{})
+                          : forest::train_params_table().find_on(k, options::kConfig)->write(forest::TrainParams{}));
     } else {  // stereo, motion, causal, tracker and extraction keys: per side
       const auto& a = json.at("train_" + k);
       const auto& b = json.at("test_" + k);

@@ -254,7 +254,8 @@ void train_for_point(const Point& p, const std::vector<fs::path>& train_works, c
   tkey["works"] = path_strings(train_works);
   if (tkey.dump() == trained.key) return;
   trained.key.clear();
-  const stacks::StackSet set = stacks::open_stacks(train_works, p.train_frames, true, true, p.features);
+  stacks::StackSet set = stacks::open_stacks(train_works, p.train_frames, true, true, p.features);
+  stacks::lighten_frames(set, p.train_params.lightness);
   forest::TrainParams tp = p.train_params;
   tp.memory_mb = options.memory_mb;
   tp.progress = false;

@@ -74,6 +74,8 @@ void TrainParams::validate(const std::string& source) const {
   if (kt() > 100000000) bad("Kt", "must be <= 100000000");
   if (M < 1 || M > 100000) bad("M", "must be in [1, 100000], got " + std::to_string(M));
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
+  if (!(lightness == 0.0 || (lightness >= 0.05 && lightness <= 0.95)))
+    bad("lightness", "must be 0 (off) or in [0.05, 0.95]");
   if (memory_mb < 1 || memory_mb > (std::size_t{1} << 30)) bad("memory_mb", "must be 1 .. 2^30 MiB (1 PiB)");
   if (score != Score::WehenkelPavella && score != Score::InformationGain)
     bad("score", "is not wehenkel-pavella or information-gain");
@@ -154,6 +156,12 @@ const options::Table<TrainParams>& train_params_table() {
              [](auto& p) -> auto& { return p.balance; }, kBalanceNames);
     t.flag("textons", "--textons", "add the texton tests fP, fPs, fPd, fPda on the greyscale image",
            [](auto& p) -> auto& { return p.textons; });
+    t.number("lightness", "--lightness",
+             "bring every frame to this mean lightness fL (L* / 100) by the exposure map of its Lab and gradient "
+             "channels, in training and wherever the forest classifies (a dusk run then looks like a day run; "
+             "needs fL; 0: off)",
+             [](auto& p) -> auto& { return p.lightness; }, 0.0, 0.95)
+        .recorded_unless([](const T& p) { return p.lightness == 0.0; });
     t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", [](auto& p) -> auto& { return p.score; },
              kScoreNames)
         .optional_in_files()  // files written before the option: the thesis's score

@@ -173,6 +173,16 @@ TEST(ForestFile, CompatibilityWithTheDataIsChecked) {
   }
 }
 
+TEST(ForestFile, LightnessIsSavedOnlyWhenOnAndChecked) {
+  const Fixture fx;
+  EXPECT_FALSE(forest_to_json(fx.forest)["params"].contains("lightness"));  // off: files as before
+  const Forest on = fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.45; });
+  EXPECT_EQ(on.params.lightness, 0.45);
+  EXPECT_EQ(params_to_json(on.params)["lightness"], 0.45);
+  EXPECT_THROW(fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.99; }), smseg::Error);
+  EXPECT_THROW(fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.01; }), smseg::Error);
+}
+
 TEST(ForestFile, SplitScoreIsSavedAndOldFilesReadAsTheDefault) {
   const Fixture fx;
   EXPECT_EQ(forest_to_json(fx.forest)["params"]["score"], "wehenkel-pavella");

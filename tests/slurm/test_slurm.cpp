@@ -354,7 +354,7 @@ TEST(SlurmUsage, BadOptionsAreOneLineAndExitStatusTwo) {
       {tf + "--slurm --tasks 6", "--tasks: is 6, expected 1..5"},
       {tf + "--slurm --tasks -1", "--tasks: must be in [0, 100000], got -1"},
       {tf + "--tasks 2", "only with --slurm"},
-      {tf + "--exposures 1.5", "--exposures: exposure 1.5 is not in [0.01, 1) (darker copies only"},
+      {tf + "--exposures 1.5", "--exposures: must be in [0.01, 0.99], got 1.5"},
       {tf + "--exposures 0.5,0.5", "--exposures: exposure 0.5 is given twice"},
       {tf + "--slurm --trees 0:2", "--trees: not with --slurm"},
       {tool("train-forest") + " --merge " + q(d / "a.json") + " " + q(d) + " --trees 0:1 -o x.json", "--merge: not with"},

@@ -113,16 +113,18 @@ class ExtraTreesWindowClassifier(_Estimator):
     n_estimators: trees (train-forest -M); k: windows and tests per tree (-K; ks, kt override each);
     windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance: draw
     tests per class (--balance classes); criterion: the split score, train-forest's --score
-    ("wehenkel-pavella" | "information-gain"); n_min, textons, features: as train-forest's options;
+    ("wehenkel-pavella" | "information-gain"); n_min, textons, features, lightness: as train-forest's
+    options (lightness: every frame brought to this mean fL in fit and predict alike; 0: off);
     seed: same seed and inputs, same forest file as train-forest; n_jobs: threads (0: all cores; the
     forest does not depend on it). predict returns class positions (indices into classes_).
     """
 
     def __init__(self, n_estimators=7, k=400, windows="uniform", balance=False, seed=1, n_jobs=0, ks=None,
-                 kt=None, n_min=5, criterion="wehenkel-pavella", textons=False, features=None, learned_from=None):
+                 kt=None, n_min=5, criterion="wehenkel-pavella", textons=False, features=None, learned_from=None,
+                 lightness=0.0):
         self.n_estimators, self.k, self.windows, self.balance, self.seed = n_estimators, k, windows, balance, seed
         self.n_jobs, self.ks, self.kt, self.n_min, self.criterion = n_jobs, ks, kt, n_min, criterion
-        self.textons, self.features, self.learned_from = textons, features, learned_from
+        self.textons, self.features, self.learned_from, self.lightness = textons, features, learned_from, lightness
 
     def fit(self, stacks, frames="0:", progress=False):
         """Trains on the labelled frames inside `frames` ("A:B", half-open) of one or more work folders."""
@@ -132,7 +134,8 @@ class ExtraTreesWindowClassifier(_Estimator):
             Kt=int(self.kt or 0), M=int(self.n_estimators), n_min=int(self.n_min), seed=int(self.seed),
             windows=self.windows, learned_from=[os.fspath(f) for f in (self.learned_from or [])],
             balance=bool(self.balance), criterion=self.criterion, textons=bool(self.textons),
-            features=list(self.features or []), n_jobs=int(self.n_jobs), progress=bool(progress))
+            features=list(self.features or []), lightness=float(self.lightness), n_jobs=int(self.n_jobs),
+            progress=bool(progress))
         self._set_fitted_attributes()
         return self
 
@@ -166,7 +169,8 @@ class ExtraTreesWindowClassifier(_Estimator):
         model = _smseg.WindowForest.load(os.fspath(path))
         p = model.to_json()["params"]
         est = cls(n_estimators=p["M"], k=p["K"], windows=p["windows"]["mode"], balance=p["balance"] == "classes",
-                  seed=p["seed"], ks=p["Ks"], kt=p["Kt"], n_min=p["n_min"], criterion=p["score"], textons=p["textons"])
+                  seed=p["seed"], ks=p["Ks"], kt=p["Kt"], n_min=p["n_min"], criterion=p["score"], textons=p["textons"],
+                  lightness=p.get("lightness", 0.0))
         est.model_ = model
         est._set_fitted_attributes()
         return est

@@ -70,8 +70,9 @@ std::shared_ptr<WindowForest> fit_window_forest(const WindowTrainArgs& a, forest
   p.validate("ExtraTreesWindowClassifier");
   if (a.works.empty()) throw Error("", "stacks", "no work folder given");
   const auto range = stacks::FrameRange::parse(a.frames, "frames");
-  const stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range,
-                                                       true, true, a.features);
+  stacks::StackSet set = stacks::open_stacks(std::vector<fs::path>(a.works.begin(), a.works.end()), range, true,
+                                             true, a.features);
+  stacks::lighten_frames(set, p.lightness);
   auto model = std::make_shared<WindowForest>();
   py::gil_scoped_release unlocked;
   model->forest = forest::train_forest(set.dataset, p);
@@ -100,7 +101,9 @@ forest::FrameData frame_view(const forest::Forest& f, const DoubleArray& sat, co
 /// Labels (H, W) uint8 and summed leaf distributions (H, W, C) float32 of one frame.
 py::tuple classify(WindowForest& model, const DoubleArray& sat, const std::optional<ByteArray>& gray) {
   const forest::Forest& f = model.forest;
-  const forest::FrameData frame = frame_view(f, sat, gray);
+  forest::FrameData frame = frame_view(f, sat, gray);
+  std::optional<stacks::FrameStack> lightened;  // owns the mapped tables while `frame` is used
+  if (f.params.lightness > 0) lightened.emplace(stacks::lighten_frame(frame, f.features, f.params.lightness, 0, "stack"));
   const forest::Classifier& c = model.classify_with();
   c.check_frame(frame);
   const auto pixels = static_cast<std::size_t>(f.width) * static_cast<std::size_t>(f.height);
@@ -198,14 +201,15 @@ void bind_forest(py::module_& m) {
   m.def("fit_window_forest", [](std::vector<std::string> works, std::string frames, int K, int Ks, int Kt, int M,
                                 int n_min, std::uint64_t seed, std::string windows, std::vector<std::string> learned_from,
                                 bool balance, std::string criterion, bool textons, std::vector<std::string> features,
-                                int n_jobs, bool progress) {
+                                double lightness, int n_jobs, bool progress) {
     forest::TrainParams p;
     p.K = K, p.Ks = Ks, p.Kt = Kt, p.M = M, p.n_min = n_min, p.seed = seed, p.textons = textons;
+    p.lightness = lightness;
     return fit_window_forest({std::move(works), std::move(frames), std::move(windows), std::move(criterion),
                               std::move(learned_from), std::move(features), balance, progress, n_jobs}, p);
   }, py::arg("works"), py::arg("frames"), py::arg("K"), py::arg("Ks"), py::arg("Kt"), py::arg("M"), py::arg("n_min"),
      py::arg("seed"), py::arg("windows"), py::arg("learned_from"), py::arg("balance"), py::arg("criterion"),
-     py::arg("textons"), py::arg("features"), py::arg("n_jobs"), py::arg("progress"));
+     py::arg("textons"), py::arg("features"), py::arg("lightness"), py::arg("n_jobs"), py::arg("progress"));
 
   py::class_<TabularForest, std::shared_ptr<TabularForest>>(m, "TabularForest")
       .def("predict_proba", &tabular_proba, py::arg("X"))

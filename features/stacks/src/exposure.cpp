@@ -4,6 +4,8 @@
 #include <cmath>
 #include <sstream>
 
+#include <opencv2/core.hpp>
+
 #include "smseg/common/error.hpp"
 #include "smseg/stacks/dense.hpp"
 #include "smseg/stacks/point_features.hpp"
@@ -35,9 +37,9 @@ constexpr double kSrgbOffset = 0.055 * 255.0;  // V + this scales by k^(1/2.4) o
 }  // namespace
 
 void check_exposure(double k, const std::string& option) {
-  if (!(k >= 0.01 && k < 1.0))
+  if (!(k >= 0.01 && k <= 0.99))
     throw Error("", option,
-                "exposure " + number_text(k) + " is not in [0.01, 1) (darker copies only: a brighter image "
+                "exposure " + number_text(k) + " is not in [0.01, 0.99] (darker copies only: a brighter image "
                 "saturates at 255, which the tables cannot know)");
 }
 
@@ -48,10 +50,12 @@ void check_exposures(const std::vector<double>& exposures, const std::string& op
   }
 }
 
-std::vector<ChannelExposure> exposure_plan(const std::vector<std::string>& features, double k,
-                                           const std::string& source) {
-  check_exposure(k, "--exposures");
-  const double c = std::cbrt(k), g = std::pow(k, 1.0 / 2.4);
+namespace {
+
+/// The map of each channel when Lab's cube roots scale by c (the light by c^3).
+std::vector<ChannelExposure> plan_for_root_scale(const std::vector<std::string>& features, double c,
+                                                 const std::string& source) {
+  const double g = std::pow(c, 3.0 / 2.4);
   std::vector<ChannelExposure> plan;
   for (const std::string& name : features) {
     if (name == "fL") {
@@ -63,14 +67,34 @@ std::vector<ChannelExposure> exposure_plan(const std::vector<std::string>& featu
     } else if (blind_to_light(name)) {
       plan.push_back({});
     } else if (starts_with(name, kTextonPrefix) || starts_with(name, kContextChannelPrefix)) {
-      throw Error(source, "features", "--exposures cannot darken the channel " + name +
+      throw Error(source, "features", "--exposures and --lightness cannot map the channel " + name +
                                           " (a texton or another forest's posterior is no affine function of the "
                                           "light; train without it)");
     } else {
-      throw Error(source, "features", "--exposures does not know how the channel " + name + " changes with the light");
+      throw Error(source, "features", "--exposures and --lightness do not know how the channel " + name + " changes with the light");
     }
   }
   return plan;
+}
+
+}  // namespace
+
+std::vector<ChannelExposure> exposure_plan(const std::vector<std::string>& features, double k,
+                                           const std::string& source) {
+  check_exposure(k, "--exposures");
+  return plan_for_root_scale(features, std::cbrt(k), source);
+}
+
+std::vector<ChannelExposure> lightness_plan(const std::vector<std::string>& features, double mean_l, double target,
+                                            const std::string& source) {
+  if (std::find(features.begin(), features.end(), "fL") == features.end())
+    throw Error(source, "features", "lightness normalisation needs the channel fL (extract-features --appearance)");
+  return plan_for_root_scale(features, (target + 0.16) / (mean_l + 0.16), source);
+}
+
+double lightness_exposure(double mean_l, double target) {
+  const double c = (target + 0.16) / (mean_l + 0.16);
+  return c * c * c;
 }
 
 void exposed_table(const double* table, int width, int height, ChannelExposure e, double* out) {
@@ -84,7 +108,7 @@ void exposed_table(const double* table, int width, int height, ChannelExposure e
 }
 
 void exposed_gray(const std::uint8_t* image, int width, int height, double k, std::uint8_t* out) {
-  check_exposure(k, "--exposures");
+  CV_Assert(k > 0 && std::isfinite(k));
   const double g = std::pow(k, 1.0 / 2.4);
   std::uint8_t map[256];
   for (int v = 0; v < 256; ++v)

@@ -473,7 +473,7 @@ FrameStack FrameStack::mirror_of(const forest::FrameData& frame, const std::vect
 
 FrameStack FrameStack::exposed_copy(const forest::FrameData& frame, const std::vector<ChannelExposure>& plan, double k,
                                     int frame_number) {
-  CV_Assert(plan.size() == frame.sats.size() && frame.gray);
+  CV_Assert(plan.size() == frame.sats.size());
   const std::size_t H = static_cast<std::size_t>(frame.height), W = static_cast<std::size_t>(frame.width);
   const std::size_t table = (H + 1) * (W + 1) * sizeof(double);
   const auto changed = static_cast<std::size_t>(
@@ -481,7 +481,7 @@ FrameStack FrameStack::exposed_copy(const forest::FrameData& frame, const std::v
   FrameStack s;
   s.frame_ = frame_number;
   s.size_ = cv::Size(frame.width, frame.height);
-  auto scratch = Mapping::scratch(changed * table + H * W);
+  auto scratch = Mapping::scratch(changed * table + (frame.gray ? H * W : 0) + 1);
   char* next = scratch->writable();
   for (std::size_t c = 0; c < plan.size(); ++c) {
     if (plan[c].unchanged()) {  // the frame's own table: no copy of what the light does not change
@@ -493,9 +493,11 @@ FrameStack FrameStack::exposed_copy(const forest::FrameData& frame, const std::v
     s.sats_.push_back(out);
     next += table;
   }
-  auto* gray = reinterpret_cast<std::uint8_t*>(next);
-  exposed_gray(frame.gray, frame.width, frame.height, k, gray);
-  s.gray_ = gray;
+  if (frame.gray) {
+    auto* gray = reinterpret_cast<std::uint8_t*>(next);
+    exposed_gray(frame.gray, frame.width, frame.height, k, gray);
+    s.gray_ = gray;
+  }
   s.labels_ = frame.labels;
   scratch->drop_pages();
   s.mappings_.push_back(std::move(scratch));
@@ -694,6 +696,20 @@ void add_mirrored_frames(StackSet& set) {
   set.mirror = true;
 }
 
+namespace {
+
+/// The view of `copy`, made from `frame` and sharing some of its tables: its release drops both.
+forest::FrameData view_sharing(const FrameStack& copy, const forest::FrameData& frame) {
+  forest::FrameData view = copy.view();
+  view.release = [own = view.release, shared = frame.release] {
+    own();
+    if (shared) shared();
+  };
+  return view;
+}
+
+}  // namespace
+
 void add_exposed_frames(StackSet& set, const std::vector<double>& exposures) {
   CV_Assert(set.exposures.empty());
   const std::string source = set.manifests.front().manifest_path().string();
@@ -716,14 +732,7 @@ void add_exposed_frames(StackSet& set, const std::vector<double>& exposures) {
     for (std::size_t i = 0; i < n; ++i) {
       if (errors[i]) std::rethrow_exception(errors[i]);
       set.stacks.push_back(std::move(*copies[i]));
-      forest::FrameData view = set.stacks.back().view();
-      const forest::FrameData& frame = set.dataset.frames[i];
-      // The copy's release drops its own tables and its frame's (whose tables it shares).
-      view.release = [own = view.release, shared = frame.release] {
-        own();
-        if (shared) shared();
-      };
-      set.dataset.frames.push_back(view);
+      set.dataset.frames.push_back(view_sharing(set.stacks.back(), set.dataset.frames[i]));
     }
   }
   set.exposures = exposures;
@@ -746,6 +755,43 @@ Json training_data_record(const StackSet& set) {
   if (set.mirrored()) record["mirrored"] = true;  // only then: records of earlier parts stay as they were
   if (!set.exposures.empty()) record["exposures"] = set.exposures;  // likewise
   return record;
+}
+
+
+FrameStack lighten_frame(forest::FrameData& frame, const std::vector<std::string>& features, double target,
+                         int frame_number, const std::string& source) {
+  const auto l = std::find(features.begin(), features.end(), "fL");
+  if (l == features.end()) lightness_plan(features, 0.0, target, source);  // throws: no fL to measure
+  const double* table = frame.sats[static_cast<std::size_t>(l - features.begin())];
+  const std::size_t last = static_cast<std::size_t>(frame.height) * (frame.width + 1) + frame.width;
+  const double mean = table[last] / (double(frame.width) * double(frame.height));
+  FrameStack copy = FrameStack::exposed_copy(frame, lightness_plan(features, mean, target, source),
+                                             lightness_exposure(mean, target), frame_number);
+  frame = view_sharing(copy, frame);
+  return copy;
+}
+
+void lighten_frames(StackSet& set, double target) {
+  if (target == 0.0) return;
+  CV_Assert(set.lightened.empty());
+  const std::string source = set.manifests.front().manifest_path().string();
+  const std::size_t n = set.dataset.frames.size();
+  std::vector<forest::FrameData> frames = set.dataset.frames;
+  std::vector<std::optional<FrameStack>> copies(n);
+  std::vector<std::exception_ptr> errors(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    try {
+      const int number = set.origin[i % set.origin.size()].second;
+      copies[i].emplace(lighten_frame(frames[i], set.dataset.features, target, number, source));
+      if (set.dataset.frames[i].release) set.dataset.frames[i].release();  // read to be mapped; read again later
+    } catch (...) {
+      errors[i] = std::current_exception();
+    }
+  });
+  for (std::size_t i = 0; i < n; ++i)
+    if (errors[i]) std::rethrow_exception(errors[i]);
+  for (std::size_t i = 0; i < n; ++i) set.lightened.push_back(std::move(*copies[i]));
+  set.dataset.frames = std::move(frames);
 }
 
 }  // namespace smseg::stacks

@@ -82,16 +82,33 @@ TEST(ExposurePlan, EachChannelItsRule) {
 
 TEST(ExposurePlan, ChannelsWithoutARuleAndBrighterCopiesAreRefusedByName) {
   EXPECT_EQ(smseg::test::error_of([] { exposure_plan({"fH", "fTx3"}, 0.5, "W/stacks.json"); }),
-            "W/stacks.json: features: --exposures cannot darken the channel fTx3 (a texton or another forest's "
+            "W/stacks.json: features: --exposures and --lightness cannot map the channel fTx3 (a texton or another forest's "
             "posterior is no affine function of the light; train without it)");
   EXPECT_NE(smseg::test::error_of([] { exposure_plan({"fCtx:Road"}, 0.5, "W/stacks.json"); }).find("fCtx:Road"),
             std::string::npos);
   EXPECT_EQ(smseg::test::error_of([] { exposure_plan({"fWho"}, 0.5, "W/stacks.json"); }),
-            "W/stacks.json: features: --exposures does not know how the channel fWho changes with the light");
+            "W/stacks.json: features: --exposures and --lightness do not know how the channel fWho changes with the light");
   for (double k : {1.0, 1.5, 0.0, 0.001, -0.5, std::nan("")})
     EXPECT_NE(smseg::test::error_of([&] { check_exposure(k, "--exposures"); }).find("--exposures: exposure"),
               std::string::npos)
         << k;
+}
+
+TEST(LightnessPlan, BringsTheFramesMeanToTheTarget) {
+  cv::Mat l(9, 12, CV_64FC1);
+  for (double low : {0.05, 0.3, 0.7}) {
+    cv::RNG(4).fill(l, cv::RNG::UNIFORM, low, low + 0.2);
+    const double mean = cv::mean(l)[0];
+    const auto plan = lightness_plan({"fH", "fL", "fG0"}, mean, 0.45, "W/stacks.json");
+    EXPECT_TRUE(plan[0].unchanged());
+    EXPECT_NEAR(cv::mean(l * plan[1].scale + plan[1].offset)[0], 0.45, 1e-12) << low;
+    const double k = lightness_exposure(mean, 0.45);
+    EXPECT_NEAR(plan[1].scale, std::cbrt(k), 1e-12);
+    EXPECT_NEAR(plan[2].scale, std::pow(k, 1 / 2.4), 1e-12);
+    EXPECT_EQ(k > 1, mean < 0.45) << low;  // a darker frame is brightened
+  }
+  EXPECT_EQ(smseg::test::error_of([] { lightness_plan({"fH", "fA"}, 0.3, 0.45, "W/stacks.json"); }),
+            "W/stacks.json: features: lightness normalisation needs the channel fL (extract-features --appearance)");
 }
 
 TEST(ExposedTable, IsTheTableOfTheMappedRaster) {
@@ -212,6 +229,37 @@ TEST_F(ExposedSet, GrowsByACopyOfEachFramePerExposure) {
   EXPECT_EQ(after, before);
 }
 
+TEST_F(ExposedSet, LightenedFramesHaveTheTargetMeanAndShareTheRest) {
+  StackSet set = open_stacks({work}, FrameRange{}, true, true, {"fL", "fH"});
+  const std::vector<forest::FrameData> before = set.dataset.frames;
+  lighten_frames(set, 0.0);  // off: nothing
+  EXPECT_EQ(set.dataset.frames[0].sats, before[0].sats);
+  lighten_frames(set, 0.45);
+  ASSERT_EQ(set.dataset.frames.size(), 2u);
+  ASSERT_EQ(set.lightened.size(), 2u);
+  const double mean = cv::mean(rasters[1])[0];
+  for (std::size_t i = 0; i < 2; ++i) {
+    const forest::FrameData& frame = set.dataset.frames[i];
+    const cv::Mat l = table(frame, 0);
+    EXPECT_NEAR(l.at<double>(size.height, size.width) / size.area(), 0.45, 1e-12);
+    EXPECT_NE(frame.sats[0], before[i].sats[0]);
+    EXPECT_EQ(frame.sats[1], before[i].sats[1]);  // fH: the frame's own table
+    EXPECT_EQ(frame.labels, before[i].labels);
+    cv::Mat want(size, CV_8UC1);
+    exposed_gray(gray.ptr<std::uint8_t>(), size.width, size.height, lightness_exposure(mean, 0.45),
+                 want.ptr<std::uint8_t>());
+    EXPECT_EQ(cv::norm(cv::Mat(size, CV_8UC1, const_cast<std::uint8_t*>(frame.gray)), want, cv::NORM_INF), 0.0);
+    frame.release();
+  }
+  // A frame already at the target maps onto itself.
+  forest::FrameData again = set.dataset.frames[1];
+  const FrameStack owner = lighten_frame(again, set.dataset.features, 0.45, 1, "test");
+  EXPECT_LT(cv::norm(table(again, 0), table(set.dataset.frames[1], 0), cv::NORM_INF), 1e-12);
+  forest::FrameData no_l = set.dataset.frames[1];
+  EXPECT_NE(smseg::test::error_of([&] { lighten_frame(no_l, {"fH", "fA"}, 0.45, 1, "W"); }).find("needs the channel fL"),
+            std::string::npos);
+}
+
 TEST_F(ExposedSet, MirrorsAreDarkenedToo) {
   StackSet set = open_stacks({work}, FrameRange{}, true, true, {"fG2", "fH"});
   add_mirrored_frames(set);
@@ -230,7 +278,7 @@ TEST_F(ExposedSet, RepeatedExposuresAndChannelsWithoutARuleAreRefused) {
             "--exposures: exposure 0.5 is given twice");
   set.dataset.features = {"fTx0"};  // as a folder extended by add-textons would name it
   const std::string e = smseg::test::error_of([&] { add_exposed_frames(set, {0.5}); });
-  EXPECT_NE(e.find((work / "stacks.json").string() + ": features: --exposures cannot darken the channel fTx0"),
+  EXPECT_NE(e.find((work / "stacks.json").string() + ": features: --exposures and --lightness cannot map the channel fTx0"),
             std::string::npos)
       << e;
   EXPECT_EQ(set.dataset.frames.size(), 2u);

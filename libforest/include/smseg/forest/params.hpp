@@ -49,6 +49,10 @@ struct TrainParams {
   bool textons = false;              ///< add the four texton tests at Ks random offsets
   /// The split score (default: the thesis's). Forest files without it read as the default.
   Score score = Score::WehenkelPavella;
+  /// Lightness normalisation (stacks/exposure.hpp): every frame, in training and wherever the forest
+  /// classifies, brought to this mean fL (L* / 100) by the exposure map of its appearance channels; 0:
+  /// off. Files without it read as off, and it is left out of them when off.
+  double lightness = 0.0;
   /// Memory budget of training as a whole, in MiB: trees are built in batches of as many as fit
   /// next to the fixed part (process, test sampler, frames being read); a budget that cannot hold
   /// one tree is refused (Error naming memory_mb and what is needed). Frames are read one at a time

@@ -31,7 +31,7 @@ struct ChannelExposure {
   bool unchanged() const { return scale == 1.0 && offset == 0.0; }
 };
 
-/// The exposures a training may ask for: 0.01 <= k < 1. UsageError-like Error(source = "", option, ...)
+/// The exposures a training may ask for: 0.01 <= k <= 0.99. UsageError-like Error(source = "", option, ...)
 /// naming `option` otherwise.
 void check_exposure(double k, const std::string& option);
 
@@ -43,10 +43,22 @@ void check_exposures(const std::vector<double>& exposures, const std::string& op
 std::vector<ChannelExposure> exposure_plan(const std::vector<std::string>& features, double k,
                                            const std::string& source);
 
+/// The plan that brings a frame whose mean fL is `mean_l` to mean `target` (lightness normalisation,
+/// TrainParams::lightness): the exposure map with c = (target + 0.16) / (mean_l + 0.16), so the mapped
+/// mean is the target exactly. A darker frame is brightened (c > 1): the map then ignores that the
+/// brighter image would have saturated. Error(source, "features", ...) as exposure_plan, or when the
+/// channels have no fL to measure the frame by.
+std::vector<ChannelExposure> lightness_plan(const std::vector<std::string>& features, double mean_l, double target,
+                                            const std::string& source);
+
+/// The exposure (light factor k = c^3) a lightness plan applies, for the greyscale image.
+double lightness_exposure(double mean_l, double target);
+
 /// The summed-area table ((height+1) x (width+1), row-major) of scale f + offset, from f's own table.
 void exposed_table(const double* table, int width, int height, ChannelExposure e, double* out);
 
-/// A height x width sRGB-encoded greyscale image as it would be at exposure k (rounded, >= 0).
+/// A height x width sRGB-encoded greyscale image as it would be at exposure k > 0 (rounded, clamped to
+/// 0..255).
 void exposed_gray(const std::uint8_t* image, int width, int height, double k, std::uint8_t* out);
 
 }  // namespace smseg::stacks

@@ -158,6 +158,7 @@ struct StackSet {
   forest::Dataset dataset;  ///< the frames read (origin's order), then their mirrors if any, then darker copies
   bool mirror = false;              ///< add_mirrored_frames added the frames' mirrors
   std::vector<double> exposures;    ///< add_exposed_frames added copies of the frames at these exposures
+  std::vector<FrameStack> lightened;  ///< lighten_frames' tables, which dataset.frames point into
 
   bool mirrored() const { return mirror; }
 };
@@ -170,8 +171,20 @@ void add_mirrored_frames(StackSet& set);
 /// Appends, for each exposure k (train-forest --exposures, exposure.hpp), a copy of every frame of the
 /// dataset (mirrors included) as the camera would have seen it with k times the light, the copies made
 /// in parallel; Error naming the first work folder's stacks.json for a channel no exposure map follows,
-/// an exposure outside [0.01, 1), or a repeated one. Call it once, after add_mirrored_frames if any.
+/// an exposure outside [0.01, 0.99], or a repeated one. Call it once, after add_mirrored_frames if any.
 void add_exposed_frames(StackSet& set, const std::vector<double>& exposures);
+
+/// Brings `frame` (a stack's view, its channels `features`) to mean lightness `target` (fL's mean over the
+/// frame; TrainParams::lightness, exposure.hpp's lightness_plan): its Lab and gradient tables and greyscale
+/// are replaced by mapped copies, owned by the FrameStack returned (keep it while `frame` is used); the
+/// other tables and the labels stay `frame`'s. Error naming `source` when the channels lack fL or hold one
+/// that no exposure map follows.
+FrameStack lighten_frame(forest::FrameData& frame, const std::vector<std::string>& features, double target,
+                         int frame_number, const std::string& source);
+
+/// lighten_frame on every frame of the set, in parallel (nothing when target is 0). Call it right after
+/// open_stacks (before mirrors and darker copies, which then copy the lightened frames).
+void lighten_frames(StackSet& set, double target);
 
 /// What a training read from `set`: per work folder its path, a digest of its stacks.json and the
 /// labelled frames used, and the features (and "mirrored": true when their mirrors were added). Forest
