@@ -8,15 +8,13 @@
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/stacks/stack.hpp"
 #include "smseg/stacks/textons.hpp"
+#include "name_lists.hpp"
 
 namespace smseg::stacks {
 namespace {
 
-bool starts_with(const std::string& s, const char* prefix) { return s.rfind(prefix, 0) == 0; }
-
-bool in(const std::vector<std::string>& names, const std::string& name) {
-  return std::find(names.begin(), names.end(), name) != names.end();
-}
+using names::in;
+using names::starts_with;
 
 /// Channels whose value does not depend on left and right: mirrored as they are.
 bool mirrors_as_is(const std::string& name) {

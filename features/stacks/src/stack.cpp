@@ -673,30 +673,33 @@ std::string frames_without_points_message(const StackSet& set, const std::vector
   return text;
 }
 
-void add_mirrored_frames(StackSet& set) {
-  CV_Assert(!set.mirror && set.exposures.empty());
-  const auto plan = mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
-  const std::size_t n = set.dataset.frames.size();
-  std::vector<std::optional<FrameStack>> mirrors(n);
+namespace {
+
+/// make(i, frame i) for the set's first n frames, in parallel, each frame released once read (training
+/// reads it again later); the first error is thrown once all are done.
+template <class Make>
+std::vector<FrameStack> frames_made_in_parallel(const StackSet& set, std::size_t n, Make&& make) {
+  std::vector<std::optional<FrameStack>> made(n);
   std::vector<std::exception_ptr> errors(n);
   tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
     try {
       const forest::FrameData& frame = set.dataset.frames[i];
-      mirrors[i].emplace(FrameStack::mirror_of(frame, plan, set.origin[i].second));
-      if (frame.release) frame.release();  // read once more to be mirrored; training reads it again later
+      made[i].emplace(make(i, frame));
+      if (frame.release) frame.release();
     } catch (...) {
       errors[i] = std::current_exception();
     }
   });
-  for (std::size_t i = 0; i < n; ++i) {
-    if (errors[i]) std::rethrow_exception(errors[i]);
-    set.stacks.push_back(std::move(*mirrors[i]));
-    set.dataset.frames.push_back(set.stacks.back().view());
-  }
-  set.mirror = true;
+  for (const std::exception_ptr& e : errors)
+    if (e) std::rethrow_exception(e);
+  std::vector<FrameStack> out;
+  out.reserve(n);
+  for (auto& m : made) out.push_back(std::move(*m));
+  return out;
 }
 
-namespace {
+/// The frame number of the set's i-th frame (a mirror's is its frame's).
+int frame_number(const StackSet& set, std::size_t i) { return set.origin[i % set.origin.size()].second; }
 
 /// The view of `copy`, made from `frame` and sharing some of its tables: its release drops both.
 forest::FrameData view_sharing(const FrameStack& copy, const forest::FrameData& frame) {
@@ -710,6 +713,20 @@ forest::FrameData view_sharing(const FrameStack& copy, const forest::FrameData& 
 
 }  // namespace
 
+void add_mirrored_frames(StackSet& set) {
+  CV_Assert(!set.mirror && set.exposures.empty());
+  const auto plan = mirror_plan(set.dataset.features, set.manifests.front().manifest_path().string());
+  std::vector<FrameStack> mirrors =
+      frames_made_in_parallel(set, set.dataset.frames.size(), [&](std::size_t i, const forest::FrameData& frame) {
+        return FrameStack::mirror_of(frame, plan, frame_number(set, i));
+      });
+  for (FrameStack& m : mirrors) {
+    set.stacks.push_back(std::move(m));
+    set.dataset.frames.push_back(set.stacks.back().view());
+  }
+  set.mirror = true;
+}
+
 void add_exposed_frames(StackSet& set, const std::vector<double>& exposures) {
   CV_Assert(set.exposures.empty());
   const std::string source = set.manifests.front().manifest_path().string();
@@ -717,21 +734,11 @@ void add_exposed_frames(StackSet& set, const std::vector<double>& exposures) {
   const std::size_t n = set.dataset.frames.size();  // the frames read and their mirrors
   for (double k : exposures) {
     const auto plan = exposure_plan(set.dataset.features, k, source);
-    std::vector<std::optional<FrameStack>> copies(n);
-    std::vector<std::exception_ptr> errors(n);
-    tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-      try {
-        const forest::FrameData& frame = set.dataset.frames[i];
-        const int number = i < set.origin.size() ? set.origin[i].second : set.origin[i - set.origin.size()].second;
-        copies[i].emplace(FrameStack::exposed_copy(frame, plan, k, number));
-        if (frame.release) frame.release();  // read once more to be copied; training reads it again later
-      } catch (...) {
-        errors[i] = std::current_exception();
-      }
+    std::vector<FrameStack> copies = frames_made_in_parallel(set, n, [&](std::size_t i, const forest::FrameData& frame) {
+      return FrameStack::exposed_copy(frame, plan, k, frame_number(set, i));
     });
     for (std::size_t i = 0; i < n; ++i) {
-      if (errors[i]) std::rethrow_exception(errors[i]);
-      set.stacks.push_back(std::move(*copies[i]));
+      set.stacks.push_back(std::move(copies[i]));
       set.dataset.frames.push_back(view_sharing(set.stacks.back(), set.dataset.frames[i]));
     }
   }
@@ -775,22 +782,10 @@ void lighten_frames(StackSet& set, double target) {
   if (target == 0.0) return;
   CV_Assert(set.lightened.empty());
   const std::string source = set.manifests.front().manifest_path().string();
-  const std::size_t n = set.dataset.frames.size();
   std::vector<forest::FrameData> frames = set.dataset.frames;
-  std::vector<std::optional<FrameStack>> copies(n);
-  std::vector<std::exception_ptr> errors(n);
-  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
-    try {
-      const int number = set.origin[i % set.origin.size()].second;
-      copies[i].emplace(lighten_frame(frames[i], set.dataset.features, target, number, source));
-      if (set.dataset.frames[i].release) set.dataset.frames[i].release();  // read to be mapped; read again later
-    } catch (...) {
-      errors[i] = std::current_exception();
-    }
+  set.lightened = frames_made_in_parallel(set, frames.size(), [&](std::size_t i, const forest::FrameData&) {
+    return lighten_frame(frames[i], set.dataset.features, target, frame_number(set, i), source);
   });
-  for (std::size_t i = 0; i < n; ++i)
-    if (errors[i]) std::rethrow_exception(errors[i]);
-  for (std::size_t i = 0; i < n; ++i) set.lightened.push_back(std::move(*copies[i]));
   set.dataset.frames = std::move(frames);
 }
 
