@@ -481,6 +481,7 @@ FrameStack FrameStack::exposed_copy(const forest::FrameData& frame, const std::v
   FrameStack s;
   s.frame_ = frame_number;
   s.size_ = cv::Size(frame.width, frame.height);
+  // + 1: a mapping is never empty, even for a frame whose light changes nothing it holds.
   auto scratch = Mapping::scratch(changed * table + (frame.gray ? H * W : 0) + 1);
   char* next = scratch->writable();
   for (std::size_t c = 0; c < plan.size(); ++c) {
@@ -763,7 +764,6 @@ Json training_data_record(const StackSet& set) {
   if (!set.exposures.empty()) record["exposures"] = set.exposures;  // likewise
   return record;
 }
-
 
 FrameStack lighten_frame(forest::FrameData& frame, const std::vector<std::string>& features, double target,
                          int frame_number, const std::string& source) {
