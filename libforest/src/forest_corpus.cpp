@@ -256,8 +256,10 @@ MemoryPlan plan_memory(const Dataset& data, const TrainParams& params) {
   plan.fixed_bytes = kProcess + TestSampler::bytes(data) + threads * frame_bytes + data.frames.size() * 256;
   // The value matrix; tests (corpus and per-frame index); the grower's order, labels and x log x
   // table; the tree (at most 2 Kt / n_min nodes of ~100 bytes with their leaf counts).
+  // The leaf tests: each with its frame reference and the leaf it reaches.
   plan.per_tree_bytes = kt * candidates * sizeof(float) + kt * (sizeof(TestPoint) + 8) + kt * (4 + 1 + 8) +
-                        2 * kt / static_cast<std::size_t>(std::max(1, params.n_min)) * 100;
+                        2 * kt / static_cast<std::size_t>(std::max(1, params.n_min)) * 100 +
+                        static_cast<std::size_t>(params.leaf_tests) * (sizeof(TestPoint) + 8 + 4);
   const std::size_t budget = params.memory_mb << 20;
   plan.trees_at_once = budget > plan.fixed_bytes
                            ? std::min<std::size_t>((budget - plan.fixed_bytes) / plan.per_tree_bytes,

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "smseg/forest/data.hpp"
+#include "smseg/forest/forest.hpp"
 #include "smseg/forest/params.hpp"
 #include "smseg/forest/train.hpp"
 
@@ -49,6 +50,12 @@ Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSam
 /// Fills rows[i] (tests x candidates floats, test-major) for corpora[i], reading each frame once and
 /// releasing it after. Parallel over frames.
 void fill_rows(const Dataset& data, std::span<const Corpus* const> corpora, std::span<float* const> rows);
+
+/// Adds params.leaf_tests more tests to the leaf counts of each of `trees` (trees first_tree, first_tree
+/// + 1, ... of the forest), drawn as the growing tests are (TrainParams::balance) from a stream of each
+/// tree's own; every frame read once and released. Nothing when leaf_tests is 0.
+void count_leaf_tests(const Dataset& data, const TrainParams& params, const TestSampler& sampler,
+                      std::span<Tree> trees, int first_tree);
 
 /// Memory of training, for TrainParams::memory_mb.
 struct MemoryPlan {

@@ -76,6 +76,7 @@ void TrainParams::validate(const std::string& source) const {
   if (n_min < 1) bad("n_min", "must be >= 1, got " + std::to_string(n_min));
   if (!(lightness == 0.0 || (lightness >= 0.05 && lightness <= 0.95)))
     bad("lightness", "must be 0 (off) or in [0.05, 0.95]");
+  if (leaf_tests < 0 || leaf_tests > 100000000) bad("leaf_tests", "must be in [0, 100000000]");
   if (memory_mb < 1 || memory_mb > (std::size_t{1} << 30)) bad("memory_mb", "must be 1 .. 2^30 MiB (1 PiB)");
   if (score != Score::WehenkelPavella && score != Score::InformationGain)
     bad("score", "is not wehenkel-pavella or information-gain");
@@ -162,6 +163,11 @@ const options::Table<TrainParams>& train_params_table() {
              "needs fL; 0: off)",
              [](auto& p) -> auto& { return p.lightness; }, 0.0, 0.95)
         .recorded_unless([](const T& p) { return p.lightness == 0.0; });
+    t.number("leaf_tests", "--leaf-tests",
+             "after a tree has grown on its Kt tests, count this many more in its leaves (drawn as those are): "
+             "the same splits, leaf distributions from Kt + N tests (0: from the Kt)",
+             [](auto& p) -> auto& { return p.leaf_tests; }, 0, 100000000)
+        .recorded_unless([](const T& p) { return p.leaf_tests == 0; });
     t.choice("score", "--score", "split score (wehenkel-pavella: the thesis)", [](auto& p) -> auto& { return p.score; },
              kScoreNames)
         .optional_in_files()  // files written before the option: the thesis's score

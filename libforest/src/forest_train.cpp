@@ -491,6 +491,12 @@ Forest train_forest_trees(const Dataset& data, const TrainParams& params, TreeRa
       tree_seconds[slot] = fill_seconds + seconds_since(tt);
       progress.tick();
     });
+    const auto tl = Clock::now();
+    detail::count_leaf_tests(data, params, sampler,
+                             std::span(forest.trees).subspan(static_cast<std::size_t>(first - range.begin),
+                                                             static_cast<std::size_t>(in_batch)),
+                             first);
+    for (int i = 0; i < in_batch; ++i) tree_seconds[static_cast<std::size_t>(first + i - range.begin)] += seconds_since(tl) / in_batch;
   }
   progress.finish();
   forest.compute_stats();

@@ -173,14 +173,24 @@ TEST(ForestFile, CompatibilityWithTheDataIsChecked) {
   }
 }
 
-TEST(ForestFile, LightnessIsSavedOnlyWhenOnAndChecked) {
+// Parameters recorded only when on (lightness, leaf_tests): a forest without them is written as before;
+// a file with one reads it back and writes it again; a value out of range is refused on reading.
+TEST(ForestFile, ParametersRecordedOnlyWhenOnAreReadBackAndChecked) {
   const Fixture fx;
-  EXPECT_FALSE(forest_to_json(fx.forest)["params"].contains("lightness"));  // off: files as before
-  const Forest on = fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.45; });
-  EXPECT_EQ(on.params.lightness, 0.45);
-  EXPECT_EQ(params_to_json(on.params)["lightness"], 0.45);
-  EXPECT_THROW(fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.99; }), smseg::Error);
-  EXPECT_THROW(fx.load_edited([](smseg::Json& j) { j["params"]["lightness"] = 0.01; }), smseg::Error);
+  struct Case {
+    const char* key;
+    smseg::Json on, too_low, too_high;
+  };
+  const Case cases[] = {{"lightness", 0.45, 0.01, 0.99}, {"leaf_tests", 1000000, -1, 100000001}};
+  for (const Case& c : cases) {
+    EXPECT_FALSE(forest_to_json(fx.forest)["params"].contains(c.key)) << c.key;  // off: files as before
+    const Forest on = fx.load_edited([&](smseg::Json& j) { j["params"][c.key] = c.on; });
+    EXPECT_EQ(params_to_json(on.params)[c.key], c.on) << c.key;
+    for (const smseg::Json& bad : {c.too_low, c.too_high})
+      EXPECT_THROW(fx.load_edited([&](smseg::Json& j) { j["params"][c.key] = bad; }), smseg::Error) << c.key << " " << bad;
+  }
+  EXPECT_EQ(fx.load_edited([](smseg::Json& j) { j["params"]["leaf_tests"] = 7; }).params.leaf_tests, 7);
+  EXPECT_THROW(fx.load_edited([](smseg::Json& j) { j["params"]["leaf_tests"] = 2.5; }), smseg::Error);
 }
 
 TEST(ForestFile, SplitScoreIsSavedAndOldFilesReadAsTheDefault) {

@@ -62,6 +62,15 @@ double accuracy_on(const Classifier& clf, const Dataset& d, const std::vector<st
   return static_cast<double>(right) / static_cast<double>(n);
 }
 
+// A forest grown to pure leaves on the separable toy: one test per leaf is enough.
+TrainParams pure_leaves(int trees) {
+  TrainParams p;
+  p.K = 150;
+  p.M = trees;
+  p.n_min = 1;
+  return p;
+}
+
 SyntheticOptions small_room(std::uint64_t seed) {
   SyntheticOptions o;
   o.width = 80;
@@ -76,10 +85,7 @@ SyntheticOptions small_room(std::uint64_t seed) {
 
 TEST(Train, SeparableToyIsLearnedPerfectly) {
   const Separable toy(6);
-  TrainParams p;
-  p.K = 150;
-  p.M = 1;
-  p.n_min = 1;
+  TrainParams p = pure_leaves(1);
   const Forest f = train_forest(toy.data, p);
   const Classifier clf(f);
   // Every training test lands in a pure leaf of its own class...
@@ -178,6 +184,65 @@ TEST(Train, SameForestWhateverTheThreadCount) {
     }
     EXPECT_EQ(one, two) << "textons " << textons;
     EXPECT_EQ(one, sequential) << "textons " << textons;
+  }
+}
+
+// Leaf tests (TrainParams::leaf_tests) change the leaf counts only: every split as the tree grew it,
+// every leaf with at least what it had, each tree Kt + leaf_tests tests in all; the same bytes on one
+// thread as on two.
+TEST(Train, LeafTestsAddToTheLeavesAndKeepTheSplits) {
+  const SyntheticData s = make_synthetic(small_room(8));
+  for (const bool textons : {false, true}) {
+    TrainParams p;
+    p.K = 150;
+    p.M = 3;
+    p.textons = textons;
+    p.balance = Balance::Sqrt;
+    const Forest grown = train_forest(s.data, p);
+    p.leaf_tests = 4000;
+    std::string one;
+    {
+      tbb::global_control g(tbb::global_control::max_allowed_parallelism, 1);
+      one = model_bytes(train_forest(s.data, p));
+    }
+    const Forest counted = train_forest(s.data, p);
+    EXPECT_EQ(model_bytes(counted), one) << "textons " << textons;
+    for (std::size_t t = 0; t < grown.trees.size(); ++t) {
+      const auto& a = grown.trees[t].nodes;
+      const auto& b = counted.trees[t].nodes;
+      ASSERT_EQ(a.size(), b.size());
+      std::uint64_t total = 0, added = 0;
+      for (std::size_t i = 0; i < a.size(); ++i) {
+        ASSERT_EQ(a[i].feature, b[i].feature);
+        ASSERT_EQ(a[i].win, b[i].win);
+        ASSERT_EQ(a[i].threshold, b[i].threshold);
+        ASSERT_EQ(a[i].left, b[i].left);
+        if (!a[i].is_leaf()) continue;
+        for (std::size_t c = 0; c < a[i].counts.size(); ++c) {
+          ASSERT_GE(b[i].counts[c], a[i].counts[c]);
+          total += b[i].counts[c];
+          added += b[i].counts[c] - a[i].counts[c];
+        }
+      }
+      EXPECT_EQ(total, static_cast<std::uint64_t>(p.kt() + p.leaf_tests));
+      EXPECT_EQ(added, static_cast<std::uint64_t>(p.leaf_tests));
+    }
+  }
+}
+
+// They reach the leaves the classifier routes them to: on a separable toy, grown to pure leaves, every
+// leaf test lands in a leaf of its own class (a test routed by other windows or thresholds would not).
+TEST(Train, LeafTestsOfASeparableToyLandInLeavesOfTheirClass) {
+  const Separable toy(6);
+  TrainParams p = pure_leaves(2);
+  p.leaf_tests = 3000;
+  const Forest f = train_forest(toy.data, p);
+  for (const Tree& tree : f.trees) {
+    for (const Node& n : tree.nodes) {
+      if (n.is_leaf()) {
+        EXPECT_TRUE(n.counts[0] == 0 || n.counts[1] == 0) << n.counts[0] << " " << n.counts[1];
+      }
+    }
   }
 }
 

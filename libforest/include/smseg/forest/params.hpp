@@ -53,6 +53,11 @@ struct TrainParams {
   /// classifies, brought to this mean fL (L* / 100) by the exposure map of its appearance channels; 0:
   /// off. Files without it read as off, and it is left out of them when off.
   double lightness = 0.0;
+  /// After a tree has grown on its Kt tests, its leaves count this many more, drawn as those are (the
+  /// same balance) from a stream of the tree's own: the splits stay the Kt tests', the leaf
+  /// distributions rest on Kt + leaf_tests. 0: the Kt tests alone (the thesis). Files without it read
+  /// as 0, and it is left out of them when 0.
+  int leaf_tests = 0;
   /// Memory budget of training as a whole, in MiB: trees are built in batches of as many as fit
   /// next to the fixed part (process, test sampler, frames being read); a budget that cannot hold
   /// one tree is refused (Error naming memory_mb and what is needed). Frames are read one at a time
