@@ -60,10 +60,22 @@ def load_results(path):
     return results
 
 
-def as_frame_arrays(stack):
-    """(sat, gray) of a stack given as load_stack's dict or as a (work, frame) pair."""
+def as_frame_arrays(stack, features=None):
+    """(sat, gray) of a stack given as load_stack's dict or as a (work, frame) pair.
+
+    features: the channels wanted, by name, in this order (a forest's). A stack that names its channels
+    (load_stack's "features") gives those of its tables, so a work folder with more channels than the
+    forest reads (dense, context) serves it as eval-forest does; one that lacks a channel is refused by
+    name. Without names, the tables are given as they are."""
     if isinstance(stack, tuple) and len(stack) == 2:
         stack = load_stack(*stack)
     if not isinstance(stack, dict) or "sat" not in stack:
         raise Error("stack: expected load_stack's dict (sat, gray, ...) or a (work, frame) pair")
-    return np.asarray(stack["sat"]), stack.get("gray")
+    sat = np.asarray(stack["sat"])
+    names = stack.get("features")
+    if features is not None and names is not None and list(names) != list(features):
+        missing = [f for f in features if f not in names]
+        if missing:
+            raise Error(f"stack: features: has no channel {missing[0]} (the forest reads {', '.join(features)})")
+        sat = np.ascontiguousarray(sat[[list(names).index(f) for f in features]])
+    return sat, stack.get("gray")

@@ -107,24 +107,35 @@ def _table(estimator, X, y=_NO_Y, reset=True):
     return X, y
 
 
+def _balance_name(balance):
+    """train-forest's --balance value of the estimator's balance (a name, or True / False as before)."""
+    if balance is True or balance is False:
+        return "classes" if balance else "none"
+    if balance in ("none", "sqrt", "classes"):
+        return balance
+    raise Error(f"balance: expected \"none\", \"sqrt\", \"classes\" (or True / False), got {balance!r}")
+
+
 class ExtraTreesWindowClassifier(_Estimator):
     """train-forest as an estimator: extremely randomized trees over sampling windows on feature stacks.
 
     n_estimators: trees (train-forest -M); k: windows and tests per tree (-K; ks, kt override each);
-    windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance: draw
-    tests per class (--balance classes); criterion: the split score, train-forest's --score
-    ("wehenkel-pavella" | "information-gain"); n_min, textons, features, lightness: as train-forest's
-    options (lightness: every frame brought to this mean fL in fit and predict alike; 0: off);
+    windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance:
+    train-forest's --balance, "none" | "sqrt" | "classes" (True: "classes", False: "none"); criterion: the split score, train-forest's --score
+    ("wehenkel-pavella" | "information-gain"); n_min, textons, features, lightness, leaf_tests: as
+    train-forest's options (lightness: every frame brought to this mean fL in fit and predict alike; 0:
+    off; leaf_tests: tests each tree's leaves count besides the Kt it grew on; 0: none);
     seed: same seed and inputs, same forest file as train-forest; n_jobs: threads (0: all cores; the
     forest does not depend on it). predict returns class positions (indices into classes_).
     """
 
     def __init__(self, n_estimators=7, k=400, windows="uniform", balance=False, seed=1, n_jobs=0, ks=None,
                  kt=None, n_min=5, criterion="wehenkel-pavella", textons=False, features=None, learned_from=None,
-                 lightness=0.0):
+                 lightness=0.0, leaf_tests=0):
         self.n_estimators, self.k, self.windows, self.balance, self.seed = n_estimators, k, windows, balance, seed
         self.n_jobs, self.ks, self.kt, self.n_min, self.criterion = n_jobs, ks, kt, n_min, criterion
         self.textons, self.features, self.learned_from, self.lightness = textons, features, learned_from, lightness
+        self.leaf_tests = leaf_tests
 
     def fit(self, stacks, frames="0:", progress=False):
         """Trains on the labelled frames inside `frames` ("A:B", half-open) of one or more work folders."""
@@ -133,8 +144,9 @@ class ExtraTreesWindowClassifier(_Estimator):
             works=[os.fspath(w) for w in works], frames=frames, K=int(self.k), Ks=int(self.ks or 0),
             Kt=int(self.kt or 0), M=int(self.n_estimators), n_min=int(self.n_min), seed=int(self.seed),
             windows=self.windows, learned_from=[os.fspath(f) for f in (self.learned_from or [])],
-            balance=bool(self.balance), criterion=self.criterion, textons=bool(self.textons),
-            features=list(self.features or []), lightness=float(self.lightness), n_jobs=int(self.n_jobs),
+            balance=_balance_name(self.balance), criterion=self.criterion, textons=bool(self.textons),
+            features=list(self.features or []), lightness=float(self.lightness),
+            leaf_tests=int(self.leaf_tests), n_jobs=int(self.n_jobs),
             progress=bool(progress))
         self._set_fitted_attributes()
         return self
@@ -145,7 +157,7 @@ class ExtraTreesWindowClassifier(_Estimator):
 
     def _classify(self, stack):
         _check_fitted(self)
-        sat, gray = as_frame_arrays(stack)
+        sat, gray = as_frame_arrays(stack, self.features_)
         return self.model_.classify(sat, gray if self.model_.textons else None)
 
     def predict(self, stack):
@@ -168,9 +180,9 @@ class ExtraTreesWindowClassifier(_Estimator):
         """An estimator from a forest file (train-forest's or save's), its parameters from the file."""
         model = _smseg.WindowForest.load(os.fspath(path))
         p = model.to_json()["params"]
-        est = cls(n_estimators=p["M"], k=p["K"], windows=p["windows"]["mode"], balance=p["balance"] == "classes",
+        est = cls(n_estimators=p["M"], k=p["K"], windows=p["windows"]["mode"], balance=p["balance"],
                   seed=p["seed"], ks=p["Ks"], kt=p["Kt"], n_min=p["n_min"], criterion=p["score"], textons=p["textons"],
-                  lightness=p.get("lightness", 0.0))
+                  lightness=p.get("lightness", 0.0), leaf_tests=p.get("leaf_tests", 0))
         est.model_ = model
         est._set_fitted_attributes()
         return est

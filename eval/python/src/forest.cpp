@@ -46,9 +46,9 @@ struct WindowForest {
 
 struct WindowTrainArgs {
   std::vector<std::string> works;
-  std::string frames = "0:", windows = "uniform", criterion = "wehenkel-pavella";
+  std::string frames = "0:", windows = "uniform", criterion = "wehenkel-pavella", balance = "none";
   std::vector<std::string> learned_from, features;
-  bool balance = false, progress = false;
+  bool progress = false;
   int n_jobs = 0;
 };
 
@@ -56,7 +56,7 @@ struct WindowTrainArgs {
 std::shared_ptr<WindowForest> fit_window_forest(const WindowTrainArgs& a, forest::TrainParams p) {
   const auto limit = limit_threads(a.n_jobs);
   p.windows.mode = forest::window_sampling_from_string(a.windows, "windows");
-  p.balance = a.balance ? forest::Balance::Classes : forest::Balance::None;
+  p.balance = forest::balance_from_string(a.balance, "balance");
   p.score = forest::score_from_string(a.criterion, "criterion");
   if (p.windows.mode == forest::WindowSampling::Learned) {
     if (a.learned_from.empty()) throw Error("", "learned_from", "windows='learned' needs the forests to learn from");
@@ -200,16 +200,17 @@ void bind_forest(py::module_& m) {
 
   m.def("fit_window_forest", [](std::vector<std::string> works, std::string frames, int K, int Ks, int Kt, int M,
                                 int n_min, std::uint64_t seed, std::string windows, std::vector<std::string> learned_from,
-                                bool balance, std::string criterion, bool textons, std::vector<std::string> features,
-                                double lightness, int n_jobs, bool progress) {
+                                std::string balance, std::string criterion, bool textons, std::vector<std::string> features,
+                                double lightness, int leaf_tests, int n_jobs, bool progress) {
     forest::TrainParams p;
     p.K = K, p.Ks = Ks, p.Kt = Kt, p.M = M, p.n_min = n_min, p.seed = seed, p.textons = textons;
-    p.lightness = lightness;
+    p.lightness = lightness, p.leaf_tests = leaf_tests;
     return fit_window_forest({std::move(works), std::move(frames), std::move(windows), std::move(criterion),
-                              std::move(learned_from), std::move(features), balance, progress, n_jobs}, p);
+                              std::move(balance), std::move(learned_from), std::move(features), progress, n_jobs}, p);
   }, py::arg("works"), py::arg("frames"), py::arg("K"), py::arg("Ks"), py::arg("Kt"), py::arg("M"), py::arg("n_min"),
      py::arg("seed"), py::arg("windows"), py::arg("learned_from"), py::arg("balance"), py::arg("criterion"),
-     py::arg("textons"), py::arg("features"), py::arg("lightness"), py::arg("n_jobs"), py::arg("progress"));
+     py::arg("textons"), py::arg("features"), py::arg("lightness"), py::arg("leaf_tests"), py::arg("n_jobs"),
+     py::arg("progress"));
 
   py::class_<TabularForest, std::shared_ptr<TabularForest>>(m, "TabularForest")
       .def("predict_proba", &tabular_proba, py::arg("X"))

@@ -28,6 +28,37 @@ def test_fit_writes_train_forests_file(corridor, run_tool, tmp_path):
         without_timings((tmp_path / "tool.json").read_text())
 
 
+def test_sqrt_balance_and_leaf_tests_as_train_forest(corridor, run_tool, tmp_path):
+    _, work = corridor
+    tool = run_tool("train-forest", work, "--train-frames", "0:13", "-K", 60, "-M", 3, "--seed", 7,
+                    "--balance", "sqrt", "--leaf-tests", 500, "-o", tmp_path / "tool.json")
+    assert tool.returncode == 0, tool.stderr
+    clf = smseg.ExtraTreesWindowClassifier(balance="sqrt", leaf_tests=500, **TRAIN).fit(work, frames="0:13")
+    clf.save(tmp_path / "python.json")
+    assert without_timings((tmp_path / "python.json").read_text()) == \
+        without_timings((tmp_path / "tool.json").read_text())
+    loaded = smseg.ExtraTreesWindowClassifier.load(tmp_path / "tool.json").get_params()
+    assert loaded["balance"] == "sqrt" and loaded["leaf_tests"] == 500  # as trained, not "unbalanced"
+    without = smseg.ExtraTreesWindowClassifier(balance="sqrt", **TRAIN).fit(work, frames="0:13")
+    assert without.model_.to_json()["trees"] != clf.model_.to_json()["trees"]  # the leaves counted more
+    with pytest.raises(smseg.Error, match="balance"):
+        smseg.ExtraTreesWindowClassifier(balance="half", **TRAIN).fit(work, frames="0:13")
+
+
+def test_predict_reads_the_forests_channels_by_name(corridor):
+    _, work = corridor
+    stack = smseg.load_stack(work, 20)
+    wanted = [stack["features"][i] for i in (3, 0)]  # a subset, out of order
+    clf = smseg.ExtraTreesWindowClassifier(features=wanted, **TRAIN).fit(work, frames="0:13")
+    assert list(clf.features_) == wanted
+    by_name = clf.predict(stack)  # every channel of the work folder: the forest's picked by name
+    picked = {"sat": np.ascontiguousarray(stack["sat"][[3, 0]]), "gray": stack["gray"]}
+    np.testing.assert_array_equal(by_name, clf.predict(picked))
+    lacking = dict(stack, sat=stack["sat"][1:], features=stack["features"][1:])
+    with pytest.raises(smseg.Error, match=f"no channel {wanted[1]}"):
+        clf.predict(lacking)
+
+
 def test_predict_scores_as_eval_forest(corridor, run_tool, tmp_path):
     _, work = corridor
     clf = smseg.ExtraTreesWindowClassifier(**TRAIN).fit(work, frames="0:13")
