@@ -68,6 +68,31 @@ print("cross-validation.json: ok")
 PY
 grep -q "| six | 1 |" "$tmp/out/cross-validation.md" || { echo "FAIL: no table row for six at power 1"; exit 1; }
 
+# decision_rules.py on the finished run (with the Python module): its prior-power family, every pixel
+# kept, is eval-forest's per-pixel labelling (six is not smoothed), so its fold means at P = 0 and 1 are
+# the cross-validation's (to float rounding of ties: the module weights the summed posterior, the
+# classifier each leaf).
+if /usr/bin/python3 -c "import smseg" 2>/dev/null; then
+  /usr/bin/python3 "$src/experiments/camvid/decision_rules.py" "$tmp/out" "$tmp/config.json" six --pixels 100000000 \
+    >"$tmp/rules.txt"
+  /usr/bin/python3 - "$tmp/out" <<'PY'
+import json, os, sys
+out = sys.argv[1]
+cv = json.load(open(os.path.join(out, "cross-validation.json")))["summary"]["six"]
+rules = json.load(open(os.path.join(out, "decision-rules-six.json")))
+assert rules["folds"] == 3, rules["folds"]
+for power in ("0", "1"):
+    g, c = rules["power"][power]
+    assert abs(g - 100 * cv[power]["global"]["mean"]) < 0.05, (power, g, cv[power]["global"]["mean"])
+    assert abs(c - 100 * cv[power]["class_average"]["mean"]) < 0.05, (power, c, cv[power]["class_average"]["mean"])
+fitted = rules["fitted_on_held_out"]["global_class_average"]
+assert sum(fitted) >= sum(rules["power"]["0.25"]) - 1e-9, (fitted, rules["power"]["0.25"])  # it starts there
+print("decision-rules-six.json: ok")
+PY
+else
+  echo "decision_rules.py: not checked (the Python module is not built)"
+fi
+
 refused() {  # CONFIG PATTERN WHAT: cross-validate with CONFIG on OUT exits 1 with one line matching PATTERN
   local code
   set +e
