@@ -84,6 +84,12 @@ TEST(ForestParts, MergedPartsAreTheWholeForestTimingAside) {
   double sum = 0;
   for (const auto& f : files) sum += load_forest_part(f).forest.stats.seconds;
   EXPECT_DOUBLE_EQ(merged.stats.seconds, sum);
+  // Leaf tests are drawn per tree too: parts with them merge to the whole forest with them.
+  TrainParams counted = params(5);
+  counted.leaf_tests = 2000;
+  const Forest whole_counted = train_forest(s.data, counted);
+  EXPECT_NE(model_bytes(whole_counted), model_bytes(whole));
+  EXPECT_EQ(model_bytes(merge_forest_parts(train_parts(s, counted, {{0, 3}, {3, 5}}, dir))), model_bytes(whole_counted));
   fs::remove_all(dir);
 }
 
