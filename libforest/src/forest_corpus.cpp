@@ -199,12 +199,7 @@ void fill_row(const FrameData& frame, const TableView& tables, const Corpus& cor
       row[c] = static_cast<float>((sat[bb] - sat[ab]) - (sat[ba] - sat[aa]));
     }
   }
-  for (; c < n; ++c) {
-    const Candidate& cand = cands[c];
-    const auto f = static_cast<std::size_t>(cand.feature);
-    row[c] = f < F ? static_cast<float>(window_sum(frame.sats[f], W, H, t.x, t.y, rel_rect(cand.win)))
-                   : texton_value(frame.gray, W, H, t.x, t.y, cand.win.dx, cand.win.dy, static_cast<int>(f - F));
-  }
+  for (; c < n; ++c) row[c] = attribute_value(frame, cands[c].feature, cands[c].win, t.x, t.y);
 }
 }  // namespace
 

@@ -51,6 +51,15 @@ Corpus draw_corpus(const Dataset& data, const TrainParams& params, const TestSam
 /// releasing it after. Parallel over frames.
 void fill_rows(const Dataset& data, std::span<const Corpus* const> corpora, std::span<float* const> rows);
 
+/// Attribute `attribute`'s value at pixel (x, y) of a frame: the window's sum of a table for a window
+/// feature, a texton test on the greyscale after them. The values the grower splits, bit for bit.
+inline float attribute_value(const FrameData& frame, int attribute, const Window& win, int x, int y) {
+  const int F = static_cast<int>(frame.sats.size());
+  return attribute < F ? static_cast<float>(window_sum(frame.sats[static_cast<std::size_t>(attribute)], frame.width,
+                                                       frame.height, x, y, rel_rect(win)))
+                       : texton_value(frame.gray, frame.width, frame.height, x, y, win.dx, win.dy, attribute - F);
+}
+
 /// Adds params.leaf_tests more tests to the leaf counts of each of `trees` (trees first_tree, first_tree
 /// + 1, ... of the forest), drawn as the growing tests are (TrainParams::balance) from a stream of each
 /// tree's own; every frame read once and released. Nothing when leaf_tests is 0.

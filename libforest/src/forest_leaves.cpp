@@ -16,17 +16,13 @@ std::uint64_t leaf_test_seed(std::uint64_t seed, int tree) noexcept {
 }
 
 /// The leaf (node index) a test at (x, y) reaches: the decisions the trainer and the classifier make
-/// (float value < threshold; window_sum's and texton_value's values, bit for bit).
+/// (the grower's float value < threshold).
 std::int32_t leaf_reached(const Tree& tree, const FrameData& frame, int x, int y) {
-  const int W = frame.width, H = frame.height, F = static_cast<int>(frame.sats.size());
   std::int32_t i = 0;
   for (;;) {
     const Node& n = tree.nodes[static_cast<std::size_t>(i)];
     if (n.is_leaf()) return i;
-    const float v = n.feature < F ? static_cast<float>(window_sum(frame.sats[static_cast<std::size_t>(n.feature)], W,
-                                                                  H, x, y, rel_rect(n.win)))
-                                  : texton_value(frame.gray, W, H, x, y, n.win.dx, n.win.dy, n.feature - F);
-    i = v < n.threshold ? n.left : n.right;
+    i = attribute_value(frame, n.feature, n.win, x, y) < n.threshold ? n.left : n.right;
   }
 }
 }  // namespace
