@@ -46,14 +46,13 @@ def forest_prior(forest_json):
     return counts / counts.sum()
 
 
-def fold_pixels(out, held, run, forest_path, pixels, rng):
+def fold_pixels(out, held, run, clf, pixels, rng):
     """(posteriors float32 [n, C], labels uint8 [n]) of up to `pixels` labelled pixels of the held-out run."""
     evals = sorted(e for e in os.listdir(os.path.join(out, "folds", held, run)) if e.startswith("eval-fold-p"))
     if not evals:
         cross_validate.fail(f"{out}/folds/{held}/{run}: no eval-fold-p* (run cross-validate.sh first)")
     with open(os.path.join(out, "folds", held, run, evals[0], "results.json")) as f:
         works = json.load(f)["params"]["works"]
-    clf = smseg.ExtraTreesWindowClassifier.load(forest_path)
     q, y = [], []
     for work in works:
         for frame in smseg.stack_manifest(work)["labelled_frames"]:
@@ -117,10 +116,10 @@ def main():
             continue
         if not os.path.isfile(forest_path):
             cross_validate.fail(f"{forest_path}: missing (run cross-validate.sh with {a.config} first)")
-        with open(forest_path) as f:
-            forest = json.load(f)
+        clf = smseg.ExtraTreesWindowClassifier.load(forest_path)
+        forest = clf.model_.to_json()
         balance = forest["params"]["balance"]
-        q, y = fold_pixels(a.out, held, a.run, forest_path, a.pixels, rng)
+        q, y = fold_pixels(a.out, held, a.run, clf, a.pixels, rng)
         folds.append((q, y, forest_prior(forest)))
         print(f"{held}: {len(y)} pixels", flush=True)
     if not folds:

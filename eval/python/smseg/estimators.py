@@ -108,12 +108,13 @@ def _table(estimator, X, y=_NO_Y, reset=True):
 
 
 def _balance_name(balance):
-    """train-forest's --balance value of the estimator's balance (a name, or True / False as before)."""
-    if balance is True or balance is False:
+    """train-forest's --balance value of the estimator's balance: True / False (as before) name classes /
+    none; a name goes as it is to the trainer, which refuses an unknown one naming balance."""
+    if isinstance(balance, (bool, np.bool_)):
         return "classes" if balance else "none"
-    if balance in ("none", "sqrt", "classes"):
-        return balance
-    raise Error(f"balance: expected \"none\", \"sqrt\", \"classes\" (or True / False), got {balance!r}")
+    if not isinstance(balance, str):
+        raise Error(f"balance: expected none, sqrt, classes (or True / False), got {balance!r}")
+    return balance
 
 
 class ExtraTreesWindowClassifier(_Estimator):
@@ -121,8 +122,8 @@ class ExtraTreesWindowClassifier(_Estimator):
 
     n_estimators: trees (train-forest -M); k: windows and tests per tree (-K; ks, kt override each);
     windows: "uniform" | "thesis-biased" | "learned" (with learned_from: forest files); balance:
-    train-forest's --balance, "none" | "sqrt" | "classes" (True: "classes", False: "none"); criterion: the split score, train-forest's --score
-    ("wehenkel-pavella" | "information-gain"); n_min, textons, features, lightness, leaf_tests: as
+    train-forest's --balance, "none" | "sqrt" | "classes" (True: "classes", False: "none"); criterion:
+    the split score, train-forest's --score ("wehenkel-pavella" | "information-gain"); n_min, textons, features, lightness, leaf_tests: as
     train-forest's options (lightness: every frame brought to this mean fL in fit and predict alike; 0:
     off; leaf_tests: tests each tree's leaves count besides the Kt it grew on; 0: none);
     seed: same seed and inputs, same forest file as train-forest; n_jobs: threads (0: all cores; the
