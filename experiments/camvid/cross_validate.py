@@ -25,10 +25,13 @@ CONFIG (JSON):
                                                                         (a dictionary learned per fold on
                                                                         its training folders, add-textons
                                                                         on every folder it reads)
+                     "people": [add-people options],                   optional: people-detector channels
+                                                                        fHogD, fHogI (add-people on every
+                                                                        folder, once for all folds)
                      "eval": [eval-forest options],
                      "forest": [...]}, ...}}                           optional: this run's own forest options
 
-OUT: sequences/, work/{train,test}/, folds/HELD/ (forests/, context/ and textons/ under a digest of their
+OUT: sequences/, work/{train,test}/, people/ (add-people's folders), folds/HELD/ (forests/, context/ and textons/ under a digest of their
 options, shared by the runs that share them; NAME/eval-{fold,whole}-p<power>/results.json),
 cross-validation.json (every fold's figures, and per run and power the mean and sample standard
 deviation over the folds of global, class-average and mean IoU, and per-class means), and
@@ -100,8 +103,8 @@ def load_config(path):
         if not isinstance(r, dict) or "train" not in r:
             fail(f"{path}: runs.{name}.train: expected a list of train-forest options")
         for key, value in r.items():
-            if key not in ("train", "context", "eval", "forest", "textons"):
-                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest, textons)")
+            if key not in ("train", "context", "eval", "forest", "textons", "people"):
+                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest, textons, people)")
             if not strings(value):
                 fail(f"{path}: runs.{name}.{key}: expected a list of options (strings)")
     powers = config.setdefault("prior_power", [0])
@@ -258,6 +261,25 @@ def texton_works(bin_dir, fold, spec, train_works, works, label):
     return [os.path.join(out, os.path.basename(w)) for w in works]
 
 
+def people_works(bin_dir, out, spec, train, test, phases):
+    """With "people": the run's train, test and phase folders as add-people's folders that extend them
+    (made once per options and side, for every fold: the detectors learn nothing from the folds);
+    otherwise as they are."""
+    if "people" not in spec:
+        return train, test, phases
+    key = digest(spec["people"])
+    sides = {"train": list(train.values()), "test": list(test.values()) + [w for ws in phases.values() for w in ws]}
+    for side, works in sides.items():
+        folder = os.path.join(out, "people", f"{key}-{side}")
+        if not os.path.isfile(os.path.join(folder, ".done")):
+            shutil.rmtree(folder, ignore_errors=True)
+            run([f"{bin_dir}/add-people"] + works + spec["people"] + ["-q", "-o", folder])
+            open(os.path.join(folder, ".done"), "w").close()
+    extended = lambda side, w: os.path.join(out, "people", f"{key}-{side}", os.path.basename(w))
+    return ({r: extended("train", w) for r, w in train.items()}, {r: extended("test", w) for r, w in test.items()},
+            {r: [extended("test", w) for w in ws] for r, ws in phases.items()})
+
+
 def evaluate(bin_dir, spec, forest, works, folder, power):
     results = os.path.join(folder, "results.json")
     if not os.path.isfile(results):
@@ -271,6 +293,7 @@ def evaluate(bin_dir, spec, forest, works, folder, power):
 
 def run_fold(bin_dir, config, name, held, train, test, phases):
     spec = config["runs"][name]
+    train, test, phases = people_works(bin_dir, config["out"], spec, train, test, phases)
     fold = os.path.join(config["out"], "folds", held)
     train_works = [w for run_name, w in sorted(train.items()) if run_name != held]
     first, forest = train_run(bin_dir, config, spec, train_works, fold)
@@ -383,7 +406,7 @@ def main():
         fail("--jobs: expected at least 1")
     bin_dir = os.path.abspath(os.environ.get("SMSEG_BIN", "build/bin"))
     for tool in ("import-camvid", "extract-features", "train-forest", "eval-forest", "add-context", "learn-textons",
-                 "add-textons"):
+                 "add-textons", "add-people"):
         if not os.access(os.path.join(bin_dir, tool), os.X_OK):
             fail(f"{bin_dir}/{tool}: missing (set SMSEG_BIN)")
     camvid = os.path.abspath(a.camvid)

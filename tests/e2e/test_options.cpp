@@ -167,6 +167,8 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"learn-textons", {"{W} --samples 0 -o {O}.json", 2, "--samples"}},
       {"learn-textons", {"{W} --frames 500: -o {O}.json", 1, "500:"}},
       {"add-textons", {"{F} {W} -o {O}", 1, "format"}},  // a forest given as the dictionary
+      {"add-people", {"{W} --frames 500: -o {O}", 1, "500:"}},
+      {"add-people", {"{F} -o {O}", 1, "no such work folder"}},  // a forest file given as the work folder
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --threads -3 -o {O}", 2, "--threads"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --memory-mb 0 -o {O}", 2, "--memory-mb"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --max-points -1 -o {O}", 2, "--max-points"}},

@@ -186,6 +186,7 @@ def tool_base(tool, option_help):
     return {
         "add-context": ["forest.json", "w", "-o", "{out}", "-q"],
         "add-textons": ["textons.json", "w", "-o", "{out}", "-q"],
+        "add-people": ["w", "-o", "{out}", "-q"],
         "learn-textons": ["w", "-o", "{out}.json", "-q"],
         "check-sequence": ["seq"],
         "eval-forest": ["forest.json", "w", "-o", "{out}", "-q"],

@@ -8,6 +8,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/people.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/stacks/stack.hpp"
 #include "smseg/stacks/textons.hpp"
@@ -19,9 +20,11 @@ namespace {
 using names::in;
 using names::starts_with;
 
-/// Channels that do not see the light: the geometry's and the pixel's position.
+/// Channels that do not see the light: the geometry's, the pixel's position, and the people detectors'
+/// (HOG divides each block's gradients by their norm, and the model scales every gradient alike).
 bool blind_to_light(const std::string& name) {
-  return in(structure_feature_names(), name) || in(dense_feature_names(), name) || name == "fRow" || name == "fCol";
+  return in(structure_feature_names(), name) || in(dense_feature_names(), name) || name == "fRow" || name == "fCol" ||
+         is_people_feature(name);
 }
 
 std::string number_text(double k) {

@@ -2,9 +2,8 @@
 #include <cstdio>
 #include <iostream>
 
-#include "smseg/common/cli.hpp"
-#include "smseg/common/options.hpp"
-#include "smseg/common/output.hpp"
+#include "extending_cli.hpp"
+#include "smseg/stacks/extension.hpp"
 #include "smseg/stacks/textons.hpp"
 
 int main(int argc, char** argv) {
@@ -19,27 +18,18 @@ int main(int argc, char** argv) {
       "The colour images come from the sequences the folders were extracted from. OUT is built beside\n"
       "itself and swapped in whole at the end. See docs/camvid.md, \"Textons\".",
       "add-textons"};
-  std::string dictionary_file, out, frames = "0:";
-  std::vector<std::string> works;
-  int threads = 0;
-  bool quiet = false;
+  std::string dictionary_file;
+  ExtendingCli cli;
   app.add_option("DICTIONARY", dictionary_file, "texton dictionary (learn-textons)")->required();
-  app.add_option("WORK", works, "work folders (from extract-features, or folders that extend them)")->required();
-  app.add_option("--frames", frames, "frames written, A:B half-open")->capture_default_str();
-  add_threads_option(app, threads, "the output does not depend on it");
-  app.add_flag("-q,--quiet", quiet, "no progress on stderr");
-  app.add_option("-o,--out", out, "output folder: OUT/<name of each WORK>/")->required();
-  return run_tool(app, argc, argv, threads, [&] {
-    const stacks::FrameRange range = stacks::FrameRange::parse(frames, "--frames");
-    const OutputLock one_writer(out, paths_of(works, {dictionary_file}));
+  cli.add_to(app);
+  return run_tool(app, argc, argv, cli.threads, [&] {
     const stacks::TextonDictionary dictionary = stacks::load_texton_dictionary(dictionary_file);
-    FolderReplacement replacement(out);
-    const std::vector<fs::path> outs = folders_by_name(works, replacement.staging());
-    const int written = stacks::add_texton_channels(dictionary, dictionary_file,
-                                                    std::vector<fs::path>(works.begin(), works.end()), outs, range, !quiet);
-    replacement.commit();
-    std::printf("%d frames of %zu work folders with %d texton channels -> %s\n", written, works.size(),
-                dictionary.count(), out.c_str());
+    const int written = stacks::write_extending_folders(
+        cli.works, cli.out, cli.frames, {dictionary_file}, [&](const auto& ins, const auto& outs, const auto& range) {
+          return stacks::add_texton_channels(dictionary, dictionary_file, ins, outs, range, !cli.quiet);
+        });
+    std::printf("%d frames of %zu work folders with %d texton channels -> %s\n", written, cli.works.size(),
+                dictionary.count(), cli.out.c_str());
     return 0;
   });
 }
