@@ -5,7 +5,7 @@
 #               image / label folders it names (train, trainannot, val, valannot, and optionally test,
 #               testannot). With test rows in frames.csv it trains on train + val and tests on test;
 #               without, it trains on train and tests on val.
-#   OUT         output folder: sequences/, work/, forests/, context/, eval/, measure/ and summary.json
+#   OUT         output folder: sequences/, work/, people/, forests/, context/, eval/, measure/ and summary.json
 # Runs, all with Ks = 400, Kt = 20000, M = 7 (the headline appearance forest M = 20, Kt = 60000, --lightness 0.45), seed 1 and every
 # other option at its default. The two headline runs are the ones the leave-one-run-out cross-validation
 # chose (docs/camvid.md, "Choosing by cross-validation", cross-validate.sh):
@@ -14,10 +14,11 @@
 #                    fZV fZI fZH fZU fZE, not fZC: see sm_path; runs filmed faster than 2 Hz sweep 4 m
 #                    baselines, like the 1 Hz runs' one second), --balance sqrt, evaluated with --smooth graphcut
 #                    --smooth-contrast off --lambda 3 (plain Potts: the smoothing reads nothing of the image)
-#   combined         S+M + appearance: the six, the nine image channels fL fA fB fG0..fG3 fRow fCol and the
-#                    texton tests, --balance sqrt, M = 20, Kt = 60000, --lightness 0.45 (every frame brought to
-#                    one mean lightness), evaluated with --smooth graphcut --prior-power 0.25 (each class's
-#                    posterior divided by its training prior to the power 0.25)
+#   combined         S+M + appearance: the six, the nine image channels fL fA fB fG0..fG3 fRow fCol, the two
+#                    people-detector channels fHogD fHogI of add-people (OUT/people/) and the texton tests,
+#                    --balance sqrt, M = 20, Kt = 60000, --lightness 0.45 (every frame brought to one mean
+#                    lightness), evaluated with --smooth graphcut --prior-power 0.25 (each class's posterior
+#                    divided by its training prior to the power 0.25)
 # and one row per lever on its own (the ablation):
 #   sm_six           the six point features only
 #   sm_dense         the six and the five dense geometry channels (no balance, no smoothing)
@@ -29,7 +30,7 @@
 #   combined_smooth  that forest evaluated with --smooth graphcut
 #   combined_context auto-context on it (its features, textons and --balance sqrt), not smoothed
 #   combined_context_smooth  the same, smoothed (the headline before the cross-validation)
-#   combined_forest_m20      the headline's forest (M = 20, Kt = 60000, --lightness 0.45), not smoothed
+#   combined_forest_m20      the headline's forest (M = 20, Kt = 60000, --lightness 0.45, people), not smoothed
 #   combined_smooth_m20      that forest smoothed, without the prior correction (the headline at P = 0)
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
 # OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_path": {...},
@@ -73,8 +74,12 @@ headline_prior_power=0.25
 # +1.8 class average, +1.5 mIoU on the fold means at P = 0.25, nearly all of it on the dusk run;
 # docs/camvid.md, "Lightness normalisation").
 headline_lightness=0.45
+# ... and the two people-detector channels of add-people (fHogD, fHogI: OpenCV's pretrained HOG people
+# detectors, Ladicky et al.'s detector potentials), chosen by the cross-validation (docs/camvid.md,
+# "People detectors"); 17 channels at Kt = 60 000 need a little more than the default 2 GB budget.
+headline_memory_mb=4000
 jobs="${SMSEG_JOBS:-$(nproc)}"
-tools=(import-camvid extract-features train-forest eval-forest add-context)
+tools=(import-camvid extract-features train-forest eval-forest add-context add-people)
 
 # The tools: SMSEG_BIN as given, or build/bin (built when a tool is missing).
 if [[ -n "${SMSEG_BIN:-}" ]]; then
@@ -145,11 +150,20 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 }
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
+people_of() {  # SIDE: add-people's folders that extend that side's work folders (the headline's)
+  local w
+  for w in "$out"/sequences/"$1"/*/; do printf '%s\n' "$out/people/$1/$(basename "$w")"; done
+}
+"$bin/add-people" "${train_works[@]}" -q -o "$out/people/train" >/dev/null
+"$bin/add-people" "${test_works[@]}" -q -o "$out/people/test" >/dev/null
+mapfile -t train_people < <(people_of train)
+mapfile -t test_people < <(people_of test)
 
 echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), sm_path (sm + fZC), combined (+ appearance channels and textons, --balance sqrt; M = 7 and the headline's M = $headline_trees, Kt = $headline_kt, --lightness $headline_lightness)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
-headline=(-K 400 --Kt "$headline_kt" -M "$headline_trees" --lightness "$headline_lightness" --seed 1 -q)
+headline=(-K 400 --Kt "$headline_kt" -M "$headline_trees" --lightness "$headline_lightness" --memory-mb "$headline_memory_mb"
+  --seed 1 -q)
 six=fH,fC,fOx,fOy,fD,fR
 dense=fZV,fZI,fZH,fZU,fZE
 appearance=fL,fA,fB,fG0,fG1,fG2,fG3,fRow,fCol
@@ -165,8 +179,8 @@ python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${common[@]}" \
   -o "$out/forests/combined.json"
 python3 "$summary_py" measure "$out/measure/combined_m20.json" -- \
-  "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${headline[@]}" \
-  -o "$out/forests/combined_m20.json"
+  "$bin/train-forest" "${train_people[@]}" --features $six,$appearance,fHogD,fHogI --textons --balance sqrt \
+  "${headline[@]}" -o "$out/forests/combined_m20.json"
 
 echo "== 4/5 auto-context: the sm_six and combined forests' posteriors (out of 4 folds on the training runs), second forests"
 under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-context's output folders)
@@ -203,11 +217,11 @@ echo "== 5/5 eval-forest on $test_split"
   -o "$out/eval/combined_smooth"
 "$bin/eval-forest" "$out/forests/combined_context.json" "${combined_context_test[@]}" --smooth graphcut --no-pictures \
   -q -o "$out/eval/combined_context_smooth"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_works[@]}" --no-pictures -q -o "$out/eval/combined_forest_m20"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_works[@]}" --smooth graphcut \
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --no-pictures -q -o "$out/eval/combined_forest_m20"
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --smooth graphcut \
   --prior-power "$headline_prior_power" --no-pictures -q \
   -o "$out/eval/combined"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_works[@]}" --smooth graphcut --no-pictures -q \
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --smooth graphcut --no-pictures -q \
   -o "$out/eval/combined_smooth_m20"
 
 cv=()

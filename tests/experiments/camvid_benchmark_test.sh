@@ -58,6 +58,19 @@ for stacks in found:
     assert (features.get("sweep_baseline"), features.get("sweep_reach")) == ((4.0, 24) if fast else (None, None)), (stacks, features)
 print("sweep baselines: ok")
 PY
+# The headline's forest reads the people detectors' channels, from add-people's folders beside the work
+# folders; the M = 7 appearance forest does not.
+python3 - "$tmp/out" <<'PY'
+import json, os, sys
+out = sys.argv[1]
+assert json.load(open(os.path.join(out, "forests", "combined_m20.json")))["features"][-2:] == ["fHogD", "fHogI"]
+assert "fHogD" not in json.load(open(os.path.join(out, "forests", "combined.json")))["features"]
+for side in ("train", "test"):
+    for name in os.listdir(os.path.join(out, "work", side)):
+        m = json.load(open(os.path.join(out, "people", side, name, "stacks.json")))
+        assert m["features"][-2:] == ["fHogD", "fHogI"] and m["base"]["work"].endswith(f"work/{side}/{name}"), m["base"]
+print("people detectors: ok")
+PY
 
 # Bad input: one line naming the file, exit 2, nothing half-made.
 set +e
