@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
       "CPU a 480x360 frame. OUT is built beside itself and swapped in whole at the end. See docs/camvid.md,\n"
       "\"People detectors\".",
       "add-people"};
-  ExtendingCli cli;
+  stacks::ExtendingCli cli;
   cli.add_to(app);
   return run_tool(app, argc, argv, cli.threads, [&] {
     const int written = stacks::write_extending_folders(cli.works, cli.out, cli.frames, {}, [&](const auto& ins, const auto& outs,

@@ -19,7 +19,7 @@ int main(int argc, char** argv) {
       "itself and swapped in whole at the end. See docs/camvid.md, \"Textons\".",
       "add-textons"};
   std::string dictionary_file;
-  ExtendingCli cli;
+  stacks::ExtendingCli cli;
   app.add_option("DICTIONARY", dictionary_file, "texton dictionary (learn-textons)")->required();
   cli.add_to(app);
   return run_tool(app, argc, argv, cli.threads, [&] {

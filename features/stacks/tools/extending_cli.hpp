@@ -6,7 +6,7 @@
 #include "smseg/common/cli.hpp"
 #include "smseg/common/options.hpp"
 
-namespace smseg {
+namespace smseg::stacks {
 
 struct ExtendingCli {
   std::vector<std::string> works;
@@ -24,4 +24,4 @@ struct ExtendingCli {
   }
 };
 
-}  // namespace smseg
+}  // namespace smseg::stacks
