@@ -151,14 +151,16 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 }
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
-people_of() {  # SIDE: add-people's folders that extend that side's work folders (the headline's)
-  local w
-  for w in "$out"/sequences/"$1"/*/; do printf '%s\n' "$out/people/$1/$(basename "$w")"; done
+under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-people's and add-context's output folders)
+  local folder=$1 w
+  shift
+  for w in "$@"; do printf '%s\n' "$folder/$(basename "$w")"; done
 }
+# The headline's folders: the work folders with the people detectors' two channels.
 "$bin/add-people" "${train_works[@]}" -q -o "$out/people/train" >/dev/null
 "$bin/add-people" "${test_works[@]}" -q -o "$out/people/test" >/dev/null
-mapfile -t train_people < <(people_of train)
-mapfile -t test_people < <(people_of test)
+mapfile -t train_people < <(under "$out/people/train" "${train_works[@]}")
+mapfile -t test_people < <(under "$out/people/test" "${test_works[@]}")
 
 echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), sm_path (sm + fZC), combined (+ appearance channels and textons, --balance sqrt; M = 7 and the headline's M = $headline_trees, Kt = $headline_kt, --lightness $headline_lightness, + add-people's fHogD fHogI)"
 mkdir -p "$out/forests" "$out/measure"
@@ -184,11 +186,6 @@ python3 "$summary_py" measure "$out/measure/combined_m20.json" -- \
   "${headline[@]}" -o "$out/forests/combined_m20.json"
 
 echo "== 4/5 auto-context: the sm_six and combined forests' posteriors (out of 4 folds on the training runs), second forests"
-under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-context's output folders)
-  local folder=$1 w
-  shift
-  for w in "$@"; do printf '%s\n' "$folder/$(basename "$w")"; done
-}
 context() {  # FIRST NAME [train-forest options of the second forest...]: OUT/context/FIRST-{train,test},
   # OUT/forests/NAME.json, OUT/eval/NAME
   local first=$1 name=$2

@@ -15,7 +15,7 @@ int main(int argc, char** argv) {
       "how much of it a detector takes for a person (Ladicky et al. 2010's detector potentials). OUT stores\n"
       "only those channels and reads the others, the greyscale and the labels from WORK, which its\n"
       "stacks.json names with a digest (WORK moved or extracted again makes OUT refused: run add-people\n"
-      "again). The colour images come from the sequences the folders were extracted from; about 0.2 s of\n"
+      "again). The colour images come from the sequences the folders were extracted from; about 0.4 s of\n"
       "CPU a 480x360 frame. OUT is built beside itself and swapped in whole at the end. See docs/camvid.md,\n"
       "\"People detectors\".",
       "add-people"};
