@@ -25,6 +25,10 @@ CONFIG (JSON):
                                                                         (a dictionary learned per fold on
                                                                         its training folders, add-textons
                                                                         on every folder it reads)
+                     "hog_classes": [learn-hog-classes options],       optional: HOG class channels fHg<class>
+                                                                        (a model learned per fold on its
+                                                                        training folders, add-hog-classes
+                                                                        on every folder it reads)
                      "people": [add-people options],                   optional: people-detector channels
                                                                         fHogD, fHogI (add-people on every
                                                                         folder, once for all folds)
@@ -103,8 +107,9 @@ def load_config(path):
         if not isinstance(r, dict) or "train" not in r:
             fail(f"{path}: runs.{name}.train: expected a list of train-forest options")
         for key, value in r.items():
-            if key not in ("train", "context", "eval", "forest", "textons", "people"):
-                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest, textons, people)")
+            if key not in ("train", "context", "eval", "forest", "textons", "hog_classes", "people"):
+                fail(f"{path}: runs.{name}.{key}: unknown key (expected train, context, eval, forest, textons, "
+                     "hog_classes, people)")
             if not strings(value):
                 fail(f"{path}: runs.{name}.{key}: expected a list of options (strings)")
     powers = config.setdefault("prior_power", [0])
@@ -217,9 +222,9 @@ def train_run(bin_dir, config, spec, train_works, fold):
     forests = os.path.join(fold, "forests")
     os.makedirs(forests, exist_ok=True)
     forest_options = spec.get("forest", config["forest"])
-    # Texton runs read other folders: their options are part of the forest's name.
-    first_key = digest(spec["train"], forest_options, *([spec["textons"]] if "textons" in spec else []))
-    train_works = texton_works(bin_dir, fold, spec, train_works, train_works, "train")
+    # Runs with learned channels read other folders: their options are part of the forest's name.
+    first_key = digest(spec["train"], forest_options, *[spec[k[0]] for k in LEARNED_CHANNELS if k[0] in spec])
+    train_works = learned_works(bin_dir, fold, spec, train_works, train_works, "train")
     first = os.path.join(forests, first_key + ".json")
     if not os.path.isfile(first):
         run([f"{bin_dir}/train-forest"] + train_works + spec["train"] + forest_options + ["-q", "-o", first])
@@ -242,23 +247,32 @@ def context_works(bin_dir, fold, first, first_key, works, label, options=()):
     return [os.path.join(ctx, os.path.basename(w)) for w in works]
 
 
-def texton_works(bin_dir, fold, spec, train_works, works, label):
-    """With "textons": add-textons' folders of `works` (the fold's dictionary, learned on its training
-    folders, made once per options); otherwise `works` as they are."""
-    if "textons" not in spec:
-        return works
-    key = digest(spec["textons"])
-    folder = os.path.join(fold, "textons")
-    dictionary = os.path.join(folder, key + ".json")
-    if not os.path.isfile(dictionary):
-        os.makedirs(folder, exist_ok=True)
-        run([f"{bin_dir}/learn-textons"] + train_works + spec["textons"] + ["-q", "-o", dictionary])
-    out = os.path.join(folder, f"{key}-{label}")
-    if not os.path.isfile(os.path.join(out, ".done")):
-        shutil.rmtree(out, ignore_errors=True)
-        run([f"{bin_dir}/add-textons", dictionary] + works + ["-q", "-o", out])
-        open(os.path.join(out, ".done"), "w").close()
-    return [os.path.join(out, os.path.basename(w)) for w in works]
+# Channels learned per fold on its training folders: (run key, learning tool, adding tool, folder).
+LEARNED_CHANNELS = (("textons", "learn-textons", "add-textons", "textons"),
+                    ("hog_classes", "learn-hog-classes", "add-hog-classes", "hog-classes"))
+
+
+def learned_works(bin_dir, fold, spec, train_works, works, label):
+    """With "textons" and/or "hog_classes": the folders of `works` extended with those channels (each
+    model learned on the fold's training folders once per options; a second kind extends the first's
+    folders); otherwise `works` as they are."""
+    keys = []
+    for kind, learn, add, folder_name in LEARNED_CHANNELS:
+        if kind not in spec:
+            continue
+        keys.append(digest(spec[kind], *keys))
+        folder = os.path.join(fold, folder_name)
+        model = os.path.join(folder, keys[-1] + ".json")
+        if not os.path.isfile(model):
+            os.makedirs(folder, exist_ok=True)
+            run([f"{bin_dir}/{learn}"] + train_works + spec[kind] + ["-q", "-o", model])
+        out = os.path.join(folder, f"{keys[-1]}-{label}")
+        if not os.path.isfile(os.path.join(out, ".done")):
+            shutil.rmtree(out, ignore_errors=True)
+            run([f"{bin_dir}/{add}", model] + works + ["-q", "-o", out])
+            open(os.path.join(out, ".done"), "w").close()
+        works = [os.path.join(out, os.path.basename(w)) for w in works]
+    return works
 
 
 def people_works(bin_dir, out, spec, train, test, phases):
@@ -304,7 +318,7 @@ def run_fold(bin_dir, config, name, held, train, test, phases):
     figures = {}
     os.makedirs(os.path.join(fold, name), exist_ok=True)
     for label, works in sets.items():
-        works = texton_works(bin_dir, fold, spec, train_works, works, label)
+        works = learned_works(bin_dir, fold, spec, train_works, works, label)
         tested = context_works(bin_dir, fold, first, first_key, works, label) if "context" in spec else works
         for power in config["prior_power"]:
             figures[f"{label}@{power:g}"] = evaluate(bin_dir, spec, forest, tested,
@@ -406,7 +420,7 @@ def main():
         fail("--jobs: expected at least 1")
     bin_dir = os.path.abspath(os.environ.get("SMSEG_BIN", "build/bin"))
     for tool in ("import-camvid", "extract-features", "train-forest", "eval-forest", "add-context", "learn-textons",
-                 "add-textons", "add-people"):
+                 "add-textons", "add-people", "learn-hog-classes", "add-hog-classes"):
         if not os.access(os.path.join(bin_dir, tool), os.X_OK):
             fail(f"{bin_dir}/{tool}: missing (set SMSEG_BIN)")
     camvid = os.path.abspath(a.camvid)

@@ -169,6 +169,14 @@ TEST_F(Options, OtherToolsRefuseAbsurdValues) {
       {"add-textons", {"{F} {W} -o {O}", 1, "format"}},  // a forest given as the dictionary
       {"add-people", {"{W} --frames 500: -o {O}", 1, "500:"}},
       {"add-people", {"{F} -o {O}", 1, "no such work folder"}},  // a forest file given as the work folder
+      {"learn-hog-classes", {"{W} --window 24x96 -o {O}.json", 2, "--window"}},
+      {"learn-hog-classes", {"{W} --window 32 -o {O}.json", 2, "--window"}},
+      {"learn-hog-classes", {"{W} --negatives 0 -o {O}.json", 2, "--negatives"}},
+      {"learn-hog-classes", {"{W} --epochs 0 -o {O}.json", 2, "--epochs"}},
+      {"learn-hog-classes", {"{W} --learning-rate 0 -o {O}.json", 2, "--learning-rate"}},
+      {"learn-hog-classes", {"{W} -o {O}.json", 1, "Pole"}},  // the default classes are CamVid's
+      {"learn-hog-classes", {"{W} --channels wall --frames 500: -o {O}.json", 1, "500:"}},
+      {"add-hog-classes", {"{F} {W} -o {O}", 1, "format"}},  // a forest given as the model
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --threads -3 -o {O}", 2, "--threads"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --memory-mb 0 -o {O}", 2, "--memory-mb"}},
       {"run-experiment", {SMSEG_SOURCE_DIR "/experiments/thesis/k-sweep.json --max-points -1 -o {O}", 2, "--max-points"}},

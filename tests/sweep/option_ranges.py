@@ -148,6 +148,8 @@ def make_fixture(bin_dir, work):
     sh([b("train-forest"), "wc", "-o", "forest_causal.json", "-M", "2", "-K", "40", "-q"], work)
     sh([b("segment-cloud"), "--make-tabletop", "3000", "-o", "cloud.pcd"], work)
     sh([b("learn-textons"), "w", "--textons", "4", "--samples", "200", "-o", "textons.json", "-q"], work)
+    sh([b("learn-hog-classes"), "w", "--channels", "wall,person", "--window", "32x64", "--epochs", "1", "-o", "hog.json", "-q"],
+       work)
     sh([b("make-sequence"), "--scene", "tabletop", "-o", "table", "--frames", "10", "--label-every", "5", "--size", "160x120",
         "-q"], work)
     sh([b("extract-features"), "table", "-o", "tw", "-q"], work)
@@ -187,6 +189,8 @@ def tool_base(tool, option_help):
         "add-context": ["forest.json", "w", "-o", "{out}", "-q"],
         "add-textons": ["textons.json", "w", "-o", "{out}", "-q"],
         "add-people": ["w", "-o", "{out}", "-q"],
+        "add-hog-classes": ["hog.json", "w", "-o", "{out}", "-q"],
+        "learn-hog-classes": ["w", "--channels", "wall,person", "--window", "32x64", "--epochs", "1", "-o", "{out}.json", "-q"],
         "learn-textons": ["w", "-o", "{out}.json", "-q"],
         "check-sequence": ["seq"],
         "eval-forest": ["forest.json", "w", "-o", "{out}", "-q"],

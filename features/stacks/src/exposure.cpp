@@ -8,6 +8,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/stacks/dense.hpp"
+#include "smseg/stacks/hog_classes.hpp"
 #include "smseg/stacks/people.hpp"
 #include "smseg/stacks/point_features.hpp"
 #include "smseg/stacks/stack.hpp"
@@ -20,11 +21,12 @@ namespace {
 using names::in;
 using names::starts_with;
 
-/// Channels that do not see the light: the geometry's, the pixel's position, and the people detectors'
-/// (HOG divides each block's gradients by their norm, and the model scales every gradient alike).
+/// Channels that do not see the light: the geometry's, the pixel's position, the people detectors' and the
+/// HOG classes' (HOG divides each block's gradients by their norm, and the model scales every gradient
+/// alike).
 bool blind_to_light(const std::string& name) {
   return in(structure_feature_names(), name) || in(dense_feature_names(), name) || name == "fRow" || name == "fCol" ||
-         is_people_feature(name);
+         is_people_feature(name) || is_hog_class_feature(name);
 }
 
 std::string number_text(double k) {

@@ -8,16 +8,9 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/extension.hpp"
 #include "smseg/stacks/textons.hpp"
+#include "learned_files.hpp"
 
 namespace smseg::stacks {
-
-namespace {
-
-std::uint64_t frame_seed(std::uint64_t seed, std::size_t folder, int frame) {
-  return seed ^ (0x9E3779B97F4A7C15ULL * (1 + folder * 1000003ULL + static_cast<std::uint64_t>(frame)));
-}
-
-}  // namespace
 
 cv::Mat texton_samples(const std::vector<fs::path>& works, const FrameRange& range, int per_frame, std::uint64_t seed,
                        bool progress) {

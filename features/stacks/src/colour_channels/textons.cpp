@@ -11,6 +11,7 @@
 
 #include "smseg/common/error.hpp"
 #include "smseg/stacks/appearance.hpp"
+#include "learned_files.hpp"
 
 namespace smseg::stacks {
 
@@ -109,17 +110,6 @@ void lloyd(const cv::Mat& z, cv::Mat& centres, int iterations) {
         for (int d = 0; d < kFilterBankSize; ++d)
           centres.ptr<float>(k)[d] = static_cast<float>(sums.ptr<double>(k)[d] / members[k]);
   }
-}
-
-/// An array of `count` finite numbers.
-std::vector<double> finite_numbers(const JsonView& a, std::size_t count) {
-  if (a.size() != count) a.fail("has " + std::to_string(a.size()) + " numbers, expected " + std::to_string(count));
-  std::vector<double> v;
-  for (std::size_t i = 0; i < count; ++i) {
-    v.push_back(a.at(i).as_num());
-    if (!std::isfinite(v.back())) a.at(i).fail("is not a finite number");
-  }
-  return v;
 }
 
 }  // namespace
