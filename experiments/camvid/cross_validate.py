@@ -266,7 +266,9 @@ def learned_works(bin_dir, fold, spec, train_works, works, label):
         if not os.path.isfile(model):
             os.makedirs(folder, exist_ok=True)
             run([f"{bin_dir}/{learn}"] + train_works + spec[kind] + ["-q", "-o", model])
-        out = os.path.join(folder, f"{keys[-1]}-{label}")
+        # Named by the folders they extend as well: the same channels over other folders (the people
+        # detectors' or not) are other folders.
+        out = os.path.join(folder, f"{keys[-1]}-{label}-{digest(sorted({os.path.dirname(w) for w in works}))[:6]}")
         if not os.path.isfile(os.path.join(out, ".done")):
             shutil.rmtree(out, ignore_errors=True)
             run([f"{bin_dir}/{add}", model] + works + ["-q", "-o", out])

@@ -1,5 +1,6 @@
 // learn-hog-classes: a softmax regression of the HOG window around each grid point of the training
 // frames (hog_classes.hpp), for add-hog-classes.
+#include <algorithm>
 #include <cstdio>
 #include <utility>
 
@@ -13,12 +14,15 @@ namespace {
 
 /// What the model was learned from: each work folder with its stacks.json's digest, and the options.
 smseg::Json provenance(const std::vector<std::string>& works, const std::string& frames, const smseg::stacks::HogLearning& o,
-                       int samples) {
+                       const smseg::stacks::HogSamples& samples) {
+  smseg::Json per_class = smseg::Json::object();
+  for (std::size_t c = 0; c < samples.classes.size(); ++c)
+    per_class[samples.classes[c]] = std::count(samples.labels.begin(), samples.labels.end(), int(c));
   smseg::Json folders = smseg::Json::array();
   for (const auto& w : works)
     folders.push_back({{"work", smseg::fs::absolute(w).lexically_normal().string()},
                        {"stacks_json_fnv1a64", smseg::fnv1a64_hex(smseg::read_file(smseg::fs::path(w) / "stacks.json"))}});
-  return {{"work_folders", folders}, {"frames", frames},     {"samples", samples},
+  return {{"work_folders", folders}, {"frames", frames},     {"samples_per_class", per_class},
           {"negatives", o.negatives}, {"epochs", o.epochs}, {"l2", o.l2},
           {"learning_rate", o.learning_rate}, {"seed", o.seed}};
 }
@@ -80,8 +84,9 @@ int main(int argc, char** argv) {
     stacks::HogSamples samples =
         stacks::hog_samples(std::vector<fs::path>(works.begin(), works.end()), range, opt, !quiet);
     const int points = samples.descriptors.rows;
+    const Json record = provenance(works, frames, opt, samples);
     stacks::HogClassifier model = stacks::learn_hog_classifier(std::move(samples), opt);
-    model.provenance = provenance(works, frames, opt, points);
+    model.provenance = record;
     stacks::save_hog_classifier(out, model);
     std::printf("HOG classes of %zu classes from %d grid points of %zu work folders -> %s\n", model.classes.size(),
                 points, works.size(), out.c_str());

@@ -154,9 +154,19 @@ TEST(HogClasses, SameSamplesSameModelWhateverTheThreadCountAndTheLightKeepsThem)
   const std::vector<ChannelExposure> plan = lightness_plan({"fL", "fHgPole"}, 0.2, 0.45, "test");
   ASSERT_EQ(plan.size(), 2u);
   EXPECT_TRUE(plan[1].unchanged());
-  // A class the folder does not have is refused, naming the option.
+  // A class the folder does not have is refused, naming the option and the folder; one it has but
+  // no labelled point holds (the corridor's furniture, here) is learned improbable everywhere.
   o.channels = {"Pole"};
-  EXPECT_NE(test::error_of(learned).find("--channels"), std::string::npos);
+  const std::string e = test::error_of(learned);
+  EXPECT_NE(e.find("--channels"), std::string::npos) << e;
+  EXPECT_NE(e.find("stacks.json"), std::string::npos) << e;
+  o.channels = {"furniture"};
+  const HogSamples samples = hog_samples({dir / "work"}, FrameRange(), o, false);
+  ASSERT_EQ(std::count(samples.labels.begin(), samples.labels.end(), 3), 0);
+  o.epochs = 10;
+  const HogClassifier without = learn_hog_classifier(samples, o);
+  const double mean = cv::mean(hog_class_rasters(seq.load_left(0), without).front())[0];
+  EXPECT_LT(mean, 255.0 / 6) << "below the six classes' uniform probability";
 }
 
 TEST(HogClasses, ModelFileRoundTripsAndDamageIsRefusedNamingTheFile) {

@@ -131,9 +131,7 @@ HogClassifier learn_hog_classifier(HogSamples s, const HogLearning& o) {
   for (const auto& name : o.channels) {
     const auto it = std::find(s.classes.begin(), s.classes.end(), name);
     if (it == s.classes.end()) throw Error("", "--channels", "names " + name + ", a class the work folders do not have");
-    whole[it - s.classes.begin()] = true;
-    if (std::find(s.labels.begin(), s.labels.end(), int(it - s.classes.begin())) == s.labels.end())
-      throw Error("", "--channels", "names " + name + ", which no labelled pixel of the work folders' frames is");
+    whole[it - s.classes.begin()] = true;  // a class without samples learns a low probability everywhere
   }
   if (n == 0) throw Error("", "WORK", "no labelled grid point in the frames");
   // z-scores (in place: the samples are the model's largest memory), sums in sample order

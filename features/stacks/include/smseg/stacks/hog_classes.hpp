@@ -76,8 +76,9 @@ struct HogSamples {
 HogSamples hog_samples(const std::vector<fs::path>& works, const FrameRange& frames, const HogLearning& options,
                        bool progress);
 
-/// The softmax regression of the samples (Error naming the option at fault: a channel class the folders
-/// do not have, or no sample of it). Taken by value: it makes z-scores of the descriptors in place, so
+/// The softmax regression of the samples (Error naming --channels for a class the folders do not have; a
+/// class they have but no sample holds gets a low probability everywhere: learn-hog-classes records the
+/// samples per class). Taken by value: it makes z-scores of the descriptors in place, so
 /// move the samples in when they are not needed again.
 HogClassifier learn_hog_classifier(HogSamples samples, const HogLearning& options);
 
