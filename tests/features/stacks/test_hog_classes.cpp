@@ -18,6 +18,7 @@
 #include "smseg/stacks/exposure.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/hog_classes.hpp"
+#include "damaged_file.hpp"
 #include "error_text.hpp"
 #include "extended_folder.hpp"
 #include "small_corridor.hpp"
@@ -63,6 +64,21 @@ HogSamples camvid_samples(const std::vector<std::string>& names, const HogLearni
     }
   }
   return s;
+}
+
+/// Six corridor frames, every third labelled, as DIR/seq, extracted into DIR/work.
+sequence::Sequence corridor_work(const fs::path& dir) {
+  const sequence::Sequence seq = test::small_corridor(dir / "seq", 6, 3);
+  extract_features(seq, dir / "work", test::quiet_extract_options());
+  return seq;
+}
+
+/// Options for the corridor: a window its 320x240 frames hold several of, two of its classes.
+HogLearning corridor_learning() {
+  HogLearning o;
+  o.window = cv::Size(32, 64);
+  o.channels = {"wall", "person"};
+  return o;
 }
 
 HogClassifier small_model() {
@@ -137,11 +153,8 @@ TEST(HogClasses, LearnedOnSomeCamVidFramesTheyMarkThePolesOfOthersFarMoreOftenTh
 TEST(HogClasses, SameSamplesSameModelWhateverTheThreadCountAndTheLightKeepsThem) {
   const fs::path dir = test::temp_dir("hog_threads");
   const test::RemovedAtEnd cleanup{dir};
-  const sequence::Sequence seq = test::small_corridor(dir / "seq", 6, 3);
-  extract_features(seq, dir / "work", test::quiet_extract_options());
-  HogLearning o;
-  o.window = cv::Size(32, 64);
-  o.channels = {"wall", "person"};
+  const sequence::Sequence seq = corridor_work(dir);
+  HogLearning o = corridor_learning();
   o.epochs = 2;
   const auto learned = [&] { return learn_hog_classifier(hog_samples({dir / "work"}, FrameRange(), o, false), o); };
   const HogClassifier one = tbb::task_arena(1).execute(learned), two = tbb::task_arena(2).execute(learned);
@@ -185,12 +198,7 @@ TEST(HogClasses, ModelFileRoundTripsAndDamageIsRefusedNamingTheFile) {
 
   const Json good = read_json(dir / "m.json");
   const auto refused = [&](const std::function<void(Json&)>& damage, const std::string& what) {
-    Json j = good;
-    damage(j);
-    std::ofstream(dir / "bad.json") << j.dump();
-    const std::string e = test::error_of([&] { load_hog_classifier(dir / "bad.json"); });
-    EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
-    EXPECT_NE(e.find(what), std::string::npos) << e;
+    test::expect_damage_refused(good, dir / "bad.json", [](const fs::path& f) { load_hog_classifier(f); }, damage, what);
   };
   refused([](Json& j) { j["format"] = "smseg-textons"; }, "format");
   refused([](Json& j) { j["version"] = 9; }, "version");
@@ -208,11 +216,8 @@ TEST(HogClasses, ModelFileRoundTripsAndDamageIsRefusedNamingTheFile) {
 TEST(HogClasses, ExtendedFolderReadsTheBaseThenTheChannels) {
   const fs::path dir = test::temp_dir("hog_folder");
   const test::RemovedAtEnd cleanup{dir};
-  const sequence::Sequence seq = test::small_corridor(dir / "seq", 6, 3);
-  extract_features(seq, dir / "work", test::quiet_extract_options());
-  HogLearning o;
-  o.window = cv::Size(32, 64);
-  o.channels = {"wall", "person"};
+  const sequence::Sequence seq = corridor_work(dir);
+  HogLearning o = corridor_learning();
   o.epochs = 3;
   HogClassifier model = learn_hog_classifier(hog_samples({dir / "work"}, FrameRange(), o, false), o);
   save_hog_classifier(dir / "model.json", model);

@@ -13,6 +13,7 @@
 #include "smseg/stacks/appearance.hpp"
 #include "smseg/stacks/extract.hpp"
 #include "smseg/stacks/textons.hpp"
+#include "damaged_file.hpp"
 #include "error_text.hpp"
 #include "extended_folder.hpp"
 #include "small_corridor.hpp"
@@ -131,12 +132,7 @@ TEST(Textons, DictionaryFileRoundTripsAndDamageIsRefusedNamingTheFile) {
 
   const Json good = read_json(dir / "d.json");
   const auto refused = [&](const std::function<void(Json&)>& damage, const std::string& what) {
-    Json j = good;
-    damage(j);
-    std::ofstream(dir / "bad.json") << j.dump();
-    const std::string e = test::error_of([&] { load_texton_dictionary(dir / "bad.json"); });
-    EXPECT_NE(e.find("bad.json"), std::string::npos) << e;
-    EXPECT_NE(e.find(what), std::string::npos) << e;
+    test::expect_damage_refused(good, dir / "bad.json", [](const fs::path& f) { load_texton_dictionary(f); }, damage, what);
   };
   refused([](Json& j) { j["format"] = "smseg-forest"; }, "format");
   refused([](Json& j) { j["version"] = 9; }, "version");
