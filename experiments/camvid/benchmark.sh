@@ -5,7 +5,8 @@
 #               image / label folders it names (train, trainannot, val, valannot, and optionally test,
 #               testannot). With test rows in frames.csv it trains on train + val and tests on test;
 #               without, it trains on train and tests on val.
-#   OUT         output folder: sequences/, work/, people/, forests/, context/, eval/, measure/ and summary.json
+#   OUT         output folder: sequences/, work/, people/, hog-classes.json, hog/, forests/, context/, eval/,
+#               measure/ and summary.json
 # Runs, all with Ks = 400, Kt = 20000, M = 7 (the headline appearance forest M = 20, Kt = 60000, --lightness 0.45), seed 1 and every
 # other option at its default. The two headline runs are the ones the leave-one-run-out cross-validation
 # chose (docs/camvid.md, "Choosing by cross-validation", cross-validate.sh):
@@ -15,7 +16,9 @@
 #                    baselines, like the 1 Hz runs' one second), --balance sqrt, evaluated with --smooth graphcut
 #                    --smooth-contrast off --lambda 3 (plain Potts: the smoothing reads nothing of the image)
 #   combined         S+M + appearance: the six, the nine image channels fL fA fB fG0..fG3 fRow fCol, the two
-#                    people-detector channels fHogD fHogI of add-people (OUT/people/) and the texton tests,
+#                    people-detector channels fHogD fHogI of add-people (OUT/people/), the five HOG class
+#                    channels fHgPole fHgSignSymbol fHgFence fHgPedestrian fHgBicyclist (learn-hog-classes on
+#                    the training runs, OUT/hog-classes.json; add-hog-classes, OUT/hog/) and the texton tests,
 #                    --balance sqrt, M = 20, Kt = 60000, --lightness 0.45 (every frame brought to one mean
 #                    lightness), evaluated with --smooth graphcut --prior-power 0.25 (each class's posterior
 #                    divided by its training prior to the power 0.25)
@@ -30,7 +33,8 @@
 #   combined_smooth  that forest evaluated with --smooth graphcut
 #   combined_context auto-context on it (its features, textons and --balance sqrt), not smoothed
 #   combined_context_smooth  the same, smoothed (the headline before the cross-validation)
-#   combined_forest_m20      the headline's forest (M = 20, Kt = 60000, --lightness 0.45, people), not smoothed
+#   combined_forest_m20      the headline's forest (M = 20, Kt = 60000, --lightness 0.45, people, HOG classes),
+#                            not smoothed
 #   combined_smooth_m20      that forest smoothed, without the prior correction (the headline at P = 0)
 # Prints one table (global, class-average, mean IoU, per class, training time, peak RSS) and writes
 # OUT/summary.json: {"runs": {"sm": {...}, "combined": {...}, "sm_six": {...}, "sm_dense": {...}, "sm_path": {...},
@@ -65,8 +69,8 @@ headline_trees="${SMSEG_M:-20}"
 # fold; docs/camvid.md); SMSEG_KT, when set, is every forest's.
 headline_kt="${SMSEG_KT:-60000}"
 # The headline's class prior power: the point of the cross-validation's curve with the highest fold-mean
-# mean IoU (the headline's forest, P = 0 / 0.25 / 0.5 / 0.75 / 1: 39.7 / 40.2 / 40.0 / 38.8 / 37.2;
-# docs/camvid.md, "Class prior correction"), which trades 1.0 point of global accuracy for 2.6 of class
+# mean IoU (the headline's forest, P = 0 / 0.25 / 0.5 / 0.75 / 1: 42.2 / 42.5 / 41.8 / 40.5 / 38.8;
+# docs/camvid.md, "Class prior correction"), which trades 1.0 point of global accuracy for 2.8 of class
 # average.
 headline_prior_power=0.25
 # ... and every frame of its forest brought to mean lightness fL = 0.45 (train-forest --lightness: the
@@ -77,10 +81,13 @@ headline_prior_power=0.25
 headline_lightness=0.45
 # ... and the two people-detector channels of add-people (fHogD, fHogI: OpenCV's pretrained HOG people
 # detectors, Ladicky et al.'s detector potentials), chosen by the cross-validation (docs/camvid.md,
-# "People detectors"); 17 channels at Kt = 60 000 need a little more than the default 2 GB budget.
+# "People detectors"); and the five HOG class channels (a softmax regression of the HOG window around each
+# pixel, learned on the training runs: docs/camvid.md, "HOG classes"), chosen by the cross-validation. 22
+# channels at Kt = 60 000 need more than the default 2 GB budget.
 headline_memory_mb=4000
+hog_channels=fHgPole,fHgSignSymbol,fHgFence,fHgPedestrian,fHgBicyclist
 jobs="${SMSEG_JOBS:-$(nproc)}"
-tools=(import-camvid extract-features train-forest eval-forest add-context add-people)
+tools=(import-camvid extract-features train-forest eval-forest add-context add-people learn-hog-classes add-hog-classes)
 
 # The tools: SMSEG_BIN as given, or build/bin (built when a tool is missing).
 if [[ -n "${SMSEG_BIN:-}" ]]; then
@@ -151,7 +158,8 @@ works_of() {  # SIDE: the work folders of this run's sequences of that side
 }
 mapfile -t train_works < <(works_of train)
 mapfile -t test_works < <(works_of test)
-under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-people's and add-context's output folders)
+under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-people's, add-hog-classes' and add-context's
+  # output folders)
   local folder=$1 w
   shift
   for w in "$@"; do printf '%s\n' "$folder/$(basename "$w")"; done
@@ -161,8 +169,14 @@ under() {  # FOLDER WORK...: FOLDER/<name of each WORK>, one a line (add-people'
 "$bin/add-people" "${test_works[@]}" -q -o "$out/people/test" >/dev/null
 mapfile -t train_people < <(under "$out/people/train" "${train_works[@]}")
 mapfile -t test_people < <(under "$out/people/test" "${test_works[@]}")
+# ... and then the HOG class channels, of a model learned on the training runs only.
+"$bin/learn-hog-classes" "${train_works[@]}" -q -o "$out/hog-classes.json" >/dev/null
+"$bin/add-hog-classes" "$out/hog-classes.json" "${train_people[@]}" -q -o "$out/hog/train" >/dev/null
+"$bin/add-hog-classes" "$out/hog-classes.json" "${test_people[@]}" -q -o "$out/hog/test" >/dev/null
+mapfile -t train_headline < <(under "$out/hog/train" "${train_works[@]}")
+mapfile -t test_headline < <(under "$out/hog/test" "${test_works[@]}")
 
-echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), sm_path (sm + fZC), combined (+ appearance channels and textons, --balance sqrt; M = 7 and the headline's M = $headline_trees, Kt = $headline_kt, --lightness $headline_lightness, + add-people's fHogD fHogI)"
+echo "== 3/5 train-forest: sm (six S+M features + dense geometry, --balance sqrt), sm_six (the six), sm_dense (six + dense), sm_path (sm + fZC), combined (+ appearance channels and textons, --balance sqrt; M = 7 and the headline's M = $headline_trees, Kt = $headline_kt, --lightness $headline_lightness, + add-people's fHogD fHogI and the HOG classes)"
 mkdir -p "$out/forests" "$out/measure"
 common=(-K 400 --Kt "$kt" -M "$trees" --seed 1 -q)
 headline=(-K 400 --Kt "$headline_kt" -M "$headline_trees" --lightness "$headline_lightness" --memory-mb "$headline_memory_mb"
@@ -182,7 +196,7 @@ python3 "$summary_py" measure "$out/measure/combined.json" -- \
   "$bin/train-forest" "${train_works[@]}" --features $six,$appearance --textons --balance sqrt "${common[@]}" \
   -o "$out/forests/combined.json"
 python3 "$summary_py" measure "$out/measure/combined_m20.json" -- \
-  "$bin/train-forest" "${train_people[@]}" --features $six,$appearance,fHogD,fHogI --textons --balance sqrt \
+  "$bin/train-forest" "${train_headline[@]}" --features $six,$appearance,fHogD,fHogI,$hog_channels --textons --balance sqrt \
   "${headline[@]}" -o "$out/forests/combined_m20.json"
 
 echo "== 4/5 auto-context: the sm_six and combined forests' posteriors (out of 4 folds on the training runs), second forests"
@@ -215,11 +229,11 @@ echo "== 5/5 eval-forest on $test_split"
   -o "$out/eval/combined_smooth"
 "$bin/eval-forest" "$out/forests/combined_context.json" "${combined_context_test[@]}" --smooth graphcut --no-pictures \
   -q -o "$out/eval/combined_context_smooth"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --no-pictures -q -o "$out/eval/combined_forest_m20"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --smooth graphcut \
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_headline[@]}" --no-pictures -q -o "$out/eval/combined_forest_m20"
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_headline[@]}" --smooth graphcut \
   --prior-power "$headline_prior_power" --no-pictures -q \
   -o "$out/eval/combined"
-"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_people[@]}" --smooth graphcut --no-pictures -q \
+"$bin/eval-forest" "$out/forests/combined_m20.json" "${test_headline[@]}" --smooth graphcut --no-pictures -q \
   -o "$out/eval/combined_smooth_m20"
 
 cv=()

@@ -23,7 +23,7 @@ import time
 
 RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add up, peak is the largest), title)
     ("sm", "sm", ["sm"], "S+M: six + dense geometry, sqrt balance, Potts smoothing"),
-    ("combined", "combined", ["combined_m20"], "S+M + appearance + people detectors, M = 20, lightness, smoothing, prior-corrected"),
+    ("combined", "combined", ["combined_m20"], "S+M + appearance + people detectors + HOG classes, M = 20, lightness, smoothing, prior-corrected"),
     ("sm_six", "sm_six", ["sm_six"], "S+M six point features"),
     ("sm_dense", "sm_dense", ["sm_dense"], "S+M six + dense geometry"),
     ("sm_path", "sm_path", ["sm_path"], "S+M as sm, + fZC distance to the camera path"),
@@ -33,8 +33,8 @@ RUNS = [  # (name in summary.json, eval folder, measured trainings (seconds add 
     ("combined_context", "combined_context", ["combined", "combined_context"], "S+M + appearance + auto-context"),
     ("combined_context_smooth", "combined_context_smooth", ["combined", "combined_context"],
      "S+M + appearance + auto-context + smoothing"),
-    ("combined_forest_m20", "combined_forest_m20", ["combined_m20"], "S+M + appearance + people detectors, M = 20, lightness"),
-    ("combined_smooth_m20", "combined_smooth_m20", ["combined_m20"], "S+M + appearance + people detectors, M = 20, lightness, smoothing"),
+    ("combined_forest_m20", "combined_forest_m20", ["combined_m20"], "S+M + appearance + people detectors + HOG classes, M = 20, lightness"),
+    ("combined_smooth_m20", "combined_smooth_m20", ["combined_m20"], "S+M + appearance + people detectors + HOG classes, M = 20, lightness, smoothing"),
 ]
 
 def write_json_atomic(path, value):

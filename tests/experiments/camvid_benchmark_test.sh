@@ -58,18 +58,26 @@ for stacks in found:
     assert (features.get("sweep_baseline"), features.get("sweep_reach")) == ((4.0, 24) if fast else (None, None)), (stacks, features)
 print("sweep baselines: ok")
 PY
-# The headline's forest reads the people detectors' channels, from add-people's folders beside the work
-# folders; the M = 7 appearance forest does not.
+# The headline's forest reads the people detectors' channels and the HOG classes', from add-people's
+# folders beside the work folders and add-hog-classes' beside those (a model learned on the training runs
+# alone); the M = 7 appearance forest reads neither.
 python3 - "$tmp/out" <<'PY'
 import json, os, sys
 out = sys.argv[1]
-assert json.load(open(os.path.join(out, "forests", "combined_m20.json")))["features"][-2:] == ["fHogD", "fHogI"]
-assert "fHogD" not in json.load(open(os.path.join(out, "forests", "combined.json")))["features"]
+hog = ["fHgPole", "fHgSignSymbol", "fHgFence", "fHgPedestrian", "fHgBicyclist"]
+assert json.load(open(os.path.join(out, "forests", "combined_m20.json")))["features"][-7:] == ["fHogD", "fHogI"] + hog
+combined = json.load(open(os.path.join(out, "forests", "combined.json")))["features"]
+assert "fHogD" not in combined and "fHgPole" not in combined, combined
+model = json.load(open(os.path.join(out, "hog-classes.json")))
+assert model["channels"] == [c[3:] for c in hog], model["channels"]
+assert all("/work/train/" in f["work"] for f in model["provenance"]["work_folders"]), model["provenance"]
 for side in ("train", "test"):
     for name in os.listdir(os.path.join(out, "work", side)):
         m = json.load(open(os.path.join(out, "people", side, name, "stacks.json")))
         assert m["features"][-2:] == ["fHogD", "fHogI"] and m["base"]["work"].endswith(f"work/{side}/{name}"), m["base"]
-print("people detectors: ok")
+        h = json.load(open(os.path.join(out, "hog", side, name, "stacks.json")))
+        assert h["features"][-5:] == hog and h["base"]["work"].endswith(f"people/{side}/{name}"), h["base"]
+print("people detectors and HOG classes: ok")
 PY
 
 # Bad input: one line naming the file, exit 2, nothing half-made.
