@@ -9,14 +9,14 @@ int main(int argc, char** argv) {
   using namespace smseg;
   CLI::App app{
       "HOG class channels: write, for each work folder, a work folder OUT/<its name> whose stacks hold all\n"
-      "of WORK's features and then fHg<class> for each class the MODEL (from learn-hog-classes) names in its\n"
-      "channels: the class's probability under MODEL's softmax regression of the HOG window around the\n"
-      "pixel (bilinear between the 8-pixel grid's windows), so that a forest window's mean says how much of\n"
-      "it has that class's shape. OUT stores only those channels and reads the others, the greyscale and\n"
-      "the labels from WORK, which its stacks.json names with a digest (WORK moved or extracted again makes\n"
-      "OUT refused: run add-hog-classes again). The colour images come from the sequences the folders were\n"
-      "extracted from. OUT is built beside itself and swapped in whole at the end. See docs/camvid.md,\n"
-      "\"HOG classes\".",
+      "of WORK's features and then fHg<class> for each class the MODEL (from learn-hog-classes) names in\n"
+      "its channels: 255 times the class's probability under MODEL's softmax regression of the HOG window\n"
+      "around the pixel (bilinear between the 8-pixel grid's windows, rounded: a byte a pixel on disk), so\n"
+      "that a forest window's mean says how much of it has that class's shape. OUT stores only those\n"
+      "channels and reads the others, the greyscale and the labels from WORK, which its stacks.json names\n"
+      "with a digest (WORK moved or extracted again makes OUT refused: run add-hog-classes again). The\n"
+      "colour images come from the sequences the folders were extracted from. OUT is built beside itself\n"
+      "and swapped in whole at the end. See docs/camvid.md, \"HOG classes\".",
       "add-hog-classes"};
   std::string model_file;
   stacks::ExtendingCli cli;

@@ -52,8 +52,8 @@ int main(int argc, char** argv) {
       "every class on them: all grid points of --channels' classes, one in --negatives of the others, each\n"
       "class weighted by 1 / sqrt(its count), mini-batch Adam with an L2 penalty. Learn it on the training\n"
       "folders only; add-hog-classes then gives every folder, training and test, the channels fHg<class> of\n"
-      "--channels' classes (their probabilities), a shape detector for the classes the forest's window\n"
-      "means miss. The same folders, options and seed give the same file whatever --threads. See\n"
+      "--channels' classes (255 times their probabilities), a shape detector for the classes the forest's\n"
+      "window means miss. The same folders, options and seed give the same file whatever --threads. See\n"
       "docs/camvid.md, \"HOG classes\".",
       "learn-hog-classes"};
   std::vector<std::string> works, channels;

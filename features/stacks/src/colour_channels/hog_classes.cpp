@@ -40,7 +40,8 @@ void standardise(cv::Mat& rows, const std::vector<double>& mean, const std::vect
   }
 }
 
-/// Softmax probabilities of one z-scored row (`logits` and `p` sized classes).
+/// Softmax probabilities of one z-scored row into `p` (sized classes): the logits first, less their
+/// largest so that exp cannot overflow.
 void softmax(const float* z, const cv::Mat& w, const std::vector<double>& b, std::vector<double>& p) {
   double top = -HUGE_VAL;
   for (int c = 0; c < w.rows; ++c) {
