@@ -534,10 +534,6 @@ std::string FrameRange::str() const {
   return std::to_string(begin) + ":" + (end == std::numeric_limits<int>::max() ? std::string() : std::to_string(end));
 }
 
-namespace {
-
-/// Every label of a frame's labels.npy is a class position or 255 (void); the error names the file and
-/// the frame, not the frame's position among those opened.
 void check_labels(const forest::FrameData& frame, const fs::path& file, std::size_t classes) {
   const std::size_t n = static_cast<std::size_t>(frame.width) * frame.height;
   for (std::size_t p = 0; p < n; ++p) {
@@ -549,6 +545,8 @@ void check_labels(const forest::FrameData& frame, const fs::path& file, std::siz
                       " classes (255 = void)");
   }
 }
+
+namespace {
 
 // The frames (folder, frame) of `manifests`, each with the features of its folder's `feature_index` only,
 // opened in parallel (each decodes and sums its own file). The error of the first frame that fails, in

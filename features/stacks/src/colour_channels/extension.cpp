@@ -33,6 +33,7 @@ int add_colour_channels(const ColourChannels& added, const std::vector<fs::path>
     if (own != m.features.end())
       throw Error(m.manifest_path().string(), "features",
                   "already has the channel " + *own + ": give " + added.tool + " the folder it extends");
+    if (added.check_folder) added.check_folder(m);
     frames_in_range(m, range);
   }
   int written = 0;

@@ -17,8 +17,6 @@ namespace smseg::stacks {
 
 namespace {
 
-constexpr std::uint8_t kVoid = 255;  // stack labels: void
-
 /// One frame's kept grid points: descriptor rows and labels.
 struct FrameSamples {
   cv::Mat rows;
@@ -28,15 +26,14 @@ struct FrameSamples {
 FrameSamples frame_samples(const cv::Mat& bgr, const std::uint8_t* labels, const std::vector<bool>& whole,
                            const HogLearning& o, std::uint64_t seed) {
   const cv::Mat d = hog_grid_descriptors(bgr, o.window);
-  const int nx = bgr.cols / kHogGridStep + 1;
+  const int nx = hog_grid_size(bgr.size()).width;
   std::mt19937_64 rng(seed);
   FrameSamples s;
   for (int r = 0; r < d.rows; ++r) {
     const int x = std::min((r % nx) * kHogGridStep, bgr.cols - 1), y = std::min((r / nx) * kHogGridStep, bgr.rows - 1);
     const std::uint8_t l = labels[std::size_t(y) * std::size_t(bgr.cols) + std::size_t(x)];
-    if (l == kVoid) continue;
-    if (l >= whole.size()) throw Error("", "labels", "hold class " + std::to_string(l) + ", beyond the folder's classes");
-    const bool keep = whole.at(l) || rng() % std::uint64_t(o.negatives) == 0;  // one draw a negative point
+    if (l == forest::kVoidLabel) continue;
+    const bool keep = whole[l] || rng() % std::uint64_t(o.negatives) == 0;  // one draw a negative point
     if (!keep) continue;
     s.rows.push_back(d.row(r));
     s.labels.push_back(l);
@@ -58,12 +55,7 @@ HogSamples hog_samples(const std::vector<fs::path>& works, const FrameRange& ran
     if (m.classes != all.classes)
       throw Error(m.manifest_path().string(), "classes", "are not those of " + works[0].string());
     std::vector<bool> whole(m.classes.size(), false);
-    for (const auto& c : o.channels) {
-      const auto it = std::find(m.classes.begin(), m.classes.end(), c);
-      if (it == m.classes.end())
-        throw Error(m.manifest_path().string(), "classes", "have no class " + c + " (named by --channels)");
-      whole[std::size_t(it - m.classes.begin())] = true;
-    }
+    for (int c : class_positions(m.classes, o.channels, m.manifest_path().string())) whole[std::size_t(c)] = true;
     const sequence::Sequence seq = sequence::load_sequence(m.sequence);
     std::vector<int> frames;
     for (int f : frames_in_range(m, range))
@@ -73,6 +65,7 @@ HogSamples hog_samples(const std::vector<fs::path>& works, const FrameRange& ran
     Progress bar("learn-hog-classes " + m.work.filename().string(), static_cast<long>(frames.size()), progress);
     tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t i) {
       const FrameStack stack = FrameStack::open(m, frames[i], true, no_tables);
+      check_labels(stack.view(), m.labels_file(frames[i]), m.classes.size());  // each a class or void
       samples[i] = frame_samples(colour_image(seq, m, frames[i]), stack.labels(), whole, o, frame_seed(o.seed, w, frames[i]));
       bar.tick();
     });
@@ -94,11 +87,6 @@ HogSamples hog_samples(const std::vector<fs::path>& works, const FrameRange& ran
 
 int add_hog_class_channels(const HogClassifier& model, const fs::path& model_file, const std::vector<fs::path>& works,
                            const std::vector<fs::path>& outs, const FrameRange& range, bool progress) {
-  for (const auto& w : works) {
-    const StackManifest m = load_stack_manifest(w);
-    if (m.classes != model.classes)
-      throw Error(m.manifest_path().string(), "classes", "are not those of the model " + model_file.string());
-  }
   ColourChannels hog;
   hog.tool = "add-hog-classes";
   hog.names = model.feature_names();
@@ -108,6 +96,10 @@ int add_hog_class_channels(const HogClassifier& model, const fs::path& model_fil
                  {"model_fnv1a64", fnv1a64_hex(read_file(model_file))},
                  {"window", {model.window.width, model.window.height}},
                  {"channels", model.channels}};
+  hog.check_folder = [&](const StackManifest& m) {
+    if (m.classes != model.classes)
+      throw Error(m.manifest_path().string(), "classes", "are not those of the model " + model_file.string());
+  };
   hog.rasters = [&model](const cv::Mat& bgr) { return hog_class_rasters(bgr, model); };
   return add_colour_channels(hog, works, outs, range, progress);
 }

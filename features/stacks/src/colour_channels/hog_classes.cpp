@@ -108,6 +108,21 @@ std::vector<std::string> HogClassifier::feature_names() const {
 
 bool is_hog_class_feature(const std::string& name) { return name.rfind(kHogClassPrefix, 0) == 0; }
 
+cv::Size hog_grid_size(cv::Size image) { return {image.width / kHogGridStep + 1, image.height / kHogGridStep + 1}; }
+
+std::vector<int> class_positions(const std::vector<std::string>& classes, const std::vector<std::string>& names,
+                                 const std::string& file) {
+  std::vector<int> positions;
+  for (const auto& name : names) {
+    const auto it = std::find(classes.begin(), classes.end(), name);
+    if (it == classes.end())
+      throw file.empty() ? Error("", "--channels", "names " + name + ", a class the work folders do not have")
+                         : Error(file, "classes", "have no class " + name + " (named by --channels)");
+    positions.push_back(int(it - classes.begin()));
+  }
+  return positions;
+}
+
 cv::Mat hog_grid_descriptors(const cv::Mat& bgr, cv::Size window) {
   if (bgr.empty() || bgr.type() != CV_8UC3) throw Error("", "image", "HOG classes need a non-empty 8-bit BGR image");
   if (!valid_window(window)) throw Error("", "window", "is " + size_text(window) + ", expected " + kWindowRule);
@@ -115,7 +130,8 @@ cv::Mat hog_grid_descriptors(const cv::Mat& bgr, cv::Size window) {
   std::vector<float> d;
   // Padding half a window (a multiple of the 8-pixel stride): window i starts at 8 i - w / 2.
   hog.compute(bgr, d, cv::Size(kHogGridStep, kHogGridStep), cv::Size(window.width / 2, window.height / 2));
-  const int nx = bgr.cols / kHogGridStep + 1, ny = bgr.rows / kHogGridStep + 1;
+  const cv::Size grid = hog_grid_size(bgr.size());
+  const int nx = grid.width, ny = grid.height;
   const std::size_t dim = hog.getDescriptorSize();
   if (d.size() != dim * std::size_t(nx) * std::size_t(ny))
     throw Error("", "image", "HOG gave " + std::to_string(d.size() / dim) + " windows, expected " + std::to_string(nx * ny));
@@ -128,12 +144,8 @@ HogClassifier learn_hog_classifier(HogSamples s, const HogLearning& o) {
   model.classes = s.classes;
   model.channels = o.channels;
   const int n = s.descriptors.rows, dim = s.descriptors.cols, classes = int(s.classes.size());
-  std::vector<bool> whole(classes, false);
-  for (const auto& name : o.channels) {
-    const auto it = std::find(s.classes.begin(), s.classes.end(), name);
-    if (it == s.classes.end()) throw Error("", "--channels", "names " + name + ", a class the work folders do not have");
-    whole[it - s.classes.begin()] = true;  // a class without samples learns a low probability everywhere
-  }
+  std::vector<bool> whole(classes, false);  // a class without samples learns a low probability everywhere
+  for (int c : class_positions(s.classes, o.channels, "")) whole[std::size_t(c)] = true;
   if (n == 0) throw Error("", "WORK", "no labelled grid point in the frames");
   // z-scores (in place: the samples are the model's largest memory), sums in sample order
   cv::Mat& z = s.descriptors;
@@ -185,10 +197,9 @@ std::vector<cv::Mat> hog_class_rasters(const cv::Mat& bgr, const HogClassifier& 
     throw Error("", "image", "HOG descriptors of " + std::to_string(z.cols) + " entries, the model's " +
                                  std::to_string(model.descriptor_size()));
   standardise(z, model.mean, model.scale);
-  std::vector<int> written;
-  for (const auto& c : model.channels)
-    written.push_back(int(std::find(model.classes.begin(), model.classes.end(), c) - model.classes.begin()));
-  const int nx = bgr.cols / kHogGridStep + 1, ny = bgr.rows / kHogGridStep + 1;
+  const std::vector<int> written = class_positions(model.classes, model.channels, "");
+  const cv::Size grid_size = hog_grid_size(bgr.size());
+  const int nx = grid_size.width, ny = grid_size.height;
   std::vector<cv::Mat> grid(written.size());
   for (auto& g : grid) g.create(ny, nx, CV_64FC1);
   std::vector<double> p(model.classes.size());

@@ -25,6 +25,9 @@ struct ColourChannels {
   std::function<bool(const std::string&)> is_own;  ///< a feature it would add (a folder with one is refused)
   std::string options_key;                ///< stacks.json's options.<key> records `options`
   Json options = Json::object();
+  /// Checks a folder before any is written (Error naming its stacks.json when the channels do not fit
+  /// it, e.g. a model of other classes); empty: every folder fits.
+  std::function<void(const StackManifest&)> check_folder;
   /// The channels of one colour image (BGR, CV_8UC3): names.size() CV_64FC1 rasters of its size. Called
   /// from several threads at once.
   std::function<std::vector<cv::Mat>(const cv::Mat& bgr)> rasters;

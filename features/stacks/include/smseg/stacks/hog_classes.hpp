@@ -51,10 +51,17 @@ struct HogClassifier {
 /// Whether a feature name is a HOG class channel.
 bool is_hog_class_feature(const std::string& name);
 
-/// HOG descriptors of the windows centred on the image's 8-pixel grid: (cols / 8 + 1) * (rows / 8 + 1)
-/// rows (grid points in raster order, point (i, j) centred on pixel (8 i, 8 j)), CV_32FC1. `window`:
-/// multiples of 8, at least 16.
+/// The 8-pixel grid of an image: (cols / 8 + 1) x (rows / 8 + 1) points, point (i, j) on pixel (8 i, 8 j).
+cv::Size hog_grid_size(cv::Size image);
+
+/// HOG descriptors of the windows centred on the image's grid points (hog_grid_size), one row each in
+/// raster order, CV_32FC1. `window`: multiples of 16 (Error naming "window" otherwise).
 cv::Mat hog_grid_descriptors(const cv::Mat& bgr, cv::Size window);
+
+/// The position of each of `names` in `classes`; Error naming `file` (or --channels when empty) for a
+/// name that is not a class.
+std::vector<int> class_positions(const std::vector<std::string>& classes, const std::vector<std::string>& names,
+                                 const std::string& file);
 
 struct HogLearning {
   cv::Size window{32, 96};
