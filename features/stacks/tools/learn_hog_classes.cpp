@@ -5,10 +5,10 @@
 #include <utility>
 
 #include "smseg/common/cli.hpp"
-#include "smseg/common/digest.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/stacks/hog_classes.hpp"
+#include "learned_from.hpp"
 
 namespace {
 
@@ -18,25 +18,27 @@ smseg::Json provenance(const std::vector<std::string>& works, const std::string&
   smseg::Json per_class = smseg::Json::object();
   for (std::size_t c = 0; c < samples.classes.size(); ++c)
     per_class[samples.classes[c]] = std::count(samples.labels.begin(), samples.labels.end(), int(c));
-  smseg::Json folders = smseg::Json::array();
-  for (const auto& w : works)
-    folders.push_back({{"work", smseg::fs::absolute(w).lexically_normal().string()},
-                       {"stacks_json_fnv1a64", smseg::fnv1a64_hex(smseg::read_file(smseg::fs::path(w) / "stacks.json"))}});
-  return {{"work_folders", folders}, {"frames", frames},     {"samples_per_class", per_class},
+  return {{"work_folders", smseg::stacks::learned_from(works)}, {"frames", frames},     {"samples_per_class", per_class},
           {"negatives", o.negatives}, {"epochs", o.epochs}, {"l2", o.l2},
           {"learning_rate", o.learning_rate}, {"seed", o.seed}};
 }
 
-/// "WxH", both multiples of 16 from 16 to 256.
+/// "WxH" as a window, both multiples of 16 from 16 to 256; false for anything else.
+bool parse_window(const std::string& text, cv::Size& window) {
+  int w = 0, h = 0;
+  char x = 0, rest = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 || w > 256 ||
+      h > 256 || w % 16 || h % 16)
+    return false;
+  window = cv::Size(w, h);
+  return true;
+}
+
 CLI::Validator window_size() {
   return CLI::Validator(
       [](std::string& s) -> std::string {
-        int w = 0, h = 0;
-        char x = 0, rest = 0;
-        if (std::sscanf(s.c_str(), "%d%c%d%c", &w, &x, &h, &rest) != 3 || x != 'x' || w < 16 || h < 16 || w > 256 ||
-            h > 256 || w % 16 || h % 16)
-          return "is " + s + ", expected WxH, both multiples of 16 from 16 to 256";
-        return {};
+        cv::Size unused;
+        return parse_window(s, unused) ? std::string() : "is " + s + ", expected WxH, both multiples of 16 from 16 to 256";
       },
       "WxH");
 }
@@ -78,7 +80,7 @@ int main(int argc, char** argv) {
   app.add_flag("-q,--quiet", quiet, "no progress on stderr");
   app.add_option("-o,--out", out, "the model to write (JSON)")->required();
   return run_tool(app, argc, argv, threads, [&] {
-    std::sscanf(window.c_str(), "%dx%d", &opt.window.width, &opt.window.height);
+    parse_window(window, opt.window);  // checked by window_size()
     const stacks::FrameRange range = stacks::FrameRange::parse(frames, "--frames");
     const OutputLock one_writer(out, paths_of(works));
     stacks::HogSamples samples =

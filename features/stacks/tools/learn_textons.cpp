@@ -4,21 +4,17 @@
 #include <iostream>
 
 #include "smseg/common/cli.hpp"
-#include "smseg/common/digest.hpp"
 #include "smseg/common/options.hpp"
 #include "smseg/common/output.hpp"
 #include "smseg/stacks/textons.hpp"
+#include "learned_from.hpp"
 
 namespace {
 
 /// What the dictionary was learned from: each work folder with its stacks.json's digest, and the options.
 smseg::Json provenance(const std::vector<std::string>& works, const std::string& frames, int samples,
                        const smseg::stacks::TextonLearning& o) {
-  smseg::Json folders = smseg::Json::array();
-  for (const auto& w : works)
-    folders.push_back({{"work", smseg::fs::absolute(w).lexically_normal().string()},
-                       {"stacks_json_fnv1a64", smseg::fnv1a64_hex(smseg::read_file(smseg::fs::path(w) / "stacks.json"))}});
-  return {{"work_folders", folders}, {"frames", frames}, {"samples_per_frame", samples},
+  return {{"work_folders", smseg::stacks::learned_from(works)}, {"frames", frames}, {"samples_per_frame", samples},
           {"iterations", o.iterations}, {"seed", o.seed}};
 }
 
