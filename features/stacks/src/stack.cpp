@@ -18,6 +18,7 @@
 
 #include "frame_values.hpp"
 #include "smseg/common/digest.hpp"
+#include "smseg/stacks/label_check.hpp"
 
 namespace smseg::stacks {
 

@@ -11,6 +11,7 @@
 #include "smseg/sequence/sequence.hpp"
 #include "smseg/stacks/extension.hpp"
 #include "smseg/stacks/hog_classes.hpp"
+#include "smseg/stacks/label_check.hpp"
 #include "learned_files.hpp"
 
 namespace smseg::stacks {

@@ -191,10 +191,6 @@ void lighten_frames(StackSet& set, double target);
 /// parts record it, so that only parts trained on the same data are merged (forest/parts.hpp).
 Json training_data_record(const StackSet& set);
 
-/// Every label of a frame (opened with labels) is a class position below `classes` or 255 (void); Error
-/// naming `file` (the frame's labels file) and the pixel otherwise.
-void check_labels(const forest::FrameData& frame, const fs::path& file, std::size_t classes);
-
 /// Opens the frames of `works` inside `range` (labelled only if `labelled_only`; with labels if
 /// `with_labels`), selecting `features` by name (empty: all the stack has). All work folders must share
 /// image size and class list; Error naming the folder otherwise, or when no frame is selected.
